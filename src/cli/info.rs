@@ -1,0 +1,158 @@
+//! `tiltfield info` and `tiltfield devices`.
+
+use clap::Args;
+use serde_json::json;
+
+use super::{load_light_field, LightFieldArgs};
+use crate::error::{Error, Result};
+use crate::lightfield::{DepthKind, Source};
+
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    #[command(flatten)]
+    pub lf: LightFieldArgs,
+    /// Print JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: &InfoArgs) -> Result<()> {
+    let lf = load_light_field(&args.lf)?;
+    let centre = lf.grid.centre();
+    let ref_cam = crate::refocus::plan::reference_camera(&lf, centre)?;
+    let c0 = lf.views[0].camera.centre();
+    let extent = lf
+        .views
+        .iter()
+        .map(|v| (v.camera.centre() - c0).length())
+        .fold(0.0, f64::max);
+    let rotated = lf
+        .views
+        .iter()
+        .any(|v| !(v.camera.r - ref_cam.r).abs_diff_eq(glam::DMat3::ZERO, 1e-9));
+    let depth: Vec<_> = lf
+        .depth
+        .iter()
+        .map(|(i, d)| {
+            let v = &lf.views[*i];
+            let finite: Vec<f32> = d.values.iter().copied().filter(|x| x.is_finite()).collect();
+            let (lo, hi) = finite
+                .iter()
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &x| {
+                    (a.min(x), b.max(x))
+                });
+            json!({
+                "view": [v.s, v.t],
+                "kind": d.kind,
+                "source": d.source,
+                "valid_fraction": finite.len() as f64 / d.values.len().max(1) as f64,
+                "range": if finite.is_empty() { json!(null) } else { json!([lo, hi]) },
+            })
+        })
+        .collect();
+    let k = ref_cam.k;
+    let report = json!({
+        "name": lf.name,
+        "source": lf.source,
+        "grid": {"cols": lf.grid.cols, "rows": lf.grid.rows, "views": lf.grid.len()},
+        "view_size": [lf.width, lf.height],
+        "centre_camera": {
+            "fx": k.x_axis.x, "fy": k.y_axis.y, "cx": k.z_axis.x, "cy": k.z_axis.y,
+            "centre": [ref_cam.centre().x, ref_cam.centre().y, ref_cam.centre().z],
+        },
+        "rig_extent": extent,
+        "rotated_cameras": rotated,
+        "parallel_rig": lf.rig,
+        "depth": depth,
+    });
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| Error::Invalid(e.to_string()))?
+        );
+        return Ok(());
+    }
+    let format = match &lf.source {
+        Source::Hci(_) => "HCI benchmark folder",
+        Source::Manifest { .. } => "tiltfield manifest",
+        Source::GridFolder { .. } => "grid of views named by row and column",
+        Source::Generated { .. } => "built-in scene",
+    };
+    println!("{} ({format})", lf.name);
+    println!(
+        "  grid        {} × {} views (s × t), {} in all",
+        lf.grid.cols,
+        lf.grid.rows,
+        lf.grid.len()
+    );
+    println!("  views       {} × {} px", lf.width, lf.height);
+    println!(
+        "  centre cam  fx {:.2} fy {:.2} cx {:.2} cy {:.2} px, centre ({:.4}, {:.4}, {:.4})",
+        k.x_axis.x,
+        k.y_axis.y,
+        k.z_axis.x,
+        k.z_axis.y,
+        ref_cam.centre().x,
+        ref_cam.centre().y,
+        ref_cam.centre().z
+    );
+    println!(
+        "  rig         extent {extent:.4} world units, {}",
+        if rotated {
+            "rotated cameras"
+        } else {
+            "parallel cameras"
+        }
+    );
+    match lf.rig {
+        Some(r) => println!(
+            "  disparity   HCI convention: f {:.2} px, baseline {}, focus distance {} \
+             (infinity at {:.3} px)",
+            r.focal_px,
+            r.baseline,
+            r.focus_distance,
+            r.disparity_at_infinity()
+        ),
+        None => println!("  disparity   classic shift-and-sum (no parallel-rig parameters)"),
+    }
+    if lf.depth.is_empty() {
+        println!("  depth       none (click-based plane placement unavailable)");
+    }
+    for (i, d) in &lf.depth {
+        let v = &lf.views[*i];
+        let kind = match d.kind {
+            DepthKind::Depth => "depth",
+            DepthKind::Disparity => "disparity",
+        };
+        let finite = d.values.iter().filter(|x| x.is_finite()).count();
+        println!(
+            "  {kind:<11} view ({}, {}) from {} ({:.1} % valid)",
+            v.s,
+            v.t,
+            d.source,
+            100.0 * finite as f64 / d.values.len().max(1) as f64
+        );
+    }
+    Ok(())
+}
+
+pub fn devices() -> Result<()> {
+    let devices = crate::gpu::context::list_devices()?;
+    if devices.is_empty() {
+        return Err(Error::Vulkan("no Vulkan devices found".into()));
+    }
+    for d in devices {
+        println!(
+            "{}: {} ({}, Vulkan {}, {}){}",
+            d.index,
+            d.name,
+            d.kind,
+            d.api_version,
+            d.driver,
+            d.unsupported
+                .map(|why| format!(" — unusable: {why}"))
+                .unwrap_or_default()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,151 @@
+//! The `tiltfield` command line: argument parsing and the subcommands.
+
+mod demo;
+mod info;
+mod render;
+
+use std::path::{Path, PathBuf};
+
+use clap::{Args, Parser, Subcommand};
+
+use crate::error::{Error, Result};
+use crate::gpu::GpuOptions;
+use crate::lightfield::{self, GridCameraOptions, LightField};
+
+/// Light field tilt-shift refocus with generalized shift-and-sum (Vulkan).
+#[derive(Debug, Parser)]
+#[command(name = "tiltfield", version, about, long_about = None)]
+pub struct Cli {
+    /// More log output (-v info, -vv debug). RUST_LOG overrides.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    pub verbose: u8,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Describe a light field: grid, view size, cameras, depth.
+    Info(info::InfoArgs),
+    /// Refocus a light field onto a plane and write PNG or EXR.
+    Render(Box<render::RenderArgs>),
+    /// Render refocus images of the built-in demo scene (no files needed).
+    Demo(demo::DemoArgs),
+    /// List the Vulkan devices and whether tiltfield can use them.
+    Devices,
+}
+
+/// Where the light field comes from and how to read camera-less folders.
+#[derive(Debug, Clone, Args)]
+pub struct LightFieldArgs {
+    /// A light field: an HCI folder, a manifest (.json or a folder with tiltfield.json), a
+    /// folder of views named by row and column, or builtin:NAME (see `tiltfield demo --list`).
+    pub light_field: String,
+    /// Grid folders only: focal length in pixels (default: max(width, height)).
+    #[arg(long, value_name = "PX")]
+    pub focal_px: Option<f64>,
+    /// Grid folders only: distance between neighbouring views in world units.
+    #[arg(long, value_name = "B", default_value_t = 1.0)]
+    pub baseline: f64,
+}
+
+/// Vulkan device options.
+#[derive(Debug, Clone, Args)]
+pub struct GpuArgs {
+    /// Vulkan device by index or part of its name (see `tiltfield devices`; also TILTFIELD_DEVICE).
+    #[arg(long, value_name = "INDEX|NAME")]
+    pub device: Option<String>,
+    /// Enable the Khronos validation layer (also TILTFIELD_VALIDATION=1).
+    #[arg(long)]
+    pub validate: bool,
+}
+
+impl GpuArgs {
+    fn options(&self) -> GpuOptions {
+        let env = GpuOptions::from_env();
+        GpuOptions {
+            device: self.device.clone().or(env.device),
+            validation: self.validate || env.validation,
+        }
+    }
+}
+
+/// Loads a light field from a path or `builtin:NAME`.
+pub fn load_light_field(args: &LightFieldArgs) -> Result<LightField> {
+    if let Some(name) = args.light_field.strip_prefix("builtin:") {
+        return builtin_light_field(name);
+    }
+    if args.baseline.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return Err(Error::Invalid(format!(
+            "--baseline must be positive, got {}",
+            args.baseline
+        )));
+    }
+    if let Some(f) = args.focal_px {
+        if !(f.is_finite() && f > 0.0) {
+            return Err(Error::Invalid(format!(
+                "--focal-px must be positive, got {f}"
+            )));
+        }
+    }
+    let opts = GridCameraOptions {
+        focal_px: args.focal_px,
+        baseline: args.baseline,
+    };
+    lightfield::open(Path::new(&args.light_field), &opts)
+}
+
+/// Renders built-in scene `name` (2×2 supersampling).
+pub fn builtin_light_field(name: &str) -> Result<LightField> {
+    let scene = crate::synth::builtin(name).ok_or_else(|| {
+        Error::Invalid(format!(
+            "no built-in scene '{name}'; available: {}",
+            crate::synth::builtin_names().join(", ")
+        ))
+    })?;
+    Ok(scene.light_field(2))
+}
+
+/// Parses "a,b,c" into exactly `n` finite numbers.
+pub fn parse_numbers(text: &str, n: usize, what: &str) -> Result<Vec<f64>> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|s| s.trim().parse::<f64>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| {
+            Error::Invalid(format!(
+                "{what}: expected {n} comma-separated numbers, got '{text}'"
+            ))
+        })?;
+    if values.len() != n || values.iter().any(|v| !v.is_finite()) {
+        return Err(Error::Invalid(format!(
+            "{what}: expected {n} comma-separated finite numbers, got '{text}'"
+        )));
+    }
+    Ok(values)
+}
+
+/// Runs a parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info(a) => info::run(&a),
+        Command::Render(a) => render::run(&a),
+        Command::Demo(a) => demo::run(&a),
+        Command::Devices => info::devices(),
+    }
+}
+
+/// Creates the folder of an output file.
+pub(crate) fn ensure_parent(path: &Path) -> Result<()> {
+    match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => {
+            std::fs::create_dir_all(p).map_err(|e| Error::io(p, e))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// Default output folder of `demo`.
+pub(crate) fn default_demo_dir() -> PathBuf {
+    PathBuf::from("tiltfield-demo")
+}

@@ -1,0 +1,273 @@
+//! `tiltfield render`: refocus onto one plane and write PNG (8-bit sRGB) or EXR (linear float).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+use glam::{DVec2, DVec3};
+use serde_json::json;
+
+use super::{ensure_parent, load_light_field, parse_numbers, GpuArgs, LightFieldArgs};
+use crate::error::{Error, Result};
+use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::geometry::plane::Plane;
+use crate::headless::HeadlessRenderer;
+use crate::lightfield::images::is_dark;
+use crate::lightfield::LightField;
+use crate::passes::refocus::{GpuImage, OutputFormat, RenderSettings};
+use crate::refocus::{self, Averaging, FocusSpec, OutputKind, RefocusPlan, RefocusRequest};
+
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("focus_plane").required(true).args(["disparity", "plane", "focus"])))]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub lf: LightFieldArgs,
+    /// Output image: .png (8-bit sRGB) or .exr (linear float RGBA).
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+    /// Classic shift-and-sum disparity in pixels per grid step (HCI convention on HCI data and
+    /// built-in scenes: positive = nearer than the focus distance).
+    #[arg(long, value_name = "D", allow_hyphen_values = true)]
+    pub disparity: Option<f64>,
+    /// Refocus plane: world point and normal.
+    #[arg(long, value_name = "PX,PY,PZ,NX,NY,NZ", allow_hyphen_values = true)]
+    pub plane: Option<String>,
+    /// Refocus plane through the reference optical axis at distance Z (world units).
+    #[arg(long, value_name = "Z", allow_hyphen_values = true)]
+    pub focus: Option<f64>,
+    /// Tilt of the --focus plane in degrees (positive: top of the image farther).
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "focus",
+        allow_hyphen_values = true,
+        default_value_t = 0.0
+    )]
+    pub tilt: f64,
+    /// Swing of the --focus plane in degrees (positive: right side farther).
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "focus",
+        allow_hyphen_values = true,
+        default_value_t = 0.0
+    )]
+    pub swing: f64,
+    /// Aperture shape: disk, square or gaussian.
+    #[arg(long, default_value = "disk")]
+    pub aperture: ApertureShape,
+    /// Aperture radius in grid steps (σ for gaussian); default: all views.
+    #[arg(long, value_name = "R")]
+    pub aperture_radius: Option<f64>,
+    /// Reference (virtual) view S,T in grid units, fractional allowed; default: grid centre.
+    #[arg(long, value_name = "S,T")]
+    pub view: Option<String>,
+    /// Average linear light (default) or the sRGB-encoded values.
+    #[arg(long, default_value = "linear")]
+    pub average: Averaging,
+    /// Use views that are (almost) entirely black too (vignetted corners are skipped by default).
+    #[arg(long)]
+    pub include_dark: bool,
+    /// Split the views over draws of at most N views (0: one draw).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub views_per_draw: usize,
+    /// Render N more frames for timing and report the median GPU time.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub repeat: usize,
+    /// Print the resolved plane, views used and timings as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+/// The focus specification from the mutually exclusive options.
+pub fn focus_spec(args: &RenderArgs) -> Result<FocusSpec> {
+    if let Some(d) = args.disparity {
+        return Ok(FocusSpec::Disparity(d));
+    }
+    if let Some(text) = &args.plane {
+        let v = parse_numbers(text, 6, "--plane")?;
+        let plane = Plane::new(DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]))?;
+        return Ok(FocusSpec::Plane(plane));
+    }
+    if let Some(z) = args.focus {
+        return Ok(FocusSpec::FocusTiltSwing {
+            distance: z,
+            tilt_deg: args.tilt,
+            swing_deg: args.swing,
+        });
+    }
+    Err(Error::Invalid(
+        "give one of --disparity, --plane or --focus".into(),
+    ))
+}
+
+/// Indices of views to leave out of the aperture (vignetted black views).
+pub fn dark_views(lf: &LightField, include_dark: bool) -> Vec<bool> {
+    if include_dark {
+        return vec![false; lf.views.len()];
+    }
+    let dark: Vec<bool> = lf.views.iter().map(|v| is_dark(&v.image)).collect();
+    let n = dark.iter().filter(|&&d| d).count();
+    if n > 0 {
+        log::warn!(
+            "{n} (almost) black views are left out of the aperture (--include-dark keeps them)"
+        );
+    }
+    dark
+}
+
+/// The plan for `args` on `lf`.
+pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<RefocusPlan> {
+    let reference = match &args.view {
+        Some(text) => {
+            let v = parse_numbers(text, 2, "--view")?;
+            Some(DVec2::new(v[0], v[1]))
+        }
+        None => None,
+    };
+    let req = RefocusRequest {
+        focus: focus_spec(args)?,
+        aperture: Aperture {
+            shape: args.aperture,
+            radius: args.aperture_radius,
+        },
+        reference,
+    };
+    refocus::plan(lf, &req, &dark_views(lf, args.include_dark))
+}
+
+/// The JSON description of a plan (shared by `render --json` and `demo`).
+pub fn plan_json(plan: &RefocusPlan) -> serde_json::Value {
+    let v3 = |v: DVec3| [v.x, v.y, v.z];
+    json!({
+        "method": plan.method,
+        "plane": plan.plane.map(|p| json!({"point": v3(p.point), "normal": v3(p.normal)})),
+        "reference_view": [plan.reference.x, plan.reference.y],
+        "reference_centre": v3(plan.reference_camera.centre()),
+        "views_used": plan.views.len(),
+        "views": plan.views.iter().map(|v| json!({"s": v.s, "t": v.t, "weight": v.weight})).collect::<Vec<_>>(),
+    })
+}
+
+/// Writes a GPU result to `path` (PNG or EXR by extension). Returns the uncovered pixel count.
+pub fn save(image: &GpuImage, path: &std::path::Path) -> Result<usize> {
+    ensure_parent(path)?;
+    match image {
+        GpuImage::Srgb8(img) => {
+            refocus::save_png(img, path)?;
+            Ok(img.pixels().filter(|p| p.0[3] == 0).count())
+        }
+        GpuImage::Float(img) => {
+            refocus::save_exr(img.width, img.height, &img.linear(), path)?;
+            Ok(img.uncovered())
+        }
+    }
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
+pub fn run(args: &RenderArgs) -> Result<()> {
+    let t0 = Instant::now();
+    let kind = OutputKind::from_path(&args.output)?;
+    let lf = load_light_field(&args.lf)?;
+    let t_load = t0.elapsed().as_secs_f64() * 1e3;
+    let plan = make_plan(&lf, args)?;
+    let t1 = Instant::now();
+    let mut renderer = HeadlessRenderer::new(&lf, &args.gpu.options())?;
+    let t_upload = t1.elapsed().as_secs_f64() * 1e3;
+    let settings = RenderSettings {
+        averaging: args.average,
+        output: match kind {
+            OutputKind::Png => OutputFormat::Srgb8,
+            OutputKind::Exr => OutputFormat::Float,
+        },
+        views_per_draw: args.views_per_draw,
+    };
+    let t2 = Instant::now();
+    let (image, timings) = renderer.render(&plan, &settings)?;
+    let t_render = t2.elapsed().as_secs_f64() * 1e3;
+    let mut gpu_times: Vec<f64> = timings.iter().map(|t| t.refocus_ms).collect();
+    if args.repeat > 0 {
+        let bar = indicatif::ProgressBar::new(args.repeat as u64).with_message("timing frames");
+        for _ in 0..args.repeat {
+            if let Some(t) = renderer.render_timed(&plan, &settings)? {
+                gpu_times.push(t.refocus_ms);
+            }
+            bar.inc(1);
+        }
+        bar.finish_and_clear();
+    }
+    let uncovered = save(&image, &args.output)?;
+    let errors = renderer.context().validation().errors();
+    let device = renderer.context().info.name.clone();
+    drop(renderer);
+    if errors > 0 {
+        return Err(Error::Vulkan(format!(
+            "{errors} validation errors while rendering (see the log above)"
+        )));
+    }
+    let gpu_median = median(gpu_times.clone());
+    let pixels = (plan.width as f64) * (plan.height as f64);
+    if args.json {
+        let mut report = plan_json(&plan);
+        let extra = json!({
+            "light_field": {
+                "name": lf.name,
+                "grid": [lf.grid.cols, lf.grid.rows],
+                "size": [lf.width, lf.height],
+            },
+            "output": args.output,
+            "averaging": args.average,
+            "aperture": {"shape": args.aperture, "radius": args.aperture_radius},
+            "device": device,
+            "uncovered_pixels": uncovered,
+            "timings_ms": {
+                "load": t_load,
+                "upload": t_upload,
+                "render_and_readback": t_render,
+                "gpu_refocus_first": timings.map(|t| t.refocus_ms),
+                "gpu_resolve_first": timings.map(|t| t.resolve_ms),
+                "gpu_refocus_median": gpu_median,
+                "frames": gpu_times.len(),
+            },
+            "view_samples_per_second": gpu_median.map(|ms| plan.views.len() as f64 * pixels / (ms / 1e3)),
+        });
+        if let (Some(obj), Some(extra)) = (report.as_object_mut(), extra.as_object()) {
+            obj.extend(extra.clone());
+        }
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| Error::Invalid(e.to_string()))?
+        );
+    } else {
+        eprintln!(
+            "wrote {} ({}×{}, {} views, {}{})",
+            args.output.display(),
+            plan.width,
+            plan.height,
+            plan.views.len(),
+            gpu_median.map_or("no GPU timer".to_string(), |ms| format!(
+                "GPU refocus {ms:.2} ms on {device}"
+            )),
+            if uncovered > 0 {
+                format!(", {uncovered} pixels with no contributing view")
+            } else {
+                String::new()
+            }
+        );
+    }
+    Ok(())
+}

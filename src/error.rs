@@ -1,0 +1,61 @@
+//! The library's error type. Every user-facing failure (bad input, degenerate geometry, a light
+//! field the device cannot hold, a missing Vulkan driver) is a variant with a message that names
+//! the cause; `main` prints it once and exits non-zero.
+
+use std::path::PathBuf;
+
+use ash::vk;
+
+/// Errors at tiltfield's library boundary.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file exists but its content is wrong (truncated, malformed, unsupported).
+    #[error("{path}: {message}")]
+    BadFile { path: PathBuf, message: String },
+    /// A light field is inconsistent as a whole (missing views, mismatched sizes, ...).
+    #[error("light field: {0}")]
+    LightField(String),
+    /// A refocus request is geometrically impossible or degenerate.
+    #[error("refocus: {0}")]
+    Geometry(String),
+    /// Invalid command-line or API argument.
+    #[error("{0}")]
+    Invalid(String),
+    /// The light field or request exceeds what the Vulkan device can hold.
+    #[error("device limit: {0}")]
+    DeviceLimit(String),
+    /// Vulkan is unusable (no loader, no device, missing features or layers).
+    #[error("vulkan: {0}")]
+    Vulkan(String),
+    /// A Vulkan call failed.
+    #[error("vulkan call failed: {0}")]
+    VkResult(#[from] vk::Result),
+}
+
+/// Result alias used throughout the crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// Wrap an I/O error with the path it concerns.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io {
+            path: path.into(),
+            source,
+        }
+    }
+
+    /// A malformed-file error naming the file.
+    pub fn bad_file(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
+        Error::BadFile {
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+}

@@ -1,0 +1,134 @@
+//! Command recording helpers: one-shot submissions and synchronization2 image barriers.
+
+use ash::vk;
+
+use super::context::GpuContext;
+use super::resources::color_range;
+use crate::error::Result;
+
+/// A primary command buffer and the fence of its submission, reused across frames.
+pub struct Submission {
+    pub cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+}
+
+impl Submission {
+    /// Allocates the command buffer and an unsignalled fence.
+    pub fn new(ctx: &GpuContext, name: &str) -> Result<Self> {
+        let info = vk::CommandBufferAllocateInfo::default()
+            .command_pool(ctx.command_pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: valid pool of this device.
+        let cmd = unsafe { ctx.device.allocate_command_buffers(&info) }?[0];
+        // SAFETY: valid device.
+        let fence = match unsafe {
+            ctx.device
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+        } {
+            Ok(f) => f,
+            Err(e) => {
+                // SAFETY: the command buffer was never submitted.
+                unsafe { ctx.device.free_command_buffers(ctx.command_pool, &[cmd]) };
+                return Err(e.into());
+            }
+        };
+        ctx.name(cmd, name);
+        ctx.name(fence, name);
+        Ok(Submission { cmd, fence })
+    }
+
+    /// Records with `record`, submits and waits for completion.
+    pub fn run(
+        &self,
+        ctx: &GpuContext,
+        record: impl FnOnce(&ash::Device, vk::CommandBuffer),
+    ) -> Result<()> {
+        let d = &ctx.device;
+        // SAFETY: the previous submission of this buffer completed (run always waits).
+        unsafe {
+            d.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())?;
+            d.begin_command_buffer(
+                self.cmd,
+                &vk::CommandBufferBeginInfo::default()
+                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )?;
+        }
+        record(d, self.cmd);
+        let cmd_infos = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];
+        let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmd_infos)];
+        // SAFETY: recorded buffer, unsignalled fence; we wait before returning.
+        unsafe {
+            d.end_command_buffer(self.cmd)?;
+            d.queue_submit2(ctx.queue, &submit, self.fence)?;
+            d.wait_for_fences(&[self.fence], true, u64::MAX)?;
+            d.reset_fences(&[self.fence])?;
+        }
+        Ok(())
+    }
+
+    /// Frees the command buffer and fence.
+    pub fn destroy(self, ctx: &GpuContext) {
+        // SAFETY: run() waited for the last submission.
+        unsafe {
+            ctx.device.destroy_fence(self.fence, None);
+            ctx.device
+                .free_command_buffers(ctx.command_pool, &[self.cmd]);
+        }
+    }
+}
+
+/// A layout transition / execution + memory dependency on all layers of a colour image.
+#[derive(Debug, Clone, Copy)]
+pub struct ImageTransition {
+    pub from: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
+    pub to: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
+}
+
+/// Records one image barrier (niagara's `imageBarrier`, synchronization2 form).
+pub fn image_barrier(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    image: vk::Image,
+    layers: u32,
+    t: ImageTransition,
+) {
+    let barrier = [vk::ImageMemoryBarrier2::default()
+        .src_stage_mask(t.from.1)
+        .src_access_mask(t.from.2)
+        .old_layout(t.from.0)
+        .dst_stage_mask(t.to.1)
+        .dst_access_mask(t.to.2)
+        .new_layout(t.to.0)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(color_range(layers))];
+    // SAFETY: cmd is recording; the barrier references a valid image.
+    unsafe {
+        d.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default().image_memory_barriers(&barrier),
+        )
+    };
+}
+
+/// Common barrier endpoints.
+pub mod stage {
+    use ash::vk::{AccessFlags2 as A, ImageLayout as L, PipelineStageFlags2 as S};
+
+    pub type End = (L, S, A);
+    pub const UNDEFINED: End = (L::UNDEFINED, S::NONE, A::NONE);
+    pub const TRANSFER_DST: End = (L::TRANSFER_DST_OPTIMAL, S::COPY, A::TRANSFER_WRITE);
+    pub const TRANSFER_SRC: End = (L::TRANSFER_SRC_OPTIMAL, S::COPY, A::TRANSFER_READ);
+    pub const FRAGMENT_READ: End = (
+        L::SHADER_READ_ONLY_OPTIMAL,
+        S::FRAGMENT_SHADER,
+        A::SHADER_SAMPLED_READ,
+    );
+    pub const COLOR_WRITE: End = (
+        L::COLOR_ATTACHMENT_OPTIMAL,
+        S::COLOR_ATTACHMENT_OUTPUT,
+        A::from_raw(A::COLOR_ATTACHMENT_WRITE.as_raw() | A::COLOR_ATTACHMENT_READ.as_raw()),
+    );
+}

@@ -1,0 +1,21 @@
+//! Hand-written Vulkan (ash) for tiltfield: the context, owning resource wrappers, command and
+//! barrier helpers, timestamp queries.
+//!
+//! Design decisions:
+//! - Vulkan 1.3 with `dynamicRendering` and `synchronization2`: no render pass or framebuffer
+//!   objects, barriers through [`commands::image_barrier`].
+//! - Every object that owns a handle is destroyed by value (`destroy(self, &ctx)`), so a double
+//!   free does not compile; none of them is `Clone`. [`context::GpuContext`] waits for the device
+//!   to be idle and tears down in reverse creation order in its `Drop`.
+//! - Validation messages are counted per context (through the messenger's user data), so tests
+//!   assert zero errors for the context they used.
+//! - Objects are named through `VK_EXT_debug_utils`, so messages say "accumulation target".
+
+pub mod commands;
+pub mod context;
+pub mod resources;
+pub mod shaders;
+pub mod timing;
+pub mod validation;
+
+pub use context::{GpuContext, GpuOptions};

@@ -1,0 +1,28 @@
+//! SPIR-V compiled by build.rs from `shaders/`, embedded in the binary.
+
+use ash::vk;
+
+use super::context::GpuContext;
+use crate::error::Result;
+
+macro_rules! spirv {
+    ($name:literal) => {
+        include_bytes!(concat!(env!("OUT_DIR"), "/", $name, ".spv"))
+    };
+}
+
+pub const FULLSCREEN_VERT: &[u8] = spirv!("fullscreen.vert");
+pub const REFOCUS_FRAG: &[u8] = spirv!("refocus.frag");
+pub const RESOLVE_FRAG: &[u8] = spirv!("resolve.frag");
+
+/// A shader module; destroy it once the pipelines using it are created.
+pub fn module(ctx: &GpuContext, spirv: &[u8], name: &str) -> Result<vk::ShaderModule> {
+    // read_spv copies into correctly aligned u32 words and checks the magic number.
+    let words = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
+        .map_err(|e| crate::error::Error::Vulkan(format!("shader {name} is not SPIR-V: {e}")))?;
+    let info = vk::ShaderModuleCreateInfo::default().code(&words);
+    // SAFETY: valid SPIR-V produced by shaderc at build time.
+    let m = unsafe { ctx.device.create_shader_module(&info, None) }?;
+    ctx.name(m, name);
+    Ok(m)
+}

@@ -1,0 +1,31 @@
+//! # tiltfield
+//!
+//! A Vulkan-native light field renderer: tilt-shift refocus with generalized shift-and-sum
+//! (Alain, Aenchbacher, Smolic 2019). Every view of a light field is warped by a per-view
+//! homography onto a refocus plane of any orientation and the views inside a synthetic aperture
+//! are averaged, in linear light by default.
+//!
+//! Layout:
+//! - [`geometry`]: cameras, planes, homographies, apertures — pure f64 maths, no GPU;
+//! - [`lightfield`]: the data model and the loaders (HCI, manifest, grid folders, PFM);
+//! - [`refocus`]: requests → per-view warps (plan), the f64 CPU reference renderer;
+//! - [`gpu`]: hand-written Vulkan (context, resources, commands, timing, validation);
+//! - [`passes`]: the light field texture and the refocus pass;
+//! - [`headless`]: offscreen rendering for the CLI, tests and benchmarks;
+//! - [`synth`]: built-in synthetic scenes with exact ground truth;
+//! - [`cli`]: the `tiltfield` command line.
+//!
+//! Conventions are stated in [`geometry::camera`] and [`geometry::homography`].
+
+pub mod cli;
+pub mod color;
+pub mod error;
+pub mod geometry;
+pub mod gpu;
+pub mod headless;
+pub mod lightfield;
+pub mod passes;
+pub mod refocus;
+pub mod synth;
+
+pub use error::{Error, Result};

@@ -1,0 +1,300 @@
+//! Parallel decoding of view images.
+//!
+//! Every loader hands its list of view files to [`decode_views`], which decodes them on all
+//! cores (rayon) behind a progress bar on stderr (indicatif hides it when stderr is not a
+//! terminal) and returns them in the order given.
+//!
+//! Accepted: PNG (8 and 16 bit), JPEG, BMP; grey, grey + alpha, RGB and RGBA. The format is
+//! recognised from the file's content first and its extension second, so a misnamed file still
+//! decodes. Every image becomes sRGB-encoded RGBA8:
+//! - the samples are taken as sRGB-encoded as stored (no colour management: embedded ICC
+//!   profiles and gamma chunks are ignored, which is right for the sRGB data light field
+//!   datasets ship);
+//! - 16-bit samples are rounded to the nearest 8-bit level, `round(v · 255 / 65535)` (truncation
+//!   would darken every image by half a level on average);
+//! - grey is replicated into R, G and B;
+//! - alpha is forced to 255: tiltfield weights views by its aperture, never by alpha, and a
+//!   transparent source pixel must not leak into the average as a darker one.
+//!
+//! Failures name the file: a missing or unreadable file is [`Error::Io`], a truncated or corrupt
+//! image or an unsupported format is [`Error::BadFile`] carrying the decoder's message, and a view
+//! whose size differs from the first view's is [`Error::LightField`] naming both sizes.
+
+use std::path::{Path, PathBuf};
+
+use image::{ColorType, DynamicImage, ImageError, RgbaImage};
+use indicatif::{ProgressBar, ProgressStyle};
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+
+/// Decodes `paths` in parallel into sRGB-encoded, opaque RGBA8 images, in the order given.
+///
+/// `what` names the light field for the progress message ("decoding 81 views of backgammon")
+/// and for the size-mismatch error. All images must have the size of the first one; the first
+/// file (in the order given) that fails to decode or has another size is reported, so the error
+/// does not depend on thread scheduling. An empty list gives an empty result.
+pub fn decode_views(paths: &[PathBuf], what: &str) -> Result<Vec<RgbaImage>> {
+    if paths.is_empty() {
+        return Ok(Vec::new());
+    }
+    let bar = ProgressBar::new(paths.len() as u64);
+    if let Ok(style) = ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed}") {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(format!("decoding {} views of {what}", paths.len()));
+    let decoded: Vec<Result<RgbaImage>> = paths
+        .par_iter()
+        .map(|p| {
+            let r = decode_view(p);
+            bar.inc(1);
+            r
+        })
+        .collect();
+    bar.finish_and_clear();
+
+    let mut images = Vec::with_capacity(decoded.len());
+    for (path, result) in paths.iter().zip(decoded) {
+        let img = result?;
+        if let Some(first) = images.first() {
+            let first: &RgbaImage = first;
+            if img.dimensions() != first.dimensions() {
+                return Err(Error::LightField(format!(
+                    "{what}: {} is {}×{}, expected {}×{} like {}",
+                    path.display(),
+                    img.width(),
+                    img.height(),
+                    first.width(),
+                    first.height(),
+                    paths[0].display()
+                )));
+            }
+        }
+        images.push(img);
+    }
+    Ok(images)
+}
+
+/// Decodes one image file into opaque sRGB-encoded RGBA8 (see the module docs).
+pub fn decode_view(path: &Path) -> Result<RgbaImage> {
+    let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
+    let reader = reader
+        .with_guessed_format()
+        .map_err(|e| Error::io(path, e))?;
+    let img = reader.decode().map_err(|e| decode_error(path, e))?;
+    Ok(to_opaque_rgba8(img))
+}
+
+fn decode_error(path: &Path, e: ImageError) -> Error {
+    match e {
+        ImageError::Unsupported(u) => Error::bad_file(
+            path,
+            format!("unsupported image format ({u}); tiltfield reads PNG, JPEG and BMP"),
+        ),
+        // An I/O error while decoding an opened file is almost always a file that ends early.
+        ImageError::IoError(io) => {
+            Error::bad_file(path, format!("cannot decode image (truncated file?): {io}"))
+        }
+        other => Error::bad_file(path, format!("cannot decode image: {other}")),
+    }
+}
+
+/// Converts any decoded image to RGBA8 with alpha 255, rounding 16-bit samples.
+fn to_opaque_rgba8(img: DynamicImage) -> RgbaImage {
+    let mut out = match img.color() {
+        ColorType::L16 | ColorType::La16 | ColorType::Rgb16 | ColorType::Rgba16 => {
+            let wide = img.to_rgba16();
+            let (w, h) = wide.dimensions();
+            let narrow: Vec<u8> = wide.as_raw().iter().map(|&v| u16_to_u8(v)).collect();
+            // Same dimensions and channel count as the source buffer, so this cannot fail;
+            // fall back to the image crate's own (also rounding) conversion regardless.
+            RgbaImage::from_raw(w, h, narrow).unwrap_or_else(|| img.to_rgba8())
+        }
+        _ => img.to_rgba8(),
+    };
+    for p in out.pixels_mut() {
+        p.0[3] = 255;
+    }
+    out
+}
+
+/// `round(v · 255 / 65535)` in integers.
+fn u16_to_u8(v: u16) -> u8 {
+    ((v as u32 * 255 + 32767) / 65535) as u8
+}
+
+/// True when at least 99 % of the pixels have a maximum colour channel ≤ 2/255: the vignetted,
+/// black corner views of plenoptic cameras, which must not enter the synthetic aperture (they
+/// would darken the average). An empty image is not dark.
+pub fn is_dark(img: &RgbaImage) -> bool {
+    let total = img.width() as u64 * img.height() as u64;
+    if total == 0 {
+        return false;
+    }
+    let dark = img
+        .pixels()
+        .filter(|p| p.0[0].max(p.0[1]).max(p.0[2]) <= 2)
+        .count() as u64;
+    dark * 100 >= total * 99
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use image::{ImageBuffer, Luma, LumaA, Rgb, Rgba};
+
+    fn pattern(w: u32, h: u32, seed: u8) -> image::RgbImage {
+        ImageBuffer::from_fn(w, h, |x, y| {
+            Rgb([
+                (x * 13 + seed as u32) as u8,
+                (y * 29 + seed as u32) as u8,
+                ((x + y) * 7) as u8,
+            ])
+        })
+    }
+
+    #[test]
+    fn decodes_views_in_order_with_formats_mixed() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = pattern(16, 12, 0);
+        let b = pattern(16, 12, 100);
+        let pa = dir.path().join("a.png");
+        let pb = dir.path().join("b.bmp");
+        a.save(&pa).unwrap();
+        b.save(&pb).unwrap();
+        let out = decode_views(&[pb.clone(), pa.clone()], "test").unwrap();
+        assert_eq!(out.len(), 2);
+        for (img, src) in out.iter().zip([&b, &a]) {
+            assert_eq!(img.dimensions(), (16, 12));
+            for (x, y, p) in img.enumerate_pixels() {
+                let q = src.get_pixel(x, y).0;
+                assert_eq!(p.0, [q[0], q[1], q[2], 255]);
+            }
+        }
+    }
+
+    #[test]
+    fn jpeg_decodes_approximately() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("v.jpg");
+        let flat: image::RgbImage = ImageBuffer::from_pixel(16, 16, Rgb([200, 100, 50]));
+        flat.save(&p).unwrap();
+        let img = decode_view(&p).unwrap();
+        let c = img.get_pixel(8, 8).0;
+        assert!((c[0] as i32 - 200).abs() <= 3, "{c:?}");
+        assert!((c[1] as i32 - 100).abs() <= 3, "{c:?}");
+        assert!((c[2] as i32 - 50).abs() <= 3, "{c:?}");
+        assert_eq!(c[3], 255);
+    }
+
+    #[test]
+    fn sixteen_bit_png_rounds_not_truncates() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("wide.png");
+        // 25900/257 = 100.78 → 101 (truncation would give 100); 128/257 = 0.498 → 0;
+        // 129/257 = 0.502 → 1; 65535 → 255.
+        let img: ImageBuffer<Rgb<u16>, Vec<u16>> = ImageBuffer::from_fn(3, 2, |x, _| match x {
+            0 => Rgb([25900, 128, 129]),
+            1 => Rgb([65535, 0, 257]),
+            _ => Rgb([32767, 32768, 65534]),
+        });
+        img.save(&p).unwrap();
+        let out = decode_view(&p).unwrap();
+        assert_eq!(out.get_pixel(0, 1).0, [101, 0, 1, 255]);
+        assert_eq!(out.get_pixel(1, 0).0, [255, 0, 1, 255]);
+        assert_eq!(out.get_pixel(2, 0).0, [127, 128, 255, 255]);
+    }
+
+    #[test]
+    fn grey_and_alpha_become_opaque_rgb() {
+        let dir = tempfile::tempdir().unwrap();
+        let g = dir.path().join("g.png");
+        let ga = dir.path().join("ga.png");
+        let g16 = dir.path().join("g16.png");
+        let rgba = dir.path().join("rgba.png");
+        ImageBuffer::<Luma<u8>, Vec<u8>>::from_pixel(4, 4, Luma([77]))
+            .save(&g)
+            .unwrap();
+        ImageBuffer::<LumaA<u8>, Vec<u8>>::from_pixel(4, 4, LumaA([90, 0]))
+            .save(&ga)
+            .unwrap();
+        ImageBuffer::<Luma<u16>, Vec<u16>>::from_pixel(4, 4, Luma([25900]))
+            .save(&g16)
+            .unwrap();
+        ImageBuffer::<Rgba<u8>, Vec<u8>>::from_pixel(4, 4, Rgba([1, 2, 3, 10]))
+            .save(&rgba)
+            .unwrap();
+        let out = decode_views(&[g, ga, g16, rgba], "test").unwrap();
+        assert_eq!(out[0].get_pixel(1, 1).0, [77, 77, 77, 255]);
+        assert_eq!(out[1].get_pixel(1, 1).0, [90, 90, 90, 255]);
+        assert_eq!(out[2].get_pixel(1, 1).0, [101, 101, 101, 255]);
+        assert_eq!(out[3].get_pixel(1, 1).0, [1, 2, 3, 255]);
+    }
+
+    #[test]
+    fn missing_file_is_an_io_error_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let good = dir.path().join("good.png");
+        pattern(4, 4, 0).save(&good).unwrap();
+        let missing = dir.path().join("missing_view.png");
+        let err = decode_views(&[good, missing], "test").unwrap_err();
+        assert!(matches!(err, Error::Io { .. }), "{err:?}");
+        assert!(err.to_string().contains("missing_view.png"), "{err}");
+    }
+
+    #[test]
+    fn truncated_png_is_a_bad_file_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let full = dir.path().join("full.png");
+        pattern(16, 12, 3).save(&full).unwrap();
+        let bytes = std::fs::read(&full).unwrap();
+        let cut = dir.path().join("cut_view.png");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        let err = decode_views(&[full, cut], "test").unwrap_err();
+        assert!(matches!(err, Error::BadFile { .. }), "{err:?}");
+        let msg = err.to_string();
+        assert!(msg.contains("cut_view.png"), "{msg}");
+        assert!(msg.contains("cannot decode"), "{msg}");
+    }
+
+    #[test]
+    fn unsupported_format_is_a_bad_file_naming_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("notes.xyz");
+        std::fs::write(&p, b"this is not an image at all").unwrap();
+        let err = decode_view(&p).unwrap_err();
+        assert!(matches!(err, Error::BadFile { .. }), "{err:?}");
+        let msg = err.to_string();
+        assert!(msg.contains("notes.xyz"), "{msg}");
+        assert!(msg.contains("unsupported"), "{msg}");
+    }
+
+    #[test]
+    fn size_mismatch_names_file_and_both_sizes() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = dir.path().join("a.png");
+        let b = dir.path().join("b.png");
+        let c = dir.path().join("odd_one.png");
+        pattern(16, 12, 0).save(&a).unwrap();
+        pattern(16, 12, 1).save(&b).unwrap();
+        pattern(15, 12, 2).save(&c).unwrap();
+        let err = decode_views(&[a, b, c], "scene").unwrap_err();
+        assert!(matches!(err, Error::LightField(_)), "{err:?}");
+        let msg = err.to_string();
+        assert!(msg.contains("odd_one.png"), "{msg}");
+        assert!(msg.contains("15×12"), "{msg}");
+        assert!(msg.contains("16×12"), "{msg}");
+    }
+
+    #[test]
+    fn dark_threshold_is_99_percent() {
+        // 10×10: 99 black pixels and one bright one → dark; 98 black → not dark.
+        let mut img: RgbaImage = ImageBuffer::from_pixel(10, 10, Rgba([2, 1, 0, 255]));
+        img.put_pixel(0, 0, Rgba([0, 3, 0, 255]));
+        assert!(is_dark(&img));
+        img.put_pixel(1, 0, Rgba([200, 200, 200, 255]));
+        assert!(!is_dark(&img));
+        let bright: RgbaImage = ImageBuffer::from_pixel(4, 4, Rgba([50, 60, 70, 255]));
+        assert!(!is_dark(&bright));
+    }
+}

@@ -1,0 +1,327 @@
+//! The light field data model and its loaders.
+//!
+//! A [`LightField`] is a complete `cols × rows` grid of views of equal size. View (s, t) — s the
+//! column (horizontal), t the row — is stored at index `t · cols + s`. Every view carries a full
+//! pinhole camera (see [`crate::geometry::camera`] for the conventions) and its pixels as
+//! sRGB-encoded RGBA8. Depth or disparity maps are optional and belong to one view.
+//!
+//! Loaders: [`hci`] (HCI 4D Light Field Benchmark folders), [`manifest`] (our JSON manifest for
+//! calibrated arrays), [`grid_folder`] (rectified views named by row and column). [`open`] picks
+//! one from the path.
+
+pub mod grid_folder;
+pub mod hci;
+pub mod images;
+pub mod manifest;
+pub mod pfm;
+
+use std::path::{Path, PathBuf};
+
+use glam::DVec2;
+use image::RgbaImage;
+
+use crate::error::{Error, Result};
+use crate::geometry::camera::Camera;
+
+/// Grid dimensions: `cols` views horizontally (s), `rows` vertically (t).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct GridSize {
+    pub cols: usize,
+    pub rows: usize,
+}
+
+impl GridSize {
+    /// Number of views.
+    pub fn len(&self) -> usize {
+        self.cols * self.rows
+    }
+
+    /// True for an empty grid.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Row-major index of view (s, t).
+    pub fn index(&self, s: usize, t: usize) -> usize {
+        t * self.cols + s
+    }
+
+    /// Grid centre in (s, t) grid units (fractional for even sizes).
+    pub fn centre(&self) -> DVec2 {
+        DVec2::new(
+            (self.cols as f64 - 1.0) / 2.0,
+            (self.rows as f64 - 1.0) / 2.0,
+        )
+    }
+}
+
+/// What a depth map stores per pixel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DepthKind {
+    /// Distance along the optical axis (camera z), in world units.
+    Depth,
+    /// HCI disparity in pixels per grid step (positive = nearer than the focus distance).
+    Disparity,
+}
+
+/// A per-pixel depth or disparity map of one view, row 0 at the top.
+/// Invalid samples are stored as NaN (never as 0 or a sentinel).
+#[derive(Debug, Clone)]
+pub struct DepthMap {
+    pub width: u32,
+    pub height: u32,
+    pub kind: DepthKind,
+    pub values: Vec<f32>,
+    /// Where it came from (file path or "generated"), for messages.
+    pub source: String,
+}
+
+impl DepthMap {
+    /// Value at pixel (x, y).
+    pub fn at(&self, x: u32, y: u32) -> f32 {
+        self.values[(y * self.width + x) as usize]
+    }
+}
+
+/// One view of the grid.
+#[derive(Debug, Clone)]
+pub struct View {
+    /// Grid column.
+    pub s: usize,
+    /// Grid row.
+    pub t: usize,
+    pub camera: Camera,
+    /// sRGB-encoded pixels.
+    pub image: RgbaImage,
+    /// Where the pixels came from (file path or "generated"), for messages.
+    pub source: String,
+}
+
+/// Parameters of a regular, parallel camera grid with sensor shift, as the HCI benchmark uses.
+/// Present when `--disparity` follows the HCI convention (HCI folders, built-in scenes).
+///
+/// Camera (s, t) sits at ((s − s_c)·b, (t − t_c)·b, 0) in the centre camera's frame and its
+/// principal point is shifted by (s − s_c)·f·b/Z_focus, (t − t_c)·f·b/Z_focus, so a centre-view
+/// pixel x with disparity d appears in view (s, t) at x − d·(s − s_c, t − t_c).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct ParallelRig {
+    /// Focal length in pixels (`f_px = focal_mm · max(W, H) / sensor_mm`).
+    pub focal_px: f64,
+    /// Baseline between neighbouring cameras, world units (metres for HCI).
+    pub baseline: f64,
+    /// Distance of the zero-disparity plane, world units.
+    pub focus_distance: f64,
+}
+
+impl ParallelRig {
+    /// Depth of disparity `d`: `1/Z = d / (b · f) + 1/Z_focus`. `None` when `d` lies at or
+    /// beyond infinity (1/Z ≤ 0).
+    pub fn depth_of_disparity(&self, d: f64) -> Option<f64> {
+        let inv = d / (self.baseline * self.focal_px) + 1.0 / self.focus_distance;
+        (inv > 0.0).then(|| 1.0 / inv)
+    }
+
+    /// Disparity of depth `z` (inverse of [`Self::depth_of_disparity`]).
+    pub fn disparity_of_depth(&self, z: f64) -> f64 {
+        self.baseline * self.focal_px * (1.0 / z - 1.0 / self.focus_distance)
+    }
+
+    /// The disparity of a point at infinity, `−f·b/Z_focus`: the most negative physical value.
+    pub fn disparity_at_infinity(&self) -> f64 {
+        -self.baseline * self.focal_px / self.focus_distance
+    }
+
+    /// The cameras of a `grid` of `width × height` views (row-major), world frame = centre
+    /// camera frame. Principal point at the image centre ((W−1)/2, (H−1)/2) plus sensor shift.
+    pub fn cameras(&self, grid: GridSize, width: u32, height: u32) -> Vec<Camera> {
+        let c = grid.centre();
+        let shift = self.focal_px * self.baseline / self.focus_distance;
+        let mut cams = Vec::with_capacity(grid.len());
+        for t in 0..grid.rows {
+            for s in 0..grid.cols {
+                let ds = s as f64 - c.x;
+                let dt = t as f64 - c.y;
+                let k = crate::geometry::camera::intrinsics(
+                    self.focal_px,
+                    self.focal_px,
+                    (width as f64 - 1.0) / 2.0 + ds * shift,
+                    (height as f64 - 1.0) / 2.0 + dt * shift,
+                );
+                let centre = glam::DVec3::new(ds * self.baseline, dt * self.baseline, 0.0);
+                cams.push(Camera::from_centre(k, glam::DMat3::IDENTITY, centre));
+            }
+        }
+        cams
+    }
+}
+
+/// Which loader produced a light field.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(tag = "format", rename_all = "snake_case")]
+pub enum Source {
+    /// HCI benchmark folder; the parsed `parameters.cfg`.
+    Hci(hci::HciConfig),
+    /// Our JSON manifest.
+    Manifest { path: PathBuf },
+    /// A folder of views named by row and column.
+    GridFolder { path: PathBuf },
+    /// Generated in code (built-in scenes, tests).
+    Generated { scene: String },
+}
+
+/// A complete grid of views.
+#[derive(Debug, Clone)]
+pub struct LightField {
+    /// Short name for messages and reports.
+    pub name: String,
+    pub grid: GridSize,
+    pub width: u32,
+    pub height: u32,
+    /// Row-major views, `views[t · cols + s]`.
+    pub views: Vec<View>,
+    /// Depth or disparity maps, each for the view at the given index.
+    pub depth: Vec<(usize, DepthMap)>,
+    /// Set for regular parallel rigs with sensor shift (HCI convention for `--disparity`).
+    pub rig: Option<ParallelRig>,
+    pub source: Source,
+}
+
+impl LightField {
+    /// View (s, t).
+    pub fn view(&self, s: usize, t: usize) -> &View {
+        &self.views[self.grid.index(s, t)]
+    }
+
+    /// Checks the invariants every consumer relies on: a complete grid in row-major order,
+    /// equal view sizes, finite cameras, depth maps of matching size.
+    pub fn validate(&self) -> Result<()> {
+        if self.grid.is_empty() {
+            return Err(Error::LightField(format!(
+                "{}: the grid has no views",
+                self.name
+            )));
+        }
+        if self.views.len() != self.grid.len() {
+            return Err(Error::LightField(format!(
+                "{}: expected {}×{} = {} views, found {}",
+                self.name,
+                self.grid.cols,
+                self.grid.rows,
+                self.grid.len(),
+                self.views.len()
+            )));
+        }
+        if self.width == 0 || self.height == 0 {
+            return Err(Error::LightField(format!(
+                "{}: views are empty (0 pixels)",
+                self.name
+            )));
+        }
+        for (i, v) in self.views.iter().enumerate() {
+            if self.grid.index(v.s, v.t) != i {
+                return Err(Error::LightField(format!(
+                    "{}: view {} is stored at index {i}, expected grid order",
+                    self.name, v.source
+                )));
+            }
+            if v.image.dimensions() != (self.width, self.height) {
+                return Err(Error::LightField(format!(
+                    "{}: {} is {}×{}, but the light field's views are {}×{}",
+                    self.name,
+                    v.source,
+                    v.image.width(),
+                    v.image.height(),
+                    self.width,
+                    self.height
+                )));
+            }
+            let c = &v.camera;
+            let finite = c.k.is_finite() && c.r.is_finite() && c.t.is_finite();
+            if !finite || c.k.determinant().abs() < 1e-12 {
+                return Err(Error::LightField(format!(
+                    "{}: camera of {} is not finite or has a singular K",
+                    self.name, v.source
+                )));
+            }
+        }
+        for (i, d) in &self.depth {
+            if *i >= self.views.len() {
+                return Err(Error::LightField(format!(
+                    "{}: depth map {} belongs to a view that does not exist",
+                    self.name, d.source
+                )));
+            }
+            if (d.width, d.height) != (self.width, self.height) {
+                return Err(Error::LightField(format!(
+                    "{}: depth map {} is {}×{}, views are {}×{}",
+                    self.name, d.source, d.width, d.height, self.width, self.height
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Options for loaders that cannot read camera parameters from the data itself.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridCameraOptions {
+    /// Focal length in pixels; default `max(W, H)`.
+    pub focal_px: Option<f64>,
+    /// Baseline between neighbouring views in world units; default 1.
+    pub baseline: f64,
+}
+
+impl Default for GridCameraOptions {
+    fn default() -> Self {
+        GridCameraOptions {
+            focal_px: None,
+            baseline: 1.0,
+        }
+    }
+}
+
+/// Opens a light field, choosing the loader from the path:
+/// a `.json` file → manifest; a folder with `parameters.cfg` → HCI; a folder with
+/// `tiltfield.json` → manifest; any other folder → grid of views named by row and column.
+pub fn open(path: &Path, grid_opts: &GridCameraOptions) -> Result<LightField> {
+    if !path.exists() {
+        return Err(Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
+        ));
+    }
+    let lf = if path.is_file() {
+        if path.extension().and_then(|e| e.to_str()) == Some("json") {
+            manifest::load(path)?
+        } else {
+            return Err(Error::bad_file(
+                path,
+                "not a light field: expected a folder (HCI or grid of views) or a .json manifest",
+            ));
+        }
+    } else if path.join("parameters.cfg").is_file() {
+        hci::load(path)?
+    } else if path.join(manifest::DEFAULT_NAME).is_file() {
+        manifest::load(&path.join(manifest::DEFAULT_NAME))?
+    } else {
+        grid_folder::load(path, grid_opts)?
+    };
+    lf.validate()?;
+    Ok(lf)
+}
+
+/// Display helper: a path as a String.
+pub(crate) fn path_string(p: &Path) -> String {
+    p.display().to_string()
+}
+
+/// Resolves `rel` against the folder of `base_file`.
+pub(crate) fn relative_to(base_file: &Path, rel: &str) -> PathBuf {
+    let rel = Path::new(rel);
+    if rel.is_absolute() {
+        rel.to_path_buf()
+    } else {
+        base_file.parent().unwrap_or(Path::new(".")).join(rel)
+    }
+}

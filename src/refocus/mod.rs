@@ -1,0 +1,131 @@
+//! Refocus requests, their resolution into per-view warps ([`plan`]), the f64 CPU reference
+//! renderer ([`cpu`]) and the refocus image type shared with the GPU pass.
+
+pub mod cpu;
+pub mod plan;
+
+use std::path::Path;
+
+use image::RgbaImage;
+
+use crate::color;
+use crate::error::{Error, Result};
+
+pub use plan::{plan, FocusMethod, FocusSpec, PlannedView, RefocusPlan, RefocusRequest};
+
+/// In which space views are averaged.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Averaging {
+    /// Decode sRGB, average linear light, encode the result (physically right; the default).
+    #[default]
+    Linear,
+    /// Average the encoded values (what most tools do; darkens blurred highlights).
+    Encoded,
+}
+
+impl std::str::FromStr for Averaging {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "linear" => Ok(Self::Linear),
+            "encoded" => Ok(Self::Encoded),
+            _ => Err(Error::Invalid(format!(
+                "unknown averaging '{s}': expected linear or encoded"
+            ))),
+        }
+    }
+}
+
+/// A float refocus image. `rgb` is in the space of `averaging` (linear light, or sRGB-encoded
+/// values when averaging encoded); `a` is 1 where at least one view contributed and 0 on the
+/// background, whose colour is 0.
+#[derive(Debug, Clone)]
+pub struct RefocusImage {
+    pub width: u32,
+    pub height: u32,
+    pub averaging: Averaging,
+    pub pixels: Vec<[f32; 4]>,
+}
+
+impl RefocusImage {
+    /// Number of pixels no view contributed to.
+    pub fn uncovered(&self) -> usize {
+        self.pixels.iter().filter(|p| p[3] == 0.0).count()
+    }
+
+    /// True when every value is finite.
+    pub fn is_finite(&self) -> bool {
+        self.pixels.iter().flatten().all(|v| v.is_finite())
+    }
+
+    /// Linear-light RGBA (decoding encoded averages).
+    pub fn linear(&self) -> Vec<[f32; 4]> {
+        match self.averaging {
+            Averaging::Linear => self.pixels.clone(),
+            Averaging::Encoded => self
+                .pixels
+                .iter()
+                .map(|p| {
+                    let d = |c: f32| color::srgb_to_linear(c as f64) as f32;
+                    [d(p[0]), d(p[1]), d(p[2]), p[3]]
+                })
+                .collect(),
+        }
+    }
+
+    /// 8-bit sRGB-encoded RGBA, rounding as the GPU's sRGB attachments do.
+    pub fn to_srgb8(&self) -> RgbaImage {
+        let mut out = RgbaImage::new(self.width, self.height);
+        for (dst, p) in out.pixels_mut().zip(&self.pixels) {
+            let enc = |c: f32| match self.averaging {
+                Averaging::Linear => color::to_u8(color::linear_to_srgb(c as f64)),
+                Averaging::Encoded => color::to_u8(c as f64),
+            };
+            dst.0 = [enc(p[0]), enc(p[1]), enc(p[2]), color::to_u8(p[3] as f64)];
+        }
+        out
+    }
+}
+
+/// Writes an 8-bit sRGB image as PNG.
+pub fn save_png(img: &RgbaImage, path: &Path) -> Result<()> {
+    img.save_with_format(path, image::ImageFormat::Png)
+        .map_err(|e| Error::bad_file(path, format!("cannot write PNG: {e}")))
+}
+
+/// Writes linear-light RGBA as a 32-bit float OpenEXR file.
+pub fn save_exr(width: u32, height: u32, linear: &[[f32; 4]], path: &Path) -> Result<()> {
+    let w = width as usize;
+    exr::prelude::write_rgba_file(path, w, height as usize, |x, y| {
+        let p = linear[y * w + x];
+        (p[0], p[1], p[2], p[3])
+    })
+    .map_err(|e| Error::bad_file(path, format!("cannot write EXR: {e}")))
+}
+
+/// Output file kind, from the extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OutputKind {
+    Png,
+    Exr,
+}
+
+impl OutputKind {
+    /// `.png` or `.exr` (case-insensitive); anything else is an error naming the path.
+    pub fn from_path(path: &Path) -> Result<Self> {
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .as_deref()
+        {
+            Some("png") => Ok(Self::Png),
+            Some("exr") => Ok(Self::Exr),
+            _ => Err(Error::Invalid(format!(
+                "{}: output must end in .png (8-bit sRGB) or .exr (linear float)",
+                path.display()
+            ))),
+        }
+    }
+}

@@ -1,0 +1,35 @@
+//! Synthetic scenes: an analytic CPU ray tracer of textured rectangles, used for the built-in
+//! `demo` light field (no files needed) and by tests that need light fields with exact ground
+//! truth.
+//!
+//! Model: albedo only — no lighting, shadows or reflections. A pixel's colour is the procedural
+//! texture ([`texture::Texture`], linear light) of the nearest quad its ray hits, or the scene's
+//! background.
+//!
+//! Conventions (those of [`crate::geometry::camera`]):
+//! - world → camera `X_c = R X + t`, camera axes x right, y down, z forward;
+//! - pixel-index coordinates: pixel (i, j)'s centre is at (i, j); a pixel's footprint is
+//!   [i − ½, i + ½] × [j − ½, j + ½];
+//! - a built-in scene's world frame is its centre camera's frame, and its cameras are an HCI
+//!   parallel rig with sensor shift ([`crate::lightfield::ParallelRig::cameras`]);
+//! - colours are computed and averaged in linear light and stored as 8-bit sRGB
+//!   ([`color::linear_to_srgb`], [`color::srgb_to_linear`] — the exact IEC 61966-2-1 curves,
+//!   for reuse elsewhere);
+//! - depth maps store camera-frame z at the pixel centre (NaN for background), disparity maps
+//!   the HCI disparity of that depth.
+//!
+//! Modules: [`color`] (sRGB), [`texture`] (procedural textures), [`scene`] (quads, ray
+//! intersection, [`scene::plane_scene`]), [`raytrace`] (views and light fields), [`mod@builtin`]
+//! (the named scenes, their planes and disparity ranges).
+
+pub mod builtin;
+pub mod color;
+pub mod raytrace;
+pub mod scene;
+pub mod texture;
+
+pub use builtin::{builtin, builtin_names, BuiltinScene};
+pub use color::{linear_to_srgb, srgb_to_linear};
+pub use raytrace::{pixel_ray, render_light_field, render_view, trace_pixel};
+pub use scene::{plane_scene, Hit, Quad, Scene};
+pub use texture::{Rgb, Texture};

@@ -1,0 +1,308 @@
+//! Scenes of textured parallelograms ("quads") and their exact ray intersection.
+//!
+//! A [`Quad`] is the parallelogram `centre + a·half_u + b·half_v`, a, b ∈ [−1, 1], with texture
+//! coordinates u = (a + 1)/2, v = (b + 1)/2 and plane normal `normalize(half_u × half_v)`.
+//! Coordinates are world coordinates (for the built-in scenes the world frame is the centre
+//! camera's frame: x right, y down, z forward).
+
+use glam::{DVec2, DVec3};
+
+use super::texture::{Rgb, Texture};
+
+/// A textured parallelogram.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Quad {
+    pub centre: DVec3,
+    /// Half of the edge along which texture u grows.
+    pub half_u: DVec3,
+    /// Half of the edge along which texture v grows.
+    pub half_v: DVec3,
+    pub texture: Texture,
+}
+
+/// The nearest intersection of a ray with a scene.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Ray parameter: `point = origin + t·dir`, in units of the (not necessarily unit) `dir`.
+    pub t: f64,
+    /// World position of the hit.
+    pub point: DVec3,
+    /// Index into [`Scene::quads`].
+    pub quad_index: usize,
+    /// Texture coordinates in [0, 1]².
+    pub uv: DVec2,
+}
+
+/// Quads plus a background colour for rays that hit nothing.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    pub quads: Vec<Quad>,
+    /// Linear-light background colour.
+    pub background: Rgb,
+}
+
+impl Quad {
+    /// Unit normal `normalize(half_u × half_v)`; zero for a degenerate quad.
+    pub fn normal(&self) -> DVec3 {
+        self.half_u.cross(self.half_v).normalize_or_zero()
+    }
+
+    /// World point at texture coordinates `uv`.
+    pub fn point_at(&self, uv: DVec2) -> DVec3 {
+        self.centre + (2.0 * uv.x - 1.0) * self.half_u + (2.0 * uv.y - 1.0) * self.half_v
+    }
+
+    /// The corners at uv = (0,0), (1,0), (1,1), (0,1), in that order (a closed outline).
+    pub fn corners(&self) -> [DVec3; 4] {
+        [
+            self.centre - self.half_u - self.half_v,
+            self.centre + self.half_u - self.half_v,
+            self.centre + self.half_u + self.half_v,
+            self.centre - self.half_u + self.half_v,
+        ]
+    }
+
+    /// Intersection of the ray `origin + t·dir` with this quad: `(t, uv)` for t > 0, or `None`
+    /// (miss, ray parallel to the plane, degenerate quad, non-finite input).
+    pub fn intersect(&self, origin: DVec3, dir: DVec3) -> Option<(f64, DVec2)> {
+        Prepared::new(self).and_then(|p| p.intersect(origin, dir))
+    }
+}
+
+/// A quad's intersection data, derived once per render instead of once per ray. Every
+/// intersection in this module goes through it, so the renderer and [`Quad::intersect`] agree
+/// bit for bit.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Prepared {
+    centre: DVec3,
+    /// Unit normal `normalize(half_u × half_v)`.
+    n: DVec3,
+    /// Dual basis of (half_u, half_v) within the plane: `rel·du = a`, `rel·dv = b`.
+    du: DVec3,
+    dv: DVec3,
+}
+
+impl Prepared {
+    /// `None` for a degenerate (zero-area or non-finite) quad, which no ray hits.
+    pub(crate) fn new(q: &Quad) -> Option<Self> {
+        let m = q.half_u.cross(q.half_v);
+        let mm = m.length_squared();
+        if !(mm > 0.0 && mm.is_finite() && q.centre.is_finite()) {
+            return None;
+        }
+        // (hv × m)·hu = (m × hu)·hv = |m|², and both are orthogonal to the other edge.
+        Some(Prepared {
+            centre: q.centre,
+            n: m / mm.sqrt(),
+            du: q.half_v.cross(m) / mm,
+            dv: m.cross(q.half_u) / mm,
+        })
+    }
+
+    pub(crate) fn intersect(&self, origin: DVec3, dir: DVec3) -> Option<(f64, DVec2)> {
+        let denom = self.n.dot(dir);
+        if denom == 0.0 {
+            return None;
+        }
+        let t = self.n.dot(self.centre - origin) / denom;
+        if !(t > 0.0 && t.is_finite()) {
+            return None;
+        }
+        let rel = origin + t * dir - self.centre;
+        let (a, b) = (rel.dot(self.du), rel.dot(self.dv));
+        (a.abs() <= 1.0 && b.abs() <= 1.0)
+            .then(|| (t, DVec2::new((a + 1.0) / 2.0, (b + 1.0) / 2.0)))
+    }
+}
+
+/// A scene with its quads prepared for many rays; `prepared[i]` is `None` for a degenerate quad.
+pub(crate) struct PreparedScene {
+    prepared: Vec<Option<Prepared>>,
+}
+
+impl PreparedScene {
+    pub(crate) fn new(scene: &Scene) -> Self {
+        PreparedScene {
+            prepared: scene.quads.iter().map(Prepared::new).collect(),
+        }
+    }
+
+    /// See [`Scene::intersect`].
+    pub(crate) fn intersect(&self, origin: DVec3, dir: DVec3) -> Option<Hit> {
+        nearest(origin, dir, self.prepared.iter().copied())
+    }
+}
+
+/// The nearest hit among `quads` (in scene order, `None` = degenerate).
+fn nearest(
+    origin: DVec3,
+    dir: DVec3,
+    quads: impl Iterator<Item = Option<Prepared>>,
+) -> Option<Hit> {
+    let mut best: Option<(f64, usize, DVec2)> = None;
+    for (i, p) in quads.enumerate() {
+        if let Some((t, uv)) = p.and_then(|p| p.intersect(origin, dir)) {
+            // `Option::is_none_or` needs Rust 1.82; the crate supports 1.80.
+            if best.map_or(true, |(bt, _, _)| t < bt) {
+                best = Some((t, i, uv));
+            }
+        }
+    }
+    best.map(|(t, quad_index, uv)| Hit {
+        t,
+        point: origin + t * dir,
+        quad_index,
+        uv,
+    })
+}
+
+impl Scene {
+    /// The nearest hit with t > 0 of the ray `origin + t·dir`, or `None`. Ties (coincident
+    /// quads) go to the quad listed first, so results are deterministic. For many rays the
+    /// renderer prepares the quads once; the arithmetic is the same.
+    pub fn intersect(&self, origin: DVec3, dir: DVec3) -> Option<Hit> {
+        nearest(origin, dir, self.quads.iter().map(Prepared::new))
+    }
+
+    /// Linear-light colour seen along the ray: the hit quad's texture, or the background.
+    pub fn radiance(&self, hit: Option<&Hit>) -> Rgb {
+        match hit.and_then(|h| self.quads.get(h.quad_index).map(|q| (q, h.uv))) {
+            Some((q, uv)) => q.texture.eval(uv),
+            None => self.background,
+        }
+    }
+}
+
+/// A scene of one square quad of side `2·half_size` centred at `point` in the plane with normal
+/// `normal`, on a black background — the building block of plane-focus tests.
+///
+/// The texture's u axis follows world x projected into the plane (world y when the plane is
+/// perpendicular to x), and the quad's normal (`half_u × half_v`) is `normal` flipped, if
+/// needed, to point away from the world origin (the centre camera), like every quad of the
+/// built-in scenes; with that orientation v follows world y (down), so textures read upright.
+/// A zero normal or size gives a degenerate quad that no ray hits.
+pub fn plane_scene(normal: DVec3, point: DVec3, half_size: f64, texture: Texture) -> Scene {
+    let mut n = normal.normalize_or_zero();
+    if n.dot(point) < 0.0 {
+        n = -n;
+    }
+    let along = |axis: DVec3| (axis - n * n.dot(axis)).normalize_or_zero();
+    let mut u = along(DVec3::X);
+    if u.length_squared() < 0.5 {
+        u = along(DVec3::Y);
+    }
+    // hu × (n × hu) = n |hu|², so the quad's normal is n.
+    let v = n.cross(u);
+    Scene {
+        quads: vec![Quad {
+            centre: point,
+            half_u: u * half_size,
+            half_v: v * half_size,
+            texture,
+        }],
+        background: [0.0; 3],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn white(centre: DVec3, hu: DVec3, hv: DVec3) -> Quad {
+        Quad {
+            centre,
+            half_u: hu,
+            half_v: hv,
+            texture: Texture::Solid([1.0; 3]),
+        }
+    }
+
+    #[test]
+    fn hits_inside_misses_outside() {
+        let q = white(DVec3::new(0.0, 0.0, 2.0), DVec3::X, DVec3::Y * 0.5);
+        let (t, uv) = q
+            .intersect(DVec3::ZERO, DVec3::new(0.25, 0.1, 1.0))
+            .unwrap();
+        assert!((t - 2.0).abs() < 1e-15);
+        assert!((uv - DVec2::new(0.75, 0.7)).length() < 1e-12);
+        assert!(q
+            .intersect(DVec3::ZERO, DVec3::new(0.6, 0.0, 1.0))
+            .is_none());
+        assert!(q
+            .intersect(DVec3::ZERO, DVec3::new(0.0, 0.3, 1.0))
+            .is_none());
+        // Behind the origin and parallel rays miss.
+        assert!(q
+            .intersect(DVec3::ZERO, DVec3::new(0.0, 0.0, -1.0))
+            .is_none());
+        assert!(q.intersect(DVec3::ZERO, DVec3::X).is_none());
+        // Degenerate quads and NaN rays miss instead of producing garbage.
+        let flat = white(DVec3::Z, DVec3::X, DVec3::X * 2.0);
+        assert!(flat.intersect(DVec3::ZERO, DVec3::Z).is_none());
+        assert!(q.intersect(DVec3::ZERO, DVec3::NAN).is_none());
+    }
+
+    #[test]
+    fn uv_round_trips_through_point_at_on_a_skew_quad() {
+        let q = white(
+            DVec3::new(0.3, -0.2, 3.0),
+            DVec3::new(0.8, 0.1, -0.4),
+            DVec3::new(0.2, 0.7, 0.3),
+        );
+        let origin = DVec3::new(0.1, 0.05, -0.2);
+        // Not exactly on the border: rounding may put a corner a hair outside.
+        for &(u, v) in &[(0.1, 0.2), (0.5, 0.5), (0.93, 0.07), (1e-9, 1.0 - 1e-9)] {
+            let p = q.point_at(DVec2::new(u, v));
+            let (t, uv) = q.intersect(origin, p - origin).unwrap();
+            assert!((t - 1.0).abs() < 1e-12);
+            assert!(
+                (uv - DVec2::new(u, v)).length() < 1e-12,
+                "{uv} vs ({u}, {v})"
+            );
+        }
+    }
+
+    #[test]
+    fn nearest_hit_wins() {
+        let scene = Scene {
+            quads: vec![
+                white(DVec3::new(0.0, 0.0, 5.0), DVec3::X, DVec3::Y),
+                white(DVec3::new(0.0, 0.0, 2.0), DVec3::X, DVec3::Y),
+            ],
+            background: [0.0; 3],
+        };
+        let h = scene.intersect(DVec3::ZERO, DVec3::Z).unwrap();
+        assert_eq!(h.quad_index, 1);
+        assert_eq!(h.point, DVec3::new(0.0, 0.0, 2.0));
+        assert!(scene
+            .intersect(DVec3::ZERO, DVec3::new(0.0, 0.0, -1.0))
+            .is_none());
+        assert_eq!(scene.radiance(None), [0.0; 3]);
+        assert_eq!(scene.radiance(Some(&h)), [1.0; 3]);
+    }
+
+    #[test]
+    fn plane_scene_has_the_requested_plane_and_upright_texture() {
+        let n = DVec3::new(0.0, -0.5, -1.0).normalize();
+        let p = DVec3::new(0.1, 0.2, 3.0);
+        let s = plane_scene(n, p, 2.0, Texture::Solid([1.0; 3]));
+        let q = &s.quads[0];
+        // Same plane, normal flipped to point away from the origin.
+        assert!((q.normal() + n).length() < 1e-12);
+        assert!(q.half_u.dot(n).abs() < 1e-12 && q.half_v.dot(n).abs() < 1e-12);
+        assert!((q.half_u.length() - 2.0).abs() < 1e-12);
+        assert!((q.half_v.length() - 2.0).abs() < 1e-12);
+        assert!(q.half_u.x > 0.0 && q.half_v.y > 0.0);
+        // A plane perpendicular to x still gets a valid basis.
+        let s = plane_scene(
+            DVec3::X,
+            DVec3::new(1.0, 0.0, 0.0),
+            1.0,
+            Texture::Solid([1.0; 3]),
+        );
+        assert!((s.quads[0].normal() - DVec3::X).length() < 1e-12);
+        // Degenerate input: no panic, nothing is hit.
+        let s = plane_scene(DVec3::ZERO, DVec3::Z, 1.0, Texture::Solid([1.0; 3]));
+        assert!(s.intersect(DVec3::ZERO, DVec3::Z).is_none());
+    }
+}

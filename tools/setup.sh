@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Installs what tiltfield needs on Debian 12 and is missing; safe to run any number of times.
+#   Vulkan: loader, lavapipe (software driver), validation layers, vulkaninfo
+#   Build:  cmake, python3, a C++ compiler (shaderc is built from source: Debian's libshaderc
+#           is under-linked), pkg-config
+#   Window: X11 headers for GLFW's bundled build, xvfb for headless window tests
+# Needs root or sudo for apt-get; installs Rust with rustup only if cargo is missing.
+set -euo pipefail
+
+packages=(
+  mesa-vulkan-drivers libvulkan1 libvulkan-dev vulkan-validationlayers vulkan-tools
+  cmake python3 g++ pkg-config
+  libx11-dev libxrandr-dev libxinerama-dev libxcursor-dev libxi-dev libxkbcommon-dev xvfb
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+
+if ((${#missing[@]})); then
+  echo "setup: installing ${missing[*]}" >&2
+  sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "setup: need root or sudo to install packages" >&2; exit 1; }
+    sudo="sudo"
+  fi
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >&2
+fi
+
+if ! command -v cargo >/dev/null; then
+  [ -x "$HOME/.cargo/bin/cargo" ] || {
+    echo "setup: installing Rust with rustup" >&2
+    command -v curl >/dev/null || { echo "setup: need curl to install Rust" >&2; exit 1; }
+    curl -sSf https://sh.rustup.rs | sh -s -- -y --profile minimal -c clippy,rustfmt >&2
+  }
+fi
+echo "setup: dependencies present" >&2
