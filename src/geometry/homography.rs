@@ -72,15 +72,22 @@ fn outer(u: DVec3, v: DVec3) -> DMat3 {
 /// The plane term `m = K_r⁻ᵀ n_r / d_r`. Refuses a plane through (or within `min_distance` of)
 /// the reference camera centre, where every ray meets the plane at the centre itself.
 pub fn plane_term(reference: &Camera, plane: &Plane, min_distance: f64) -> Result<DVec3> {
+    let d_r = reference_distance(reference, plane, min_distance)?;
+    let n_r = reference.r * plane.normal;
+    Ok(reference.k.inverse().transpose() * n_r / d_r)
+}
+
+/// Signed distance `d_r = n·(p − C_r)` of the plane from the reference centre; refuses
+/// `|d_r| ≤ min_distance` (and NaN).
+fn reference_distance(reference: &Camera, plane: &Plane, min_distance: f64) -> Result<f64> {
     let d_r = plane.normal.dot(plane.point - reference.centre());
-    if !(d_r.abs() > min_distance) {
+    if d_r.is_nan() || d_r.abs() <= min_distance {
         return Err(Error::Geometry(format!(
             "the refocus plane passes through the reference camera centre (distance {d_r:.3e}); \
              move the plane or the reference view"
         )));
     }
-    let n_r = reference.r * plane.normal;
-    Ok(reference.k.inverse().transpose() * n_r / d_r)
+    Ok(d_r)
 }
 
 /// The homography of DESIGN.md §2 in its direct form, for tests and reports.
@@ -90,12 +97,7 @@ pub fn homography(
     plane: &Plane,
     min_distance: f64,
 ) -> Result<DMat3> {
-    let d_r = plane.normal.dot(plane.point - reference.centre());
-    if !(d_r.abs() > min_distance) {
-        return Err(Error::Geometry(format!(
-            "the refocus plane passes through the reference camera centre (distance {d_r:.3e})"
-        )));
-    }
+    let d_r = reference_distance(reference, plane, min_distance)?;
     let n_r = reference.r * plane.normal;
     let inner =
         view.r * reference.r.transpose() + outer(view.r * reference.centre() + view.t, n_r) / d_r;

@@ -106,7 +106,7 @@ impl Plane {
         }
         let d = n_c.dot(camera.to_camera(self.point));
         let distance = d / n_c.z;
-        if !(distance > 0.0) {
+        if distance.is_nan() || distance <= 0.0 {
             return None;
         }
         let tilt = n_c.y.clamp(-1.0, 1.0).asin().to_degrees();

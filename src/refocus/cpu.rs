@@ -29,7 +29,7 @@ pub fn render(lf: &LightField, plan: &RefocusPlan, averaging: Averaging) -> Refo
                 let mut wsum = 0f64;
                 for v in &plan.views {
                     let q = v.warp.apply(plan.m, px);
-                    if !(q.z > 0.0) {
+                    if q.z.is_nan() || q.z <= 0.0 {
                         continue;
                     }
                     let p = DVec2::new(q.x / q.z, q.y / q.z);
