@@ -320,6 +320,54 @@ fn bad_command_lines_fail_clearly() {
 }
 
 #[test]
+fn devices_are_listed_and_selectable_by_index_or_name() {
+    let o = tiltfield(&["devices"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let listing = String::from_utf8_lossy(&o.stdout).into_owned();
+    let first = listing.lines().next().expect("at least one device");
+    // "0: NAME [kind, ...]": select it by index and by a part of its name.
+    let name = first
+        .split_once(": ")
+        .unwrap()
+        .1
+        .split(" [")
+        .next()
+        .unwrap();
+    let word = name.split_whitespace().next().unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("x.png");
+    for sel in ["0", word] {
+        let o = tiltfield(&[
+            "render",
+            "builtin:planes",
+            "--disparity",
+            "0",
+            "--device",
+            sel,
+            "--json",
+            "-o",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "--device {sel}: {}", stderr(&o));
+        let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(r["device"], name, "--device {sel}");
+    }
+    fails_with(
+        &[
+            "render",
+            "builtin:planes",
+            "--disparity",
+            "0",
+            "--device",
+            "no-such-gpu",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        &["no Vulkan device matches 'no-such-gpu'", name],
+    );
+}
+
+#[test]
 fn a_missing_vulkan_driver_is_a_clear_error() {
     let o = Command::new(env!("CARGO_BIN_EXE_tiltfield"))
         .args([

@@ -143,7 +143,7 @@ pub fn devices() -> Result<()> {
     }
     for d in devices {
         println!(
-            "{}: {} ({}, Vulkan {}, {}){}",
+            "{}: {} [{}, Vulkan {}, {}]{}",
             d.index,
             d.name,
             d.kind,
