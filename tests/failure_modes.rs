@@ -12,14 +12,6 @@ use tiltfield::lightfield::{GridSize, LightField, Source, View};
 use tiltfield::passes::texture::TextureLimits;
 use tiltfield::refocus::{self, cpu, Averaging, FocusSpec, RefocusRequest};
 
-fn request(focus: FocusSpec) -> RefocusRequest {
-    RefocusRequest {
-        focus,
-        aperture: Aperture::default(),
-        reference: None,
-    }
-}
-
 #[test]
 fn plane_through_the_reference_camera_is_refused() {
     let lf = builtin("planes");

@@ -8,14 +8,6 @@ use glam::DVec2;
 use tiltfield::geometry::aperture::Aperture;
 use tiltfield::refocus::{self, cpu, Averaging, FocusMethod, FocusSpec, RefocusRequest};
 
-fn request(focus: FocusSpec) -> RefocusRequest {
-    RefocusRequest {
-        focus,
-        aperture: Aperture::default(),
-        reference: None,
-    }
-}
-
 #[test]
 fn frontoparallel_homography_path_equals_classic_shift_and_sum() {
     let lf = builtin("planes");

@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 use glam::{DMat3, DVec3};
 
 use super::images::decode_views;
-use super::{GridCameraOptions, GridSize, LightField, Source, View};
+use super::{GridCameraOptions, GridSize, LightField, Source};
 use crate::error::{Error, Result};
 use crate::geometry::camera::{intrinsics, Camera};
 
@@ -146,19 +146,7 @@ pub fn load(dir: &Path, opts: &GridCameraOptions) -> Result<LightField> {
     let images = decode_views(&paths, &name)?;
     let (width, height) = images[0].dimensions();
     let cameras = cameras(grid, width, height, opts)?;
-    let views = images
-        .into_iter()
-        .zip(cameras)
-        .zip(&paths)
-        .enumerate()
-        .map(|(i, ((image, camera), path))| View {
-            s: i % cols,
-            t: i / cols,
-            camera,
-            image,
-            source: super::path_string(path),
-        })
-        .collect();
+    let views = super::grid_views(grid, images, cameras, &paths);
     Ok(LightField {
         name,
         grid,

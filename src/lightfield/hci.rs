@@ -59,7 +59,7 @@ use rayon::prelude::*;
 
 use super::images::decode_views;
 use super::pfm::{read_pfm_depth, write_pfm};
-use super::{DepthKind, GridSize, LightField, ParallelRig, Source, View};
+use super::{DepthKind, GridSize, LightField, ParallelRig, Source};
 use crate::error::{Error, Result};
 
 /// Name of the configuration file inside an HCI folder.
@@ -374,19 +374,7 @@ pub fn load(dir: &Path) -> Result<LightField> {
     }
     let rig = cfg.rig();
     let cameras = rig.cameras(grid, width, height);
-    let views = images
-        .into_iter()
-        .zip(cameras)
-        .zip(&paths)
-        .enumerate()
-        .map(|(i, ((image, camera), path))| View {
-            s: i % grid.cols,
-            t: i / grid.cols,
-            camera,
-            image,
-            source: super::path_string(path),
-        })
-        .collect();
+    let views = super::grid_views(grid, images, cameras, &paths);
 
     let centre = grid.index(grid.cols / 2, grid.rows / 2);
     let mut depth = Vec::new();
@@ -602,6 +590,7 @@ pub(crate) fn save_png(img: &RgbImage, path: &Path) -> Result<()> {
 pub(crate) mod tests {
     use super::*;
     use crate::lightfield::DepthMap;
+    use crate::lightfield::View;
     use image::{Rgba, RgbaImage};
 
     /// The backgammon file, verbatim.

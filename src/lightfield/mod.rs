@@ -311,6 +311,29 @@ pub fn open(path: &Path, grid_opts: &GridCameraOptions) -> Result<LightField> {
     Ok(lf)
 }
 
+/// Views in row-major grid order from decoded images, their cameras and files (all three in
+/// the same row-major order).
+pub(crate) fn grid_views(
+    grid: GridSize,
+    images: Vec<RgbaImage>,
+    cameras: Vec<Camera>,
+    paths: &[PathBuf],
+) -> Vec<View> {
+    images
+        .into_iter()
+        .zip(cameras)
+        .zip(paths)
+        .enumerate()
+        .map(|(i, ((image, camera), path))| View {
+            s: i % grid.cols,
+            t: i / grid.cols,
+            camera,
+            image,
+            source: path_string(path),
+        })
+        .collect()
+}
+
 /// Display helper: a path as a String.
 pub(crate) fn path_string(p: &Path) -> String {
     p.display().to_string()

@@ -169,18 +169,7 @@ impl Targets {
 /// Pipelines, descriptors and targets of the refocus pass for one light field texture.
 pub struct RefocusPass {
     accum_format: vk::Format,
-    sampler_linear: vk::Sampler,
-    sampler_nearest: vk::Sampler,
-    accum_set_layout: vk::DescriptorSetLayout,
-    resolve_set_layout: vk::DescriptorSetLayout,
-    accum_layout: vk::PipelineLayout,
-    resolve_layout: vk::PipelineLayout,
-    descriptor_pool: vk::DescriptorPool,
-    accum_set: vk::DescriptorSet,
-    resolve_set: vk::DescriptorSet,
-    accum_pipeline: vk::Pipeline,
-    /// Resolve pipelines for R8G8B8A8_UNORM, R8G8B8A8_SRGB, R32G32B32A32_SFLOAT.
-    resolve_pipelines: [vk::Pipeline; 3],
+    objects: PassObjects,
     warps: Buffer,
     warp_capacity: usize,
     submission: Submission,
@@ -216,8 +205,8 @@ impl RefocusPass {
     pub fn new(ctx: &GpuContext, texture: &LightFieldTexture) -> Result<Self> {
         let accum_format = pick_accum_format(ctx)?;
         let d = &ctx.device;
-        // Build step by step; `PassBuilder` frees what exists if a step fails.
-        let mut b = PassBuilder::default();
+        // Build step by step; `PassObjects::destroy` frees what exists if a step fails.
+        let mut b = PassObjects::default();
         let r = (|| -> Result<()> {
             let sampler = |filter| {
                 vk::SamplerCreateInfo::default()
@@ -335,44 +324,49 @@ impl RefocusPass {
                 // SAFETY: pipelines keep their own copy of the code.
                 unsafe { d.destroy_shader_module(m, None) };
             }
-            made?;
-            let capacity = texture.layers as usize;
-            b.warps = Some(Buffer::new(
-                ctx,
-                (capacity * WARP_BYTES) as u64,
-                vk::BufferUsageFlags::STORAGE_BUFFER,
-                true,
-                "view warps",
-            )?);
-            b.submission = Some(Submission::new(ctx, "refocus frame")?);
-            b.timestamps = Timestamps::new(ctx, 3)?;
-            Ok(())
+            made
         })();
         if let Err(e) = r {
             b.destroy(ctx);
             return Err(e);
         }
-        let (Some(warps), Some(submission)) = (b.warps.take(), b.submission.take()) else {
-            b.destroy(ctx);
-            return Err(Error::Vulkan("refocus pass set-up incomplete".into()));
+        let capacity = texture.layers as usize;
+        let owned = Buffer::new(
+            ctx,
+            (capacity * WARP_BYTES) as u64,
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            true,
+            "view warps",
+        )
+        .and_then(|warps| match Submission::new(ctx, "refocus frame") {
+            Ok(s) => Ok((warps, s)),
+            Err(e) => {
+                warps.destroy(ctx);
+                Err(e)
+            }
+        })
+        .and_then(|(warps, submission)| match Timestamps::new(ctx, 3) {
+            Ok(t) => Ok((warps, submission, t)),
+            Err(e) => {
+                warps.destroy(ctx);
+                submission.destroy(ctx);
+                Err(e)
+            }
+        });
+        let (warps, submission, timestamps) = match owned {
+            Ok(x) => x,
+            Err(e) => {
+                b.destroy(ctx);
+                return Err(e);
+            }
         };
         Ok(RefocusPass {
             accum_format,
-            sampler_linear: b.sampler_linear,
-            sampler_nearest: b.sampler_nearest,
-            accum_set_layout: b.accum_set_layout,
-            resolve_set_layout: b.resolve_set_layout,
-            accum_layout: b.accum_layout,
-            resolve_layout: b.resolve_layout,
-            descriptor_pool: b.descriptor_pool,
-            accum_set: b.accum_set,
-            resolve_set: b.resolve_set,
-            accum_pipeline: b.accum_pipeline,
-            resolve_pipelines: b.resolve_pipelines,
+            objects: b,
             warps,
-            warp_capacity: texture.layers as usize,
+            warp_capacity: capacity,
             submission,
-            timestamps: b.timestamps.take(),
+            timestamps,
             targets: None,
         })
     }
@@ -477,7 +471,7 @@ impl RefocusPass {
             Averaging::Encoded => texture.image.views[VIEW_UNORM],
         };
         let image_info = [vk::DescriptorImageInfo::default()
-            .sampler(self.sampler_linear)
+            .sampler(self.objects.sampler_linear)
             .image_view(view_image)
             .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)];
         let buffer_info = [vk::DescriptorBufferInfo::default()
@@ -485,22 +479,22 @@ impl RefocusPass {
             .offset(0)
             .range(vk::WHOLE_SIZE)];
         let accum_info = [vk::DescriptorImageInfo::default()
-            .sampler(self.sampler_nearest)
+            .sampler(self.objects.sampler_nearest)
             .image_view(t.accum.views[0])
             .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)];
         let writes = [
             vk::WriteDescriptorSet::default()
-                .dst_set(self.accum_set)
+                .dst_set(self.objects.accum_set)
                 .dst_binding(0)
                 .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
                 .image_info(&image_info),
             vk::WriteDescriptorSet::default()
-                .dst_set(self.accum_set)
+                .dst_set(self.objects.accum_set)
                 .dst_binding(1)
                 .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
                 .buffer_info(&buffer_info),
             vk::WriteDescriptorSet::default()
-                .dst_set(self.resolve_set)
+                .dst_set(self.objects.resolve_set)
                 .dst_binding(0)
                 .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
                 .image_info(&accum_info),
@@ -509,13 +503,21 @@ impl RefocusPass {
         unsafe { d.update_descriptor_sets(&writes, &[]) };
 
         let (out_image, out_view, resolve_pipeline) = match (settings.output, settings.averaging) {
-            (OutputFormat::Srgb8, Averaging::Linear) => {
-                (t.out8.image, t.out8.views[1], self.resolve_pipelines[1])
-            }
-            (OutputFormat::Srgb8, Averaging::Encoded) => {
-                (t.out8.image, t.out8.views[0], self.resolve_pipelines[0])
-            }
-            (OutputFormat::Float, _) => (t.outf.image, t.outf.views[0], self.resolve_pipelines[2]),
+            (OutputFormat::Srgb8, Averaging::Linear) => (
+                t.out8.image,
+                t.out8.views[1],
+                self.objects.resolve_pipelines[1],
+            ),
+            (OutputFormat::Srgb8, Averaging::Encoded) => (
+                t.out8.image,
+                t.out8.views[0],
+                self.objects.resolve_pipelines[0],
+            ),
+            (OutputFormat::Float, _) => (
+                t.outf.image,
+                t.outf.views[0],
+                self.objects.resolve_pipelines[2],
+            ),
         };
         let batch = if settings.views_per_draw == 0 {
             plan.views.len()
@@ -551,13 +553,17 @@ impl RefocusPass {
             begin_rendering(d, cmd, t.accum.views[0], extent, Some(clear));
             // SAFETY: recording inside a dynamic rendering instance with matching formats.
             unsafe {
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.accum_pipeline);
+                d.cmd_bind_pipeline(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.objects.accum_pipeline,
+                );
                 d.cmd_bind_descriptor_sets(
                     cmd,
                     vk::PipelineBindPoint::GRAPHICS,
-                    self.accum_layout,
+                    self.objects.accum_layout,
                     0,
-                    &[self.accum_set],
+                    &[self.objects.accum_set],
                     &[],
                 );
                 let mut first = 0usize;
@@ -567,7 +573,7 @@ impl RefocusPass {
                         push_bytes([m.x, m.y, m.z, 0.0], view_size, first as u32, count as u32);
                     d.cmd_push_constants(
                         cmd,
-                        self.accum_layout,
+                        self.objects.accum_layout,
                         vk::ShaderStageFlags::FRAGMENT,
                         0,
                         &push,
@@ -607,9 +613,9 @@ impl RefocusPass {
                 d.cmd_bind_descriptor_sets(
                     cmd,
                     vk::PipelineBindPoint::GRAPHICS,
-                    self.resolve_layout,
+                    self.objects.resolve_layout,
                     0,
-                    &[self.resolve_set],
+                    &[self.objects.resolve_set],
                     &[],
                 );
                 d.cmd_draw(cmd, 3, 1, 0, 0);
@@ -710,30 +716,17 @@ impl RefocusPass {
         }
         self.warps.destroy(ctx);
         self.submission.destroy(ctx);
-        let b = PassBuilder {
-            sampler_linear: self.sampler_linear,
-            sampler_nearest: self.sampler_nearest,
-            accum_set_layout: self.accum_set_layout,
-            resolve_set_layout: self.resolve_set_layout,
-            accum_layout: self.accum_layout,
-            resolve_layout: self.resolve_layout,
-            descriptor_pool: self.descriptor_pool,
-            accum_set: self.accum_set,
-            resolve_set: self.resolve_set,
-            accum_pipeline: self.accum_pipeline,
-            resolve_pipelines: self.resolve_pipelines,
-            warps: None,
-            submission: None,
-            timestamps: self.timestamps.take(),
-        };
-        b.destroy(ctx);
+        if let Some(t) = self.timestamps.take() {
+            t.destroy(ctx);
+        }
+        self.objects.destroy(ctx);
     }
 }
 
-/// The handles of a pass under construction (null until created); destroying it frees exactly
-/// those that exist, so a failed set-up leaks nothing.
+/// The Vulkan objects of the pass that are plain handles (null until created). Destroying it
+/// frees exactly those that exist, so a failed set-up leaks nothing.
 #[derive(Default)]
-struct PassBuilder {
+struct PassObjects {
     sampler_linear: vk::Sampler,
     sampler_nearest: vk::Sampler,
     accum_set_layout: vk::DescriptorSetLayout,
@@ -744,23 +737,12 @@ struct PassBuilder {
     accum_set: vk::DescriptorSet,
     resolve_set: vk::DescriptorSet,
     accum_pipeline: vk::Pipeline,
+    /// Resolve pipelines for R8G8B8A8_UNORM, R8G8B8A8_SRGB, R32G32B32A32_SFLOAT.
     resolve_pipelines: [vk::Pipeline; 3],
-    warps: Option<Buffer>,
-    submission: Option<Submission>,
-    timestamps: Option<Timestamps>,
 }
 
-impl PassBuilder {
-    fn destroy(mut self, ctx: &GpuContext) {
-        if let Some(w) = self.warps.take() {
-            w.destroy(ctx);
-        }
-        if let Some(s) = self.submission.take() {
-            s.destroy(ctx);
-        }
-        if let Some(t) = self.timestamps.take() {
-            t.destroy(ctx);
-        }
+impl PassObjects {
+    fn destroy(self, ctx: &GpuContext) {
         let d = &ctx.device;
         // SAFETY: nothing uses these objects any more; destroying null handles is a no-op.
         unsafe {

@@ -9,6 +9,15 @@ use tiltfield::lightfield::LightField;
 use tiltfield::passes::refocus::{GpuImage, OutputFormat, RenderSettings};
 use tiltfield::refocus::{Averaging, RefocusImage, RefocusPlan};
 
+/// A request with the default aperture (all views) at the grid centre.
+pub fn request(focus: tiltfield::refocus::FocusSpec) -> tiltfield::refocus::RefocusRequest {
+    tiltfield::refocus::RefocusRequest {
+        focus,
+        aperture: tiltfield::geometry::aperture::Aperture::default(),
+        reference: None,
+    }
+}
+
 /// Every GPU test runs with the Khronos validation layer; a missing layer or driver fails.
 pub fn gpu_options() -> GpuOptions {
     GpuOptions {
