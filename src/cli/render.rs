@@ -25,8 +25,9 @@ pub struct RenderArgs {
     /// Output image: .png (8-bit sRGB) or .exr (linear float RGBA).
     #[arg(short, long, value_name = "OUT")]
     pub output: PathBuf,
-    /// Classic shift-and-sum disparity in pixels per grid step (HCI convention on HCI data and
-    /// built-in scenes: positive = nearer than the focus distance).
+    /// Frontoparallel focus by disparity in pixels per grid step. HCI convention on HCI data,
+    /// rig manifests and built-in scenes (positive = nearer than the focus distance); classic
+    /// shift-and-sum elsewhere (view (s,t) sampled at u + (s − s_r)·D, v + (t − t_r)·D).
     #[arg(long, value_name = "D", allow_hyphen_values = true)]
     pub disparity: Option<f64>,
     /// Refocus plane: world point and normal.
