@@ -17,14 +17,9 @@ use crate::lightfield::LightField;
 use crate::passes::refocus::{GpuImage, OutputFormat, RenderSettings};
 use crate::refocus::{self, Averaging, FocusSpec, OutputKind, RefocusPlan, RefocusRequest};
 
-#[derive(Debug, Args)]
-#[command(group(clap::ArgGroup::new("focus_plane").required(true).args(["disparity", "plane", "focus"])))]
-pub struct RenderArgs {
-    #[command(flatten)]
-    pub lf: LightFieldArgs,
-    /// Output image: .png (8-bit sRGB) or .exr (linear float RGBA).
-    #[arg(short, long, value_name = "OUT")]
-    pub output: PathBuf,
+/// The refocus plane options (shared by `render` and `synth`'s optical ground truth).
+#[derive(Debug, Clone, Args)]
+pub struct PlaneArgs {
     /// Classic shift-and-sum disparity in pixels per grid step (HCI convention on HCI data and
     /// built-in scenes: positive = nearer than the focus distance).
     #[arg(long, value_name = "D", allow_hyphen_values = true)]
@@ -53,6 +48,18 @@ pub struct RenderArgs {
         default_value_t = 0.0
     )]
     pub swing: f64,
+}
+
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("focus_plane").required(true).args(["disparity", "plane", "focus"])))]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub lf: LightFieldArgs,
+    /// Output image: .png (8-bit sRGB) or .exr (linear float RGBA).
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub plane_opts: PlaneArgs,
     /// Aperture shape: disk, square or gaussian.
     #[arg(long, default_value = "disk")]
     pub aperture: ApertureShape,
@@ -82,7 +89,7 @@ pub struct RenderArgs {
 }
 
 /// The focus specification from the mutually exclusive options.
-pub fn focus_spec(args: &RenderArgs) -> Result<FocusSpec> {
+pub fn focus_spec(args: &PlaneArgs) -> Result<FocusSpec> {
     if let Some(d) = args.disparity {
         return Ok(FocusSpec::Disparity(d));
     }
@@ -128,7 +135,7 @@ pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<RefocusPlan> {
         None => None,
     };
     let req = RefocusRequest {
-        focus: focus_spec(args)?,
+        focus: focus_spec(&args.plane_opts)?,
         aperture: Aperture {
             shape: args.aperture,
             radius: args.aperture_radius,

@@ -24,6 +24,7 @@
 
 pub mod builtin;
 pub mod color;
+pub mod gltf;
 pub mod mesh;
 pub mod raster;
 pub mod raytrace;
