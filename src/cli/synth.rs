@@ -44,7 +44,13 @@ pub struct SynthArgs {
     #[arg(required_unless_present = "list")]
     pub scene: Option<String>,
     /// Output folder.
-    #[arg(short, long, value_name = "DIR", visible_alias = "output", required_unless_present = "list")]
+    #[arg(
+        short,
+        long,
+        value_name = "DIR",
+        visible_alias = "output",
+        required_unless_present = "list"
+    )]
     pub out: Option<PathBuf>,
     /// Camera grid, columns x rows.
     #[arg(long, value_name = "SxT", default_value = "9x9")]
@@ -100,7 +106,11 @@ pub struct SynthArgs {
 
 /// Parses "AxB" into two positive integers.
 fn parse_pair(text: &str, what: &str) -> Result<(u32, u32)> {
-    let err = || Error::Invalid(format!("{what}: expected AxB with positive integers, got '{text}'"));
+    let err = || {
+        Error::Invalid(format!(
+            "{what}: expected AxB with positive integers, got '{text}'"
+        ))
+    };
     let (a, b) = text.split_once(['x', 'X']).ok_or_else(err)?;
     let a: u32 = a.trim().parse().map_err(|_| err())?;
     let b: u32 = b.trim().parse().map_err(|_| err())?;
@@ -254,12 +264,7 @@ pub fn run(args: &SynthArgs) -> Result<()> {
     let mut r = Rasterizer::new(&placed.mesh, &args.gpu.options())?;
     let device = r.context().info.name.clone();
     let t_render = Instant::now();
-    let synth = render_light_field(
-        &mut r,
-        &rig,
-        args.samples,
-        args.layout == Layout::Manifest,
-    )?;
+    let synth = render_light_field(&mut r, &rig, args.samples, args.layout == Layout::Manifest)?;
     let render_s = t_render.elapsed().as_secs_f64();
     let lf = &synth.light_field;
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;

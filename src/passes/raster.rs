@@ -388,7 +388,10 @@ impl RasterPass {
                 .dst_access_mask(vk::AccessFlags2::HOST_READ)];
             // SAFETY: recording outside a rendering instance.
             unsafe {
-                d.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&to_host))
+                d.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().memory_barriers(&to_host),
+                )
             };
         })?;
         let bytes = t.readback.bytes_mut();
@@ -454,7 +457,12 @@ fn attachments_barrier(d: &ash::Device, cmd: vk::CommandBuffer) {
         .dst_stage_mask(stages)
         .dst_access_mask(access)];
     // SAFETY: recording outside a rendering instance.
-    unsafe { d.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&barrier)) };
+    unsafe {
+        d.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default().memory_barriers(&barrier),
+        )
+    };
 }
 
 /// Moves the depth buffer from UNDEFINED into the depth attachment layout.
@@ -603,7 +611,9 @@ impl PassBuilder {
         let geom = shaders::module(ctx, shaders::MESH_GEOM_FRAG, "mesh_geom.frag");
         let made = (|| -> Result<()> {
             let (Ok(accum), Ok(geom)) = (&accum, &geom) else {
-                return Err(Error::Vulkan("cannot create the mesh shader modules".into()));
+                return Err(Error::Vulkan(
+                    "cannot create the mesh shader modules".into(),
+                ));
             };
             self.prepass = mesh_pipeline(ctx, self.layout, vert, *accum, Mode::DepthPrepass)?;
             self.accum = mesh_pipeline(ctx, self.layout, vert, *accum, Mode::Accumulate)?;

@@ -95,8 +95,7 @@ pub fn load(path: &Path) -> Result<GltfScene> {
     let Some(scene) = scene else {
         return Err(bad("no scene: the file has no geometry".into()));
     };
-    let mut stack: Vec<(gltf::Node, DMat4)> =
-        scene.nodes().map(|n| (n, DMat4::IDENTITY)).collect();
+    let mut stack: Vec<(gltf::Node, DMat4)> = scene.nodes().map(|n| (n, DMat4::IDENTITY)).collect();
     stack.reverse();
     while let Some((node, parent)) = stack.pop() {
         let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
@@ -128,7 +127,9 @@ pub fn load(path: &Path) -> Result<GltfScene> {
         }
     }
     if mesh.triangle_count() == 0 {
-        return Err(bad("no triangles: the scene has no triangle geometry".into()));
+        return Err(bad(
+            "no triangles: the scene has no triangle geometry".into()
+        ));
     }
     Ok(GltfScene { mesh, camera })
 }
@@ -308,8 +309,14 @@ fn to_rgba8(data: &gltf::image::Data) -> Option<Vec<u8>> {
     let p = &data.pixels;
     let out: Vec<u8> = match data.format {
         Format::R8G8B8A8 => p.clone(),
-        Format::R8G8B8 => p.chunks_exact(3).flat_map(|c| [c[0], c[1], c[2], 255]).collect(),
-        Format::R8G8 => p.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect(),
+        Format::R8G8B8 => p
+            .chunks_exact(3)
+            .flat_map(|c| [c[0], c[1], c[2], 255])
+            .collect(),
+        Format::R8G8 => p
+            .chunks_exact(2)
+            .flat_map(|c| [c[0], c[0], c[0], c[1]])
+            .collect(),
         Format::R8 => p.iter().flat_map(|&c| [c, c, c, 255]).collect(),
         _ => return None,
     };

@@ -178,10 +178,7 @@ pub fn bake(t: &Texture, n: u32, name: &str) -> MeshTexture {
         .enumerate()
         .for_each(|(y, row)| {
             for x in 0..n as usize {
-                let uv = DVec2::new(
-                    (x as f64 + 0.5) / n as f64,
-                    (y as f64 + 0.5) / n as f64,
-                );
+                let uv = DVec2::new((x as f64 + 0.5) / n as f64, (y as f64 + 0.5) / n as f64);
                 let c = t.eval(uv);
                 for k in 0..3 {
                     row[4 * x + k] = encode_srgb8(c[k]);
@@ -239,7 +236,10 @@ mod tests {
         let mut m = MeshScene::from_quads("solid", &scene);
         assert!(m.textures.is_empty() && m.draws[0].texture.is_none());
         assert_eq!(m.vertices[0].color, [0.25, 0.5, 0.75, 1.0]);
-        m.transform(DMat3::from_rotation_y(std::f64::consts::FRAC_PI_2), DVec3::X);
+        m.transform(
+            DMat3::from_rotation_y(std::f64::consts::FRAC_PI_2),
+            DVec3::X,
+        );
         let (lo, hi) = m.bounds().unwrap();
         assert!((lo.x - 3.0).abs() < 1e-6 && (hi.x - 3.0).abs() < 1e-6);
     }

@@ -34,9 +34,9 @@ pub mod texture;
 
 pub use builtin::{builtin, builtin_names, BuiltinScene};
 pub use color::{linear_to_srgb, srgb_to_linear};
-pub use raytrace::{pixel_ray, render_light_field, render_view, trace_pixel};
-pub use scene::{plane_scene, Hit, Quad, Scene};
-pub use texture::{Rgb, Texture};
 pub use mesh::MeshScene;
 pub use raster::{Rasterizer, RigKind, SynthRig};
+pub use raytrace::{pixel_ray, render_light_field, render_view, trace_pixel};
+pub use scene::{plane_scene, Hit, Quad, Scene};
 pub use scenes::{synth_scene, synth_scene_names, SynthScene};
+pub use texture::{Rgb, Texture};

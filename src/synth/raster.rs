@@ -316,9 +316,9 @@ impl SynthRig {
     /// The cameras, row-major.
     pub fn cameras(&self) -> Vec<Camera> {
         match self.kind {
-            RigKind::Parallel => self.parallel().map_or_else(Vec::new, |r| {
-                r.cameras(self.grid, self.width, self.height)
-            }),
+            RigKind::Parallel => self
+                .parallel()
+                .map_or_else(Vec::new, |r| r.cameras(self.grid, self.width, self.height)),
             RigKind::Converging { distance } => {
                 let c = self.grid.centre();
                 let k = intrinsics(
