@@ -242,7 +242,7 @@ fn synth_hci_layout_round_trips_and_disparity_d_focuses_gt_disparity_d_content()
                 (4..60).contains(&x)
                     && (4..60).contains(&y)
                     && (-3..=3).all(|k: i32| {
-                        let (xx, yy) = ((x as i32 + k) as u32, (y as i32 + k) as u32);
+                        let (xx, yy) = ((x + k) as u32, (y + k) as u32);
                         (disp.at(xx, y as u32) as f64 - target).abs() < 1e-3
                             && (disp.at(x as u32, yy) as f64 - target).abs() < 1e-3
                     })
@@ -319,8 +319,7 @@ fn synth_manifest_layout_with_parallel_and_converging_rigs_focuses_planes() {
         let ray_z = {
             let c = &corner.camera;
             let dir = c.r.transpose() * c.ray_camera(DVec2::new(4.0, 4.0));
-            let t = (4.0 - c.centre().z) / dir.z;
-            t
+            (4.0 - c.centre().z) / dir.z
         };
         assert!((z0.at(4, 4) as f64 - ray_z).abs() < 1e-4 * ray_z);
 

@@ -28,6 +28,9 @@ use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::{DepthKind, DepthMap, GridSize, LightField, ParallelRig, Source, View};
 use crate::passes::raster::{camera_from_world, projection_rows, Projection, RasterPass};
 
+/// Linear RGBA pixels, row-major.
+type Pixels = Vec<[f32; 4]>;
+
 /// Samples per submission: keeps command buffers short on real GPUs.
 const SAMPLES_PER_SUBMISSION: usize = 128;
 
@@ -89,7 +92,7 @@ impl Rasterizer {
         height: u32,
         samples: &[Projection],
         geometry: Option<&Projection>,
-    ) -> Result<(Vec<[f32; 4]>, Option<Vec<[f32; 4]>>)> {
+    ) -> Result<(Pixels, Option<Pixels>)> {
         let Some(pass) = self.pass.as_mut() else {
             unreachable!("the pass lives until drop")
         };
