@@ -11,8 +11,10 @@ layout(location = 1) out vec4 v_color;
 layout(location = 2) out vec3 v_normal;
 layout(location = 3) out vec3 v_position;
 
-// The depth pre-pass and the colour pass must produce identical depths (GREATER_OR_EQUAL test).
-invariant gl_Position;
+// The depth pre-pass and the colour pass must produce identical depths (GREATER_OR_EQUAL test):
+// both pipelines use this module with the same fragment shader and differ only in fixed-function
+// state. (`invariant gl_Position` would say so explicitly, but Mesa warns about the decoration
+// on the gl_PerVertex member on every pipeline creation.)
 
 void main() {
     vec4 p = vec4(in_position, 1.0);

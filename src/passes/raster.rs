@@ -7,8 +7,9 @@
 //! a depth pre-pass (`GREATER`, reverse Z, colour writes off), then the colour pass
 //! (`GREATER_OR_EQUAL`, no depth writes) that adds linear-light albedo and coverage 1 into an
 //! RGBA32F accumulation target by additive blending. The pre-pass makes the sum take exactly
-//! the nearest surface per sample whatever the draw order; `invariant gl_Position` makes both
-//! passes produce the same depths. The CPU divides by the sample count (see [`RasterImage`]).
+//! the nearest surface per sample whatever the draw order; both passes run the same vertex and
+//! fragment shaders (only fixed-function state differs), so they produce the same depths. The
+//! CPU divides by the sample count (see [`RasterImage`]).
 //!
 //! An optional *geometry* render (no jitter) writes the camera-frame unit normal facing the
 //! camera and the camera-frame depth z at each pixel centre into a second RGBA32F target

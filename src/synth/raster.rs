@@ -98,6 +98,17 @@ impl Rasterizer {
         };
         let mut sum = vec![[0f32; 4]; (width * height) as usize];
         let mut geom = None;
+        // Only renders of several submissions (the optical ground truth) get a progress bar.
+        let chunks = samples.len().div_ceil(SAMPLES_PER_SUBMISSION);
+        let progress = if chunks > 1 {
+            ProgressBar::new(samples.len() as u64).with_style(
+                ProgressStyle::with_template("rasterizing {msg} {bar:30} {pos}/{len} pinholes")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            )
+        } else {
+            ProgressBar::hidden()
+        };
+        progress.set_message(self.name.clone());
         for (k, chunk) in samples.chunks(SAMPLES_PER_SUBMISSION).enumerate() {
             let img = pass.render(
                 &self.ctx,
@@ -115,7 +126,9 @@ impl Rasterizer {
             if img.geometry.is_some() {
                 geom = img.geometry;
             }
+            progress.inc(chunk.len() as u64);
         }
+        progress.finish_and_clear();
         Ok((sum, geom))
     }
 
