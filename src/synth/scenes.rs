@@ -7,12 +7,12 @@
 //!
 //! | scene    | content | f / W | baseline | focus |
 //! |----------|---------|-------|----------|-------|
-//! | `demo`   | checkered floor, brick wall at 6 m, painting turned 35° at 2.7 m, colour-bar card at 1.6 m ([`super::builtin`]) | 1.2 | 0.02 m | 2.5 m |
+//! | `demo`   | checkered floor, brick wall at 6 m, painting turned 35° at 2.7 m, colour-bar card at 1.6 m ([`mod@super::builtin`]) | 1.2 | 0.02 m | 2.5 m |
 //! | `room`   | a room 2.4 m wide: floor, ceiling, back wall at 5 m, two side walls each with two paintings hung flat on them (planes through a side wall span two paintings and the wall) | 1.0 | 0.02 m | 3.5 m |
 //! | `tower`  | three boxes stacked and turned (25°, 50°, 10°) on a checkered floor in front of a wall at 7 m: flat faces for single-click normals | 1.1 | 0.03 m | 3.5 m |
 //! | `depths` | seven cards with fine texture (grain, rings, stripes) from 1.2 m to 6 m in front of a finely checkered wall at 9 m: aliasing at many depths | 1.1 | 0.03 m | 2.5 m |
-//! | `planes` | two frontoparallel planes at 4 m and 2 m ([`super::builtin`]) | 1.25 | 0.1 m | 3 m |
-//! | `tilted` | one plane tilted 40° about x through (0, 0, 3 m) ([`super::builtin`]) | 1.25 | 0.1 m | 3 m |
+//! | `planes` | two frontoparallel planes at 4 m and 2 m ([`mod@super::builtin`]) | 1.25 | 0.1 m | 3 m |
+//! | `tilted` | one plane tilted 40° about x through (0, 0, 3 m) ([`mod@super::builtin`]) | 1.25 | 0.1 m | 3 m |
 
 use glam::DVec3;
 
