@@ -530,6 +530,18 @@ fn example_gltf_loads_and_synthesises() {
     assert!(valid > 96 * 96 / 3, "{valid} pixels see geometry");
 }
 
+/// The binary form of the example (buffer in the GLB's BIN chunk) loads to the same mesh.
+#[test]
+fn example_glb_loads_like_the_gltf() {
+    let a = tiltfield::synth::gltf::load(Path::new(EXAMPLE)).unwrap();
+    let glb = EXAMPLE.replace(".gltf", ".glb");
+    let b = tiltfield::synth::gltf::load(Path::new(&glb)).unwrap();
+    assert_eq!(a.mesh.vertices, b.mesh.vertices);
+    assert_eq!(a.mesh.indices, b.mesh.indices);
+    assert_eq!(a.mesh.textures, b.mesh.textures);
+    assert_eq!(a.camera, b.camera);
+}
+
 /// Writes a one-triangle glTF (`mode` 4 = TRIANGLES, 1 = LINES) into `dir`, the triangle at
 /// z = −5 in front of a default glTF camera; `camera_yaw_deg` turns the camera node.
 fn write_gltf(dir: &Path, mode: u32, write_buffer: bool, camera_yaw_deg: Option<f64>) -> String {
@@ -628,6 +640,34 @@ fn gltf_error_cases_are_clear_errors() {
         "32x32",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // Without a camera in the file, one is placed to look at the scene.
+    let auto_dir = d.join("auto");
+    std::fs::create_dir_all(&auto_dir).unwrap();
+    let auto = write_gltf(&auto_dir, 4, true, None);
+    let o = tiltfield(&[
+        "synth",
+        &auto,
+        "--out",
+        d.join("auto_out").to_str().unwrap(),
+        "--grid",
+        "3x3",
+        "--size",
+        "32x32",
+        "--layout",
+        "manifest",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["camera"], "placed automatically (none in the file)");
+    let lf = lightfield::open(&d.join("auto_out"), &Default::default()).unwrap();
+    let z = depth_map(&lf, 4, DepthKind::Depth);
+    // The triangle faces the camera squarely at the focus distance.
+    let zc = z.at(16, 16) as f64;
+    assert!(
+        (zc - report["focus_distance"].as_f64().unwrap()).abs() < 1e-4,
+        "{zc}"
+    );
     let away = d.join("away");
     std::fs::create_dir_all(&away).unwrap();
     let away_scene = write_gltf(&away, 4, true, Some(180.0));

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Writes tests/data/example.gltf: a small self-contained glTF 2.0 scene for `tiltfield synth`
-and its tests (standard library only; the buffer and the texture are embedded as data URIs).
+and its tests (standard library only; the buffer and the texture are embedded as data URIs),
+and tests/data/example.glb: the same scene as binary glTF (buffer in the BIN chunk).
 
 Content (glTF frame: y up, metres): a 4 m × 4 m floor at y = 0 with a repeating checker texture
 (sRGB PNG, sampler REPEAT, uv 0..4); a 1 m cube with per-vertex colours (COLOR_0) and a
@@ -137,3 +138,14 @@ doc = {
 out = Path(__file__).resolve().parent.parent / "tests" / "data" / "example.gltf"
 out.write_text(json.dumps(doc, indent=1) + "\n")
 print("wrote", out)
+
+# Binary glTF: 12-byte header, a JSON chunk padded with spaces, a BIN chunk padded with zeros.
+doc["buffers"] = [{"byteLength": len(buf)}]
+doc["asset"]["generator"] += " (GLB)"
+js = json.dumps(doc).encode()
+js += b" " * (-len(js) % 4)
+binary = bytes(buf) + b"\x00" * (-len(buf) % 4)
+chunks = struct.pack("<II", len(js), 0x4E4F534A) + js + struct.pack("<II", len(binary), 0x004E4942) + binary
+glb = out.with_suffix(".glb")
+glb.write_bytes(struct.pack("<III", 0x46546C67, 2, 12 + len(chunks)) + chunks)
+print("wrote", glb)
