@@ -691,6 +691,12 @@ fn gltf_error_cases_are_clear_errors() {
         ],
         &["nope.gltf", "no such glTF file"],
     );
+    let o = tiltfield(&["synth", "--list"]);
+    let listed = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success());
+    for name in tiltfield::synth::synth_scene_names() {
+        assert!(listed.contains(&format!("builtin:{name}")), "{listed}");
+    }
     fails_with(
         &["synth", "builtin:castle", "--out", out.to_str().unwrap()],
         &["no built-in synth scene 'castle'", "room"],

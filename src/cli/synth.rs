@@ -314,7 +314,8 @@ pub fn run(args: &SynthArgs) -> Result<()> {
                     .into(),
             )
         })?;
-        let reference = lf.views[synth.reference].camera;
+        // The camera `render` uses by default: the grid centre (virtual for even grids).
+        let reference = plan.reference_camera;
         let t_gt = Instant::now();
         let (linear, pinholes) = r.optical_ground_truth(
             &reference,
