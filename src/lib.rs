@@ -10,9 +10,11 @@
 //! - [`lightfield`]: the data model and the loaders (HCI, manifest, grid folders, PFM);
 //! - [`refocus`]: requests → per-view warps (plan), the f64 CPU reference renderer;
 //! - [`gpu`]: hand-written Vulkan (context, resources, commands, timing, validation);
-//! - [`passes`]: the light field texture and the refocus pass;
+//! - [`passes`]: the light field texture, the refocus pass and the mesh rasterizer;
 //! - [`headless`]: offscreen rendering for the CLI, tests and benchmarks;
-//! - [`synth`]: built-in synthetic scenes with exact ground truth;
+//! - [`synth`]: synthetic scenes with exact ground truth: a CPU ray tracer of textured quads,
+//!   triangle meshes from glTF or the built-in scenes rendered by the Vulkan rasterizer
+//!   (`tiltfield synth`), and the optical ground truth of a tilt-shift lens;
 //! - [`cli`]: the `tiltfield` command line.
 //!
 //! Conventions are stated in [`geometry::camera`] and [`geometry::homography`].

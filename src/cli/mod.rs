@@ -3,6 +3,7 @@
 mod demo;
 mod info;
 mod render;
+mod synth;
 
 use std::path::{Path, PathBuf};
 
@@ -29,6 +30,9 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Refocus a light field onto a plane and write PNG or EXR.
     Render(Box<render::RenderArgs>),
+    /// Render a synthetic light field with ground truth (depth, disparity, normals, optical
+    /// tilt-shift image) from a glTF scene or a built-in scene.
+    Synth(Box<synth::SynthArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -130,6 +134,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Info(a) => info::run(&a),
         Command::Render(a) => render::run(&a),
+        Command::Synth(a) => synth::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }

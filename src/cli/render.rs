@@ -17,14 +17,9 @@ use crate::lightfield::LightField;
 use crate::passes::refocus::{GpuImage, OutputFormat, RenderSettings};
 use crate::refocus::{self, Averaging, FocusSpec, OutputKind, RefocusPlan, RefocusRequest};
 
-#[derive(Debug, Args)]
-#[command(group(clap::ArgGroup::new("focus_plane").required(true).args(["disparity", "plane", "focus"])))]
-pub struct RenderArgs {
-    #[command(flatten)]
-    pub lf: LightFieldArgs,
-    /// Output image: .png (8-bit sRGB) or .exr (linear float RGBA).
-    #[arg(short, long, value_name = "OUT")]
-    pub output: PathBuf,
+/// The refocus plane options (shared by `render` and `synth`'s optical ground truth).
+#[derive(Debug, Clone, Args)]
+pub struct PlaneArgs {
     /// Frontoparallel focus by disparity in pixels per grid step. HCI convention on HCI data,
     /// rig manifests and built-in scenes (positive = nearer than the focus distance); classic
     /// shift-and-sum elsewhere (view (s,t) sampled at u + (s − s_r)·D, v + (t − t_r)·D).
@@ -54,6 +49,18 @@ pub struct RenderArgs {
         default_value_t = 0.0
     )]
     pub swing: f64,
+}
+
+#[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("focus_plane").required(true).args(["disparity", "plane", "focus"])))]
+pub struct RenderArgs {
+    #[command(flatten)]
+    pub lf: LightFieldArgs,
+    /// Output image: .png (8-bit sRGB) or .exr (linear float RGBA).
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+    #[command(flatten)]
+    pub plane_opts: PlaneArgs,
     /// Aperture shape: disk, square or gaussian.
     #[arg(long, default_value = "disk")]
     pub aperture: ApertureShape,
@@ -83,7 +90,7 @@ pub struct RenderArgs {
 }
 
 /// The focus specification from the mutually exclusive options.
-pub fn focus_spec(args: &RenderArgs) -> Result<FocusSpec> {
+pub fn focus_spec(args: &PlaneArgs) -> Result<FocusSpec> {
     if let Some(d) = args.disparity {
         return Ok(FocusSpec::Disparity(d));
     }
@@ -129,7 +136,7 @@ pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<RefocusPlan> {
         None => None,
     };
     let req = RefocusRequest {
-        focus: focus_spec(args)?,
+        focus: focus_spec(&args.plane_opts)?,
         aperture: Aperture {
             shape: args.aperture,
             radius: args.aperture_radius,

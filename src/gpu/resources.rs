@@ -203,7 +203,7 @@ impl Image {
                     vk::ImageViewType::TYPE_2D
                 })
                 .format(format)
-                .subresource_range(color_range(desc.layers));
+                .subresource_range(range_of(desc.format, desc.layers));
             // SAFETY: the format is the image's or compatible with it (MUTABLE_FORMAT).
             match unsafe { d.create_image_view(&info, None) } {
                 Ok(v) => {
@@ -231,6 +231,23 @@ impl Image {
             ctx.device.destroy_image(self.image, None);
             ctx.device.free_memory(self.memory, None);
         }
+    }
+}
+
+/// The subresource range of all `layers` layers, mip 0, with the depth aspect for depth
+/// formats and the colour aspect otherwise.
+pub fn range_of(format: vk::Format, layers: u32) -> vk::ImageSubresourceRange {
+    let depth = matches!(
+        format,
+        vk::Format::D32_SFLOAT | vk::Format::D16_UNORM | vk::Format::X8_D24_UNORM_PACK32
+    );
+    vk::ImageSubresourceRange {
+        aspect_mask: if depth {
+            vk::ImageAspectFlags::DEPTH
+        } else {
+            vk::ImageAspectFlags::COLOR
+        },
+        ..color_range(layers)
     }
 }
 

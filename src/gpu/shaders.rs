@@ -14,6 +14,9 @@ macro_rules! spirv {
 pub const FULLSCREEN_VERT: &[u8] = spirv!("fullscreen.vert");
 pub const REFOCUS_FRAG: &[u8] = spirv!("refocus.frag");
 pub const RESOLVE_FRAG: &[u8] = spirv!("resolve.frag");
+pub const MESH_VERT: &[u8] = spirv!("mesh.vert");
+pub const MESH_ACCUM_FRAG: &[u8] = spirv!("mesh_accum.frag");
+pub const MESH_GEOM_FRAG: &[u8] = spirv!("mesh_geom.frag");
 
 /// A shader module; destroy it once the pipelines using it are created.
 pub fn module(ctx: &GpuContext, spirv: &[u8], name: &str) -> Result<vk::ShaderModule> {

@@ -1,4 +1,6 @@
-//! GPU passes: the light field texture ([`texture`]) and the refocus pass ([`refocus`]).
+//! GPU passes: the light field texture ([`texture`]), the refocus pass ([`refocus`]) and the
+//! mesh rasterizer for synthetic light fields ([`raster`]).
 
+pub mod raster;
 pub mod refocus;
 pub mod texture;

@@ -1,6 +1,8 @@
 //! Synthetic scenes: an analytic CPU ray tracer of textured rectangles, used for the built-in
 //! `demo` light field (no files needed) and by tests that need light fields with exact ground
-//! truth.
+//! truth; and triangle meshes (from glTF or the same quad scenes) rendered by the Vulkan
+//! rasterizer for `tiltfield synth`, with depth, disparity, normals and the optical ground truth
+//! of a tilt-shift lens.
 //!
 //! Model: albedo only — no lighting, shadows or reflections. A pixel's colour is the procedural
 //! texture ([`texture::Texture`], linear light) of the nearest quad its ray hits, or the scene's
@@ -20,16 +22,25 @@
 //!
 //! Modules: [`color`] (sRGB), [`texture`] (procedural textures), [`scene`] (quads, ray
 //! intersection, [`scene::plane_scene`]), [`raytrace`] (views and light fields), [`mod@builtin`]
-//! (the named scenes, their planes and disparity ranges).
+//! (the named scenes, their planes and disparity ranges); for the rasterizer [`mesh`] (triangle
+//! meshes, quad scenes baked into textured meshes), [`mod@gltf`] (glTF input), [`scenes`] (the
+//! built-in scenes of `synth`) and [`raster`] (views, rigs, light fields, optical ground truth).
 
 pub mod builtin;
 pub mod color;
+pub mod gltf;
+pub mod mesh;
+pub mod raster;
 pub mod raytrace;
 pub mod scene;
+pub mod scenes;
 pub mod texture;
 
 pub use builtin::{builtin, builtin_names, BuiltinScene};
 pub use color::{linear_to_srgb, srgb_to_linear};
+pub use mesh::MeshScene;
+pub use raster::{Rasterizer, RigKind, SynthRig};
 pub use raytrace::{pixel_ray, render_light_field, render_view, trace_pixel};
 pub use scene::{plane_scene, Hit, Quad, Scene};
+pub use scenes::{synth_scene, synth_scene_names, SynthScene};
 pub use texture::{Rgb, Texture};

@@ -1,0 +1,393 @@
+//! `tiltfield synth`: renders a synthetic light field with ground truth from a glTF scene or a
+//! built-in scene with the Vulkan mesh rasterizer, and writes it in the HCI layout or as a
+//! manifest; optionally the optical ground truth of a tilt-shift lens focused on a plane.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use clap::{Args, ValueEnum};
+use glam::{DMat3, DVec3};
+use serde_json::json;
+
+use super::render::{focus_spec, PlaneArgs};
+use super::GpuArgs;
+use crate::error::{Error, Result};
+use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::lightfield::{hci, manifest, GridSize};
+use crate::refocus::{self, RefocusRequest};
+use crate::synth::gltf::{self, gl_to_cv};
+use crate::synth::raster::{encode, render_light_field};
+use crate::synth::{synth_scene, synth_scene_names, MeshScene, Rasterizer, RigKind, SynthRig};
+
+/// Output layout.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Layout {
+    /// The HCI 4D Light Field Benchmark layout (parallel rigs only).
+    Hci,
+    /// tiltfield.json with K, R, t and a depth map per view.
+    Manifest,
+}
+
+/// Camera rig.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RigArg {
+    /// Parallel cameras with sensor shift (HCI).
+    Parallel,
+    /// Cameras rotated to look at a point on the centre axis (--converge-distance).
+    Converging,
+}
+
+#[derive(Debug, Args)]
+pub struct SynthArgs {
+    /// The scene: a .gltf or .glb file, or builtin:NAME (see --list).
+    #[arg(required_unless_present = "list")]
+    pub scene: Option<String>,
+    /// Output folder.
+    #[arg(
+        short,
+        long,
+        value_name = "DIR",
+        visible_alias = "output",
+        required_unless_present = "list"
+    )]
+    pub out: Option<PathBuf>,
+    /// Camera grid, columns x rows.
+    #[arg(long, value_name = "SxT", default_value = "9x9")]
+    pub grid: String,
+    /// View size in pixels, width x height.
+    #[arg(long, value_name = "WxH", default_value = "512x512")]
+    pub size: String,
+    /// Distance between neighbouring cameras (metres); default: the scene's.
+    #[arg(long, value_name = "M")]
+    pub baseline: Option<f64>,
+    /// Focal length in mm (f_px = F · max(W, H) / sensor); default: the scene's or the glTF
+    /// camera's field of view.
+    #[arg(long, value_name = "F")]
+    pub focal_mm: Option<f64>,
+    /// Sensor width in mm (HCI `sensor_size_mm`).
+    #[arg(long, value_name = "S", default_value_t = 36.0)]
+    pub sensor_mm: f64,
+    /// Zero-disparity distance of the parallel rig (metres); default: the scene's.
+    #[arg(long, value_name = "M")]
+    pub focus_distance: Option<f64>,
+    /// Output layout.
+    #[arg(long, value_enum, default_value = "hci")]
+    pub layout: Layout,
+    /// Camera rig: parallel (sensor shift) or converging (rotated cameras; manifest only).
+    #[arg(long, value_enum, default_value = "parallel")]
+    pub rig: RigArg,
+    /// Converging rigs: distance of the point on the centre axis all cameras look at
+    /// (default: the focus distance).
+    #[arg(long, value_name = "M")]
+    pub converge_distance: Option<f64>,
+    /// Anti-aliasing: N×N jittered renders per view.
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    pub samples: u32,
+    /// Optical ground truth (with a plane option): aperture radius in grid steps (default: half
+    /// the grid's larger side, i.e. the whole grid's disk).
+    #[arg(long, value_name = "R")]
+    pub gt_aperture_radius: Option<f64>,
+    /// Optical ground truth: pinholes per side of the dense aperture grid.
+    #[arg(long, value_name = "N", default_value_t = 33)]
+    pub gt_samples: u32,
+    /// The plane of the optical ground truth (optional; same options as `render`).
+    #[command(flatten)]
+    pub plane_opts: PlaneArgs,
+    /// List the built-in scenes and exit.
+    #[arg(long)]
+    pub list: bool,
+    /// Print what was written as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+/// Parses "AxB" into two positive integers.
+fn parse_pair(text: &str, what: &str) -> Result<(u32, u32)> {
+    let err = || {
+        Error::Invalid(format!(
+            "{what}: expected AxB with positive integers, got '{text}'"
+        ))
+    };
+    let (a, b) = text.split_once(['x', 'X']).ok_or_else(err)?;
+    let a: u32 = a.trim().parse().map_err(|_| err())?;
+    let b: u32 = b.trim().parse().map_err(|_| err())?;
+    if a == 0 || b == 0 {
+        return Err(err());
+    }
+    Ok((a, b))
+}
+
+fn positive(v: f64, what: &str) -> Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(Error::Invalid(format!("{what} must be positive, got {v}")))
+    }
+}
+
+/// The scene in the reference camera's frame with default focal length (px), baseline and
+/// focus distance.
+struct Placed {
+    mesh: MeshScene,
+    focal_px: f64,
+    baseline: f64,
+    focus_distance: f64,
+    camera: &'static str,
+}
+
+fn place(scene: &str, width: u32, height: u32) -> Result<Placed> {
+    if let Some(name) = scene.strip_prefix("builtin:") {
+        let s = synth_scene(name).ok_or_else(|| {
+            Error::Invalid(format!(
+                "no built-in synth scene '{name}'; available: {}",
+                synth_scene_names().join(", ")
+            ))
+        })?;
+        return Ok(Placed {
+            mesh: s.mesh(),
+            focal_px: s.focal_per_width * width as f64,
+            baseline: s.baseline,
+            focus_distance: s.focus_distance,
+            camera: "built-in",
+        });
+    }
+    let g = gltf::load(Path::new(scene))?;
+    let mut mesh = g.mesh;
+    let (lo, hi) = mesh
+        .bounds()
+        .ok_or_else(|| Error::Invalid(format!("{scene}: no triangles")))?;
+    let centre = (lo + hi) / 2.0;
+    let (r, c, focal_px, how) = match g.camera {
+        Some(cam) => (
+            cam.r,
+            cam.centre,
+            height as f64 / (2.0 * (cam.yfov / 2.0).tan()),
+            "from the file",
+        ),
+        None => {
+            // Look at the bounds' centre along glTF's −z (models face +z), far enough for the
+            // bounding sphere to fit a field of view of f = 1.2 W.
+            let f = 1.2 * width.max(height) as f64;
+            let radius = ((hi - lo) / 2.0).length().max(1e-6);
+            let half_fov = (width.min(height) as f64 / (2.0 * f)).atan();
+            let distance = 1.1 * radius / half_fov.sin();
+            (
+                gl_to_cv(),
+                centre + DVec3::new(0.0, 0.0, distance),
+                f,
+                "placed automatically (none in the file)",
+            )
+        }
+    };
+    let t = -(r * c);
+    mesh.transform(r, t);
+    let z = (r * centre + t).z;
+    let focus_distance = if z > 0.0 { z } else { 1.0 };
+    Ok(Placed {
+        mesh,
+        focal_px,
+        baseline: 0.005 * focus_distance,
+        focus_distance,
+        camera: how,
+    })
+}
+
+pub fn run(args: &SynthArgs) -> Result<()> {
+    if args.list {
+        for name in synth_scene_names() {
+            if let Some(s) = synth_scene(name) {
+                println!("builtin:{name:<8} {}", s.description);
+            }
+        }
+        return Ok(());
+    }
+    let (Some(scene), Some(out)) = (&args.scene, &args.out) else {
+        return Err(Error::Invalid("give a SCENE and --out DIR".into()));
+    };
+    let t0 = Instant::now();
+    let (cols, rows) = parse_pair(&args.grid, "--grid")?;
+    let (width, height) = parse_pair(&args.size, "--size")?;
+    let sensor = positive(args.sensor_mm, "--sensor-mm")?;
+    let kind = match args.rig {
+        RigArg::Parallel => RigKind::Parallel,
+        RigArg::Converging => RigKind::Converging { distance: 0.0 },
+    };
+    if args.layout == Layout::Hci && kind != RigKind::Parallel {
+        return Err(Error::Invalid(
+            "--layout hci needs parallel cameras (the HCI layout has no per-view rotation); use \
+             --layout manifest for a converging rig"
+                .into(),
+        ));
+    }
+    let placed = place(scene, width, height)?;
+    let focal_px = match args.focal_mm {
+        Some(f) => positive(f, "--focal-mm")? * width.max(height) as f64 / sensor,
+        None => placed.focal_px,
+    };
+    let baseline = positive(args.baseline.unwrap_or(placed.baseline), "--baseline")?;
+    let focus_distance = positive(
+        args.focus_distance.unwrap_or(placed.focus_distance),
+        "--focus-distance",
+    )?;
+    let kind = match kind {
+        RigKind::Converging { .. } => RigKind::Converging {
+            distance: positive(
+                args.converge_distance.unwrap_or(focus_distance),
+                "--converge-distance",
+            )?,
+        },
+        k => k,
+    };
+    let rig = SynthRig {
+        grid: GridSize {
+            cols: cols as usize,
+            rows: rows as usize,
+        },
+        width,
+        height,
+        focal_px,
+        baseline,
+        focus_distance,
+        kind,
+    };
+    let focus = if args.plane_opts.disparity.is_some()
+        || args.plane_opts.plane.is_some()
+        || args.plane_opts.focus.is_some()
+    {
+        Some(focus_spec(&args.plane_opts)?)
+    } else {
+        None
+    };
+    let mut r = Rasterizer::new(&placed.mesh, &args.gpu.options())?;
+    let device = r.context().info.name.clone();
+    let t_render = Instant::now();
+    let synth = render_light_field(&mut r, &rig, args.samples, args.layout == Layout::Manifest)?;
+    let render_s = t_render.elapsed().as_secs_f64();
+    let lf = &synth.light_field;
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let mut written = Vec::new();
+    match args.layout {
+        Layout::Hci => {
+            let Some(p) = rig.parallel() else {
+                unreachable!("checked above")
+            };
+            let cfg = hci::config_for(lf, &p, sensor);
+            hci::write(lf, &cfg, out)?;
+            written.push(out.join(hci::CONFIG_NAME));
+        }
+        Layout::Manifest => {
+            let path = out.join(manifest::DEFAULT_NAME);
+            manifest::write(lf, &path)?;
+            written.push(path);
+        }
+    }
+    let normals_path = out.join("gt_normals_centre.exr");
+    let normals: Vec<[f32; 4]> = synth
+        .normals
+        .iter()
+        .map(|n| [n[0], n[1], n[2], if n[0].is_nan() { 0.0 } else { 1.0 }])
+        .collect();
+    refocus::save_exr(width, height, &normals, &normals_path)?;
+    written.push(normals_path);
+
+    let mut gt_report = serde_json::Value::Null;
+    if let Some(focus) = focus {
+        let steps = args
+            .gt_aperture_radius
+            .unwrap_or((cols.max(rows) as f64 - 1.0) / 2.0);
+        let req = RefocusRequest {
+            focus,
+            aperture: Aperture {
+                shape: ApertureShape::Disk,
+                radius: Some(steps),
+            },
+            reference: None,
+        };
+        let plan = refocus::plan(lf, &req, &[])?;
+        let plane = plan.plane.ok_or_else(|| {
+            Error::Invalid(
+                "the optical ground truth needs a plane: on a converging rig --disparity is \
+                 classic shift-and-sum; use --plane or --focus"
+                    .into(),
+            )
+        })?;
+        // The camera `render` uses by default: the grid centre (virtual for even grids).
+        let reference = plan.reference_camera;
+        let t_gt = Instant::now();
+        let (linear, pinholes) = r.optical_ground_truth(
+            &reference,
+            &plane,
+            steps * baseline,
+            args.gt_samples,
+            (width, height),
+            args.samples,
+        )?;
+        let png = out.join("optical_gt.png");
+        let exr = out.join("optical_gt.exr");
+        refocus::save_png(&encode(&linear, width, height), &png)?;
+        refocus::save_exr(width, height, &linear, &exr)?;
+        let v3 = |v: DVec3| [v.x, v.y, v.z];
+        gt_report = json!({
+            "plane": {"point": v3(plane.point), "normal": v3(plane.normal)},
+            "aperture_radius_steps": steps,
+            "aperture_radius": steps * baseline,
+            "pinholes": pinholes,
+            "seconds": t_gt.elapsed().as_secs_f64(),
+            "files": [png.clone(), exr.clone()],
+        });
+        written.push(png);
+        written.push(exr);
+    }
+    let errors = r.context().validation().errors();
+    drop(r);
+    if errors > 0 {
+        return Err(Error::Vulkan(format!(
+            "{errors} validation errors while rendering (see the log above)"
+        )));
+    }
+    let rot = |m: DMat3| m == DMat3::IDENTITY;
+    let report = json!({
+        "scene": scene,
+        "out": out,
+        "layout": args.layout,
+        "grid": [cols, rows],
+        "size": [width, height],
+        "focal_px": focal_px,
+        "baseline": baseline,
+        "focus_distance": focus_distance,
+        "rig": match kind { RigKind::Parallel => "parallel", RigKind::Converging { .. } => "converging" },
+        "parallel_cameras": lf.views.iter().all(|v| rot(v.camera.r)),
+        "camera": placed.camera,
+        "triangles": placed.mesh.triangle_count(),
+        "device": device,
+        "render_seconds": render_s,
+        "total_seconds": t0.elapsed().as_secs_f64(),
+        "optical_ground_truth": gt_report,
+        "files": written,
+    });
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| Error::Invalid(e.to_string()))?
+        );
+    } else {
+        eprintln!(
+            "wrote {}×{} views of {}×{} ({:?} layout, camera {}) to {} in {:.2} s on {device}",
+            cols,
+            rows,
+            width,
+            height,
+            args.layout,
+            placed.camera,
+            out.display(),
+            render_s
+        );
+        for f in &written {
+            eprintln!("  {}", f.display());
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,978 @@
+//! The mesh raster pass: renders a [`MeshScene`] headlessly with exact pinhole projections, for
+//! synthetic light fields and their optical ground truth.
+//!
+//! One output image is the mean of several *samples*, each a full rasterization with its own
+//! 3×4 projection: sub-pixel jitters for anti-aliasing, or aperture positions of a thin lens for
+//! the optical ground truth. Every sample is drawn twice inside one dynamic rendering instance:
+//! a depth pre-pass (`GREATER`, reverse Z, colour writes off), then the colour pass
+//! (`GREATER_OR_EQUAL`, no depth writes) that adds linear-light albedo and coverage 1 into an
+//! RGBA32F accumulation target by additive blending. The pre-pass makes the sum take exactly
+//! the nearest surface per sample whatever the draw order; both passes run the same vertex and
+//! fragment shaders (only fixed-function state differs), so they produce the same depths. The
+//! CPU divides by the sample count (see [`RasterImage`]).
+//!
+//! An optional *geometry* render (no jitter) writes the camera-frame unit normal facing the
+//! camera and the camera-frame depth z at each pixel centre into a second RGBA32F target
+//! (z = 0 where nothing is hit).
+//!
+//! Projection ([`Projection::new`]): for P = K [R | t] in pixel-index coordinates (pixel (i, j)'s
+//! centre at (i, j)), a sample with jitter o renders the image point (i + oₓ, j + o_y) at the
+//! fragment centre (i + ½, j + ½):
+//! `clip = [(2/W)·p₀ + (2(½ − oₓ)/W − 1)·p₂; (2/H)·p₁ + (2(½ − o_y)/H − 1)·p₂; near; p₂]`.
+//! y points down in both conventions, so there is no flip. Depth is reverse Z with an infinite
+//! far plane: depth = near / z, cleared to 0, `near` = [`NEAR`] world units.
+//!
+//! Textures: RGBA8 sRGB (decoded to linear by the sampler), bilinear, no mipmaps (the jittered
+//! samples anti-alias), clamp-to-edge or repeat per texture. Untextured draws use a 1×1 white
+//! texture. Vertex and index buffers are host-visible (small scenes; no staging needed).
+//!
+//! Destruction order: targets → submission → buffers → textures → pipelines → layouts →
+//! descriptor pool → samplers.
+
+use ash::vk;
+use glam::{DMat3, DMat4, DVec2, DVec3, DVec4};
+
+use crate::error::{Error, Result};
+use crate::geometry::camera::Camera;
+use crate::gpu::commands::{image_barrier, stage, ImageTransition, Submission};
+use crate::gpu::resources::{range_of, Buffer, Image, ImageDesc};
+use crate::gpu::shaders;
+use crate::gpu::GpuContext;
+use crate::synth::mesh::{MeshDraw, MeshScene, VERTEX_BYTES};
+
+/// Near plane distance (world units, metres for the synthetic scenes): surfaces nearer than
+/// this to a camera's image plane are clipped.
+pub const NEAR: f64 = 1e-3;
+
+const PUSH_BYTES: usize = 128;
+const ACCUM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
+const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+
+/// One rasterization's matrices (f32, column-major, as the shaders read them).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Projection {
+    pub clip_from_world: [f32; 16],
+    pub camera_from_world: [f32; 16],
+}
+
+impl Projection {
+    /// From the rows of a 3×4 projection `p` (pixel-index coordinates, third row = the depth
+    /// along the camera's axis), the world → camera transform (for depth and normals), the
+    /// output size and a sub-pixel `jitter` (see the module docs).
+    pub fn new(
+        p: [DVec4; 3],
+        camera_from_world: DMat4,
+        width: u32,
+        height: u32,
+        jitter: DVec2,
+    ) -> Self {
+        let (w, h) = (width as f64, height as f64);
+        let rows = [
+            (2.0 / w) * p[0] + (2.0 * (0.5 - jitter.x) / w - 1.0) * p[2],
+            (2.0 / h) * p[1] + (2.0 * (0.5 - jitter.y) / h - 1.0) * p[2],
+            DVec4::new(0.0, 0.0, 0.0, NEAR),
+            p[2],
+        ];
+        let clip = DMat4::from_cols(rows[0], rows[1], rows[2], rows[3]).transpose();
+        Projection {
+            clip_from_world: clip.as_mat4().to_cols_array(),
+            camera_from_world: camera_from_world.as_mat4().to_cols_array(),
+        }
+    }
+
+    /// The pinhole projection of `camera` with a sub-pixel jitter.
+    pub fn of_camera(camera: &Camera, width: u32, height: u32, jitter: DVec2) -> Self {
+        Self::new(
+            projection_rows(camera.k, camera.r, camera.t),
+            camera_from_world(camera.r, camera.t),
+            width,
+            height,
+            jitter,
+        )
+    }
+}
+
+/// Rows of `K [R | t]`.
+pub fn projection_rows(k: DMat3, r: DMat3, t: DVec3) -> [DVec4; 3] {
+    let kr = k * r;
+    let kt = k * t;
+    [0, 1, 2].map(|i| kr.row(i).extend(kt[i]))
+}
+
+/// The 4×4 `[R | t; 0 0 0 1]`.
+pub fn camera_from_world(r: DMat3, t: DVec3) -> DMat4 {
+    DMat4::from_cols(
+        r.x_axis.extend(0.0),
+        r.y_axis.extend(0.0),
+        r.z_axis.extend(0.0),
+        t.extend(1.0),
+    )
+}
+
+/// A rendered image read back from the GPU.
+#[derive(Debug, Clone)]
+pub struct RasterImage {
+    pub width: u32,
+    pub height: u32,
+    /// Per pixel, row-major: the mean over samples of linear albedo (0 where a sample hit
+    /// nothing) in rgb, and the covered fraction of samples in alpha. Compose a background
+    /// colour b as `rgb + b·(1 − alpha)`.
+    pub color: Vec<[f32; 4]>,
+    /// Camera-frame unit normal facing the camera and depth z (0 = nothing hit), when asked.
+    pub geometry: Option<Vec<[f32; 4]>>,
+}
+
+struct Targets {
+    width: u32,
+    height: u32,
+    accum: Image,
+    geometry: Image,
+    depth: Image,
+    readback: Buffer,
+}
+
+impl Targets {
+    fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self> {
+        let color = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+        let mut made: Vec<Image> = Vec::new();
+        let specs = [
+            (ACCUM_FORMAT, color, "raster accumulation target"),
+            (ACCUM_FORMAT, color, "raster geometry target"),
+            (
+                DEPTH_FORMAT,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                "raster depth buffer",
+            ),
+        ];
+        for (format, usage, name) in specs {
+            match Image::new(
+                ctx,
+                ImageDesc::new_2d(format, width, height, usage),
+                &[format],
+                name,
+            ) {
+                Ok(i) => made.push(i),
+                Err(e) => {
+                    made.into_iter().for_each(|i| i.destroy(ctx));
+                    return Err(e);
+                }
+            }
+        }
+        let readback = match Buffer::new(
+            ctx,
+            width as u64 * height as u64 * 32,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            true,
+            "raster readback",
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                made.into_iter().for_each(|i| i.destroy(ctx));
+                return Err(e);
+            }
+        };
+        let depth = made.pop();
+        let geometry = made.pop();
+        let accum = made.pop();
+        match (accum, geometry, depth) {
+            (Some(accum), Some(geometry), Some(depth)) => Ok(Targets {
+                width,
+                height,
+                accum,
+                geometry,
+                depth,
+                readback,
+            }),
+            _ => unreachable!("three images were created"),
+        }
+    }
+
+    fn destroy(self, ctx: &GpuContext) {
+        self.accum.destroy(ctx);
+        self.geometry.destroy(ctx);
+        self.depth.destroy(ctx);
+        self.readback.destroy(ctx);
+    }
+}
+
+/// Pipelines, mesh buffers, textures and targets for one mesh scene.
+pub struct RasterPass {
+    b: PassBuilder,
+    vertices: Buffer,
+    indices: Buffer,
+    draws: Vec<MeshDraw>,
+    /// Descriptor set per texture, the white texture's last.
+    sets: Vec<vk::DescriptorSet>,
+    submission: Submission,
+    targets: Option<Targets>,
+}
+
+impl RasterPass {
+    /// Uploads `mesh` and creates the pipelines.
+    pub fn new(ctx: &GpuContext, mesh: &MeshScene) -> Result<Self> {
+        if mesh.indices.is_empty() {
+            return Err(Error::Invalid(format!(
+                "{}: the scene has no triangles",
+                mesh.name
+            )));
+        }
+        let mut b = PassBuilder::default();
+        match b.build(ctx, mesh) {
+            Ok(sets) => {
+                let (Some(vertices), Some(indices), Some(submission)) =
+                    (b.vertices.take(), b.indices.take(), b.submission.take())
+                else {
+                    b.destroy(ctx);
+                    return Err(Error::Vulkan("raster pass set-up incomplete".into()));
+                };
+                Ok(RasterPass {
+                    b,
+                    vertices,
+                    indices,
+                    draws: mesh.draws.clone(),
+                    sets,
+                    submission,
+                    targets: None,
+                })
+            }
+            Err(e) => {
+                b.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    /// Renders the mean of `samples` (at least one) into a `width × height` image, plus the
+    /// geometry render of `geometry` when given, and reads both back.
+    pub fn render(
+        &mut self,
+        ctx: &GpuContext,
+        width: u32,
+        height: u32,
+        samples: &[Projection],
+        geometry: Option<&Projection>,
+    ) -> Result<RasterImage> {
+        if samples.is_empty() || width == 0 || height == 0 {
+            return Err(Error::Invalid(
+                "a raster render needs a non-empty image and at least one sample".into(),
+            ));
+        }
+        // `Option::is_none_or` needs Rust 1.82; the crate supports 1.80.
+        if self
+            .targets
+            .as_ref()
+            .map_or(true, |t| (t.width, t.height) != (width, height))
+        {
+            if let Some(t) = self.targets.take() {
+                t.destroy(ctx);
+            }
+            self.targets = Some(Targets::new(ctx, width, height)?);
+        }
+        let Some(t) = self.targets.as_mut() else {
+            unreachable!("targets were just created")
+        };
+        let extent = vk::Extent2D { width, height };
+        let pixels = width as u64 * height as u64;
+        let (vb, ib) = (self.vertices.buffer, self.indices.buffer);
+        let (draws, sets) = (&self.draws, &self.sets);
+        let b = &self.b;
+        let (accum, geom, depth) = (&t.accum, &t.geometry, &t.depth);
+        let readback = t.readback.buffer;
+        self.submission.run(ctx, |d, cmd| {
+            image_barrier(
+                d,
+                cmd,
+                accum.image,
+                1,
+                ImageTransition {
+                    from: stage::UNDEFINED,
+                    to: stage::COLOR_WRITE,
+                },
+            );
+            depth_barrier(d, cmd, depth.image);
+            let draw_all = |pipeline: vk::Pipeline, p: &Projection| {
+                let push = push_bytes(p);
+                // SAFETY: recording inside a rendering instance whose formats match.
+                unsafe {
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+                    d.cmd_push_constants(
+                        cmd,
+                        b.layout,
+                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                        0,
+                        &push,
+                    );
+                    d.cmd_bind_vertex_buffers(cmd, 0, &[vb], &[0]);
+                    d.cmd_bind_index_buffer(cmd, ib, 0, vk::IndexType::UINT32);
+                    for draw in draws {
+                        let set = sets[draw.texture.unwrap_or(sets.len() - 1)];
+                        d.cmd_bind_descriptor_sets(
+                            cmd,
+                            vk::PipelineBindPoint::GRAPHICS,
+                            b.layout,
+                            0,
+                            &[set],
+                            &[],
+                        );
+                        d.cmd_draw_indexed(cmd, draw.index_count, 1, draw.first_index, 0, 0);
+                    }
+                }
+            };
+            for (k, p) in samples.iter().enumerate() {
+                if k > 0 {
+                    attachments_barrier(d, cmd);
+                }
+                begin_rendering(d, cmd, accum.views[0], depth.views[0], extent, k == 0);
+                draw_all(b.prepass, p);
+                draw_all(b.accum, p);
+                // SAFETY: inside the rendering instance begun above.
+                unsafe { d.cmd_end_rendering(cmd) };
+            }
+            let copy = |image: vk::Image, offset: u64| {
+                image_barrier(
+                    d,
+                    cmd,
+                    image,
+                    1,
+                    ImageTransition {
+                        from: stage::COLOR_WRITE,
+                        to: stage::TRANSFER_SRC,
+                    },
+                );
+                let region = vk::BufferImageCopy::default()
+                    .buffer_offset(offset)
+                    .image_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        mip_level: 0,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    })
+                    .image_extent(vk::Extent3D {
+                        width,
+                        height,
+                        depth: 1,
+                    });
+                // SAFETY: the readback buffer holds 2 · w·h·16 bytes.
+                unsafe {
+                    d.cmd_copy_image_to_buffer(
+                        cmd,
+                        image,
+                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                        readback,
+                        &[region],
+                    )
+                };
+            };
+            if let Some(g) = geometry {
+                attachments_barrier(d, cmd);
+                image_barrier(
+                    d,
+                    cmd,
+                    geom.image,
+                    1,
+                    ImageTransition {
+                        from: stage::UNDEFINED,
+                        to: stage::COLOR_WRITE,
+                    },
+                );
+                begin_rendering(d, cmd, geom.views[0], depth.views[0], extent, true);
+                draw_all(b.geometry, g);
+                // SAFETY: inside the rendering instance begun above.
+                unsafe { d.cmd_end_rendering(cmd) };
+                copy(geom.image, pixels * 16);
+            }
+            copy(accum.image, 0);
+            let to_host = [vk::MemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+            // SAFETY: recording outside a rendering instance.
+            unsafe {
+                d.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().memory_barriers(&to_host),
+                )
+            };
+        })?;
+        let bytes = t.readback.bytes_mut();
+        let read = |offset: usize, scale: f32| -> Vec<[f32; 4]> {
+            bytes[offset..offset + pixels as usize * 16]
+                .chunks_exact(16)
+                .map(|c| {
+                    std::array::from_fn(|k| {
+                        let mut w = [0u8; 4];
+                        w.copy_from_slice(&c[4 * k..4 * k + 4]);
+                        f32::from_ne_bytes(w) * scale
+                    })
+                })
+                .collect()
+        };
+        let color = read(0, 1.0 / samples.len() as f32);
+        let geometry = geometry.map(|_| read(pixels as usize * 16, 1.0));
+        Ok(RasterImage {
+            width,
+            height,
+            color,
+            geometry,
+        })
+    }
+
+    /// Frees everything (see the module docs for the order).
+    pub fn destroy(mut self, ctx: &GpuContext) {
+        if let Some(t) = self.targets.take() {
+            t.destroy(ctx);
+        }
+        self.submission.destroy(ctx);
+        self.vertices.destroy(ctx);
+        self.indices.destroy(ctx);
+        self.b.destroy(ctx);
+    }
+}
+
+fn push_bytes(p: &Projection) -> [u8; PUSH_BYTES] {
+    let mut out = [0u8; PUSH_BYTES];
+    for (i, f) in p
+        .clip_from_world
+        .iter()
+        .chain(p.camera_from_world.iter())
+        .enumerate()
+    {
+        out[4 * i..4 * i + 4].copy_from_slice(&f.to_ne_bytes());
+    }
+    out
+}
+
+/// Orders one sample's attachment writes before the next sample's (additive blending reads the
+/// accumulation target; the depth buffer is cleared and rewritten).
+fn attachments_barrier(d: &ash::Device, cmd: vk::CommandBuffer) {
+    use vk::{AccessFlags2 as A, PipelineStageFlags2 as S};
+    let stages = S::COLOR_ATTACHMENT_OUTPUT | S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS;
+    let access = A::COLOR_ATTACHMENT_WRITE
+        | A::COLOR_ATTACHMENT_READ
+        | A::DEPTH_STENCIL_ATTACHMENT_WRITE
+        | A::DEPTH_STENCIL_ATTACHMENT_READ;
+    let barrier = [vk::MemoryBarrier2::default()
+        .src_stage_mask(stages)
+        .src_access_mask(access)
+        .dst_stage_mask(stages)
+        .dst_access_mask(access)];
+    // SAFETY: recording outside a rendering instance.
+    unsafe {
+        d.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default().memory_barriers(&barrier),
+        )
+    };
+}
+
+/// Moves the depth buffer from UNDEFINED into the depth attachment layout.
+fn depth_barrier(d: &ash::Device, cmd: vk::CommandBuffer, image: vk::Image) {
+    use vk::{AccessFlags2 as A, PipelineStageFlags2 as S};
+    let barrier = [vk::ImageMemoryBarrier2::default()
+        .src_stage_mask(S::NONE)
+        .src_access_mask(A::NONE)
+        .old_layout(vk::ImageLayout::UNDEFINED)
+        .dst_stage_mask(S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS)
+        .dst_access_mask(A::DEPTH_STENCIL_ATTACHMENT_WRITE | A::DEPTH_STENCIL_ATTACHMENT_READ)
+        .new_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
+        .image(image)
+        .subresource_range(range_of(DEPTH_FORMAT, 1))];
+    // SAFETY: recording; valid image.
+    unsafe {
+        d.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default().image_memory_barriers(&barrier),
+        )
+    };
+}
+
+fn begin_rendering(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    color: vk::ImageView,
+    depth: vk::ImageView,
+    extent: vk::Extent2D,
+    clear_color: bool,
+) {
+    let attachment = [vk::RenderingAttachmentInfo::default()
+        .image_view(color)
+        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+        .load_op(if clear_color {
+            vk::AttachmentLoadOp::CLEAR
+        } else {
+            vk::AttachmentLoadOp::LOAD
+        })
+        .store_op(vk::AttachmentStoreOp::STORE)
+        .clear_value(vk::ClearValue {
+            color: vk::ClearColorValue { float32: [0.0; 4] },
+        })];
+    let depth_attachment = vk::RenderingAttachmentInfo::default()
+        .image_view(depth)
+        .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+        .load_op(vk::AttachmentLoadOp::CLEAR)
+        .store_op(vk::AttachmentStoreOp::DONT_CARE)
+        .clear_value(vk::ClearValue {
+            depth_stencil: vk::ClearDepthStencilValue {
+                depth: 0.0,
+                stencil: 0,
+            },
+        });
+    let area = vk::Rect2D {
+        offset: vk::Offset2D { x: 0, y: 0 },
+        extent,
+    };
+    let info = vk::RenderingInfo::default()
+        .render_area(area)
+        .layer_count(1)
+        .color_attachments(&attachment)
+        .depth_attachment(&depth_attachment);
+    let viewport = [vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: extent.width as f32,
+        height: extent.height as f32,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    }];
+    // SAFETY: recording; the attachments are in the layouts named above.
+    unsafe {
+        d.cmd_begin_rendering(cmd, &info);
+        d.cmd_set_viewport(cmd, 0, &viewport);
+        d.cmd_set_scissor(cmd, 0, &[area]);
+    }
+}
+
+/// Handles of the pass under construction (null until created); destroying it frees exactly
+/// those that exist, so a failed set-up leaks nothing.
+#[derive(Default)]
+struct PassBuilder {
+    sampler_clamp: vk::Sampler,
+    sampler_repeat: vk::Sampler,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pool: vk::DescriptorPool,
+    prepass: vk::Pipeline,
+    accum: vk::Pipeline,
+    geometry: vk::Pipeline,
+    textures: Vec<Image>,
+    vertices: Option<Buffer>,
+    indices: Option<Buffer>,
+    submission: Option<Submission>,
+}
+
+impl PassBuilder {
+    /// Creates everything; returns the descriptor sets (per texture, then the white one).
+    fn build(&mut self, ctx: &GpuContext, mesh: &MeshScene) -> Result<Vec<vk::DescriptorSet>> {
+        let d = &ctx.device;
+        let sampler = |mode| {
+            vk::SamplerCreateInfo::default()
+                .mag_filter(vk::Filter::LINEAR)
+                .min_filter(vk::Filter::LINEAR)
+                .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+                .address_mode_u(mode)
+                .address_mode_v(mode)
+                .address_mode_w(mode)
+                .max_lod(0.0)
+        };
+        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        // SAFETY: valid device and create infos throughout this block.
+        unsafe {
+            self.sampler_clamp =
+                d.create_sampler(&sampler(vk::SamplerAddressMode::CLAMP_TO_EDGE), None)?;
+            self.sampler_repeat =
+                d.create_sampler(&sampler(vk::SamplerAddressMode::REPEAT), None)?;
+            ctx.name(self.sampler_clamp, "mesh texture sampler (clamp)");
+            ctx.name(self.sampler_repeat, "mesh texture sampler (repeat)");
+            let bindings = [vk::DescriptorSetLayoutBinding::default()
+                .binding(0)
+                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
+            self.set_layout = d.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                None,
+            )?;
+            let push = [vk::PushConstantRange::default()
+                .stage_flags(stages)
+                .offset(0)
+                .size(PUSH_BYTES as u32)];
+            let set_layouts = [self.set_layout];
+            self.layout = d.create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&push),
+                None,
+            )?;
+        }
+        let vert = shaders::module(ctx, shaders::MESH_VERT, "mesh.vert")?;
+        let accum = shaders::module(ctx, shaders::MESH_ACCUM_FRAG, "mesh_accum.frag");
+        let geom = shaders::module(ctx, shaders::MESH_GEOM_FRAG, "mesh_geom.frag");
+        let made = (|| -> Result<()> {
+            let (Ok(accum), Ok(geom)) = (&accum, &geom) else {
+                return Err(Error::Vulkan(
+                    "cannot create the mesh shader modules".into(),
+                ));
+            };
+            self.prepass = mesh_pipeline(ctx, self.layout, vert, *accum, Mode::DepthPrepass)?;
+            self.accum = mesh_pipeline(ctx, self.layout, vert, *accum, Mode::Accumulate)?;
+            self.geometry = mesh_pipeline(ctx, self.layout, vert, *geom, Mode::Geometry)?;
+            ctx.name(self.prepass, "mesh depth pre-pass pipeline");
+            ctx.name(self.accum, "mesh accumulation pipeline");
+            ctx.name(self.geometry, "mesh geometry pipeline");
+            Ok(())
+        })();
+        for m in [Ok(vert), accum, geom].into_iter().flatten() {
+            // SAFETY: pipelines keep their own copy of the code.
+            unsafe { d.destroy_shader_module(m, None) };
+        }
+        made?;
+
+        // Mesh buffers (host-visible: the scenes are small).
+        let mut vbytes = Vec::with_capacity(mesh.vertices.len() * VERTEX_BYTES);
+        for v in &mesh.vertices {
+            for f in v.to_floats() {
+                vbytes.extend_from_slice(&f.to_ne_bytes());
+            }
+        }
+        let ibytes: Vec<u8> = mesh.indices.iter().flat_map(|i| i.to_ne_bytes()).collect();
+        let mut vb = Buffer::new(
+            ctx,
+            vbytes.len() as u64,
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+            true,
+            "mesh vertices",
+        )?;
+        vb.bytes_mut()[..vbytes.len()].copy_from_slice(&vbytes);
+        self.vertices = Some(vb);
+        let mut ib = Buffer::new(
+            ctx,
+            ibytes.len() as u64,
+            vk::BufferUsageFlags::INDEX_BUFFER,
+            true,
+            "mesh indices",
+        )?;
+        ib.bytes_mut()[..ibytes.len()].copy_from_slice(&ibytes);
+        self.indices = Some(ib);
+        let submission = Submission::new(ctx, "mesh raster")?;
+
+        // Textures, then a 1×1 white one for untextured draws, through one staging upload.
+        let white = [255u8; 4];
+        let mut all: Vec<(u32, u32, &[u8], bool, String)> = mesh
+            .textures
+            .iter()
+            .map(|t| (t.width, t.height, &t.rgba[..], t.repeat, t.name.clone()))
+            .collect();
+        all.push((1, 1, &white[..], false, "white texture".into()));
+        let total: usize = all.iter().map(|a| a.2.len()).sum();
+        let upload = (|| -> Result<()> {
+            let mut staging = Buffer::new(
+                ctx,
+                total as u64,
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                true,
+                "mesh texture staging",
+            )?;
+            let mut offsets = Vec::new();
+            let mut at = 0usize;
+            let bytes = staging.bytes_mut();
+            for (w, h, data, _, name) in &all {
+                if data.len() != (*w as usize) * (*h as usize) * 4 {
+                    staging.destroy(ctx);
+                    return Err(Error::Invalid(format!(
+                        "{}: texture {name} has {} bytes for {w}×{h} RGBA8",
+                        mesh.name,
+                        data.len()
+                    )));
+                }
+                bytes[at..at + data.len()].copy_from_slice(data);
+                offsets.push(at as u64);
+                at += data.len();
+            }
+            for (w, h, _, _, name) in &all {
+                let desc = ImageDesc::new_2d(
+                    vk::Format::R8G8B8A8_SRGB,
+                    *w,
+                    *h,
+                    vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+                );
+                match Image::new(ctx, desc, &[vk::Format::R8G8B8A8_SRGB], name) {
+                    Ok(i) => self.textures.push(i),
+                    Err(e) => {
+                        staging.destroy(ctx);
+                        return Err(e);
+                    }
+                }
+            }
+            let textures = &self.textures;
+            let r = submission.run(ctx, |d, cmd| {
+                for (i, img) in textures.iter().enumerate() {
+                    image_barrier(
+                        d,
+                        cmd,
+                        img.image,
+                        1,
+                        ImageTransition {
+                            from: stage::UNDEFINED,
+                            to: stage::TRANSFER_DST,
+                        },
+                    );
+                    let region = vk::BufferImageCopy::default()
+                        .buffer_offset(offsets[i])
+                        .image_subresource(vk::ImageSubresourceLayers {
+                            aspect_mask: vk::ImageAspectFlags::COLOR,
+                            mip_level: 0,
+                            base_array_layer: 0,
+                            layer_count: 1,
+                        })
+                        .image_extent(vk::Extent3D {
+                            width: img.desc.width,
+                            height: img.desc.height,
+                            depth: 1,
+                        });
+                    // SAFETY: recording; the staging buffer holds every texture.
+                    unsafe {
+                        d.cmd_copy_buffer_to_image(
+                            cmd,
+                            staging.buffer,
+                            img.image,
+                            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                            &[region],
+                        )
+                    };
+                    image_barrier(
+                        d,
+                        cmd,
+                        img.image,
+                        1,
+                        ImageTransition {
+                            from: stage::TRANSFER_DST,
+                            to: stage::FRAGMENT_READ,
+                        },
+                    );
+                }
+            });
+            staging.destroy(ctx);
+            r
+        })();
+        self.submission = Some(submission);
+        upload?;
+
+        // One descriptor set per texture.
+        let n = self.textures.len() as u32;
+        let sizes = [vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            descriptor_count: n,
+        }];
+        // SAFETY: valid device; the sets are written with live views and samplers.
+        let sets = unsafe {
+            self.pool = d.create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(n)
+                    .pool_sizes(&sizes),
+                None,
+            )?;
+            let layouts = vec![self.set_layout; n as usize];
+            let sets = d.allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(self.pool)
+                    .set_layouts(&layouts),
+            )?;
+            for (i, set) in sets.iter().enumerate() {
+                let sampler = if all[i].3 {
+                    self.sampler_repeat
+                } else {
+                    self.sampler_clamp
+                };
+                let info = [vk::DescriptorImageInfo::default()
+                    .sampler(sampler)
+                    .image_view(self.textures[i].views[0])
+                    .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)];
+                let write = vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(0)
+                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                    .image_info(&info);
+                d.update_descriptor_sets(&[write], &[]);
+            }
+            sets
+        };
+        Ok(sets)
+    }
+
+    fn destroy(mut self, ctx: &GpuContext) {
+        if let Some(s) = self.submission.take() {
+            s.destroy(ctx);
+        }
+        if let Some(b) = self.vertices.take() {
+            b.destroy(ctx);
+        }
+        if let Some(b) = self.indices.take() {
+            b.destroy(ctx);
+        }
+        for t in self.textures.drain(..) {
+            t.destroy(ctx);
+        }
+        let d = &ctx.device;
+        // SAFETY: nothing uses these objects any more; destroying null handles is a no-op.
+        unsafe {
+            d.destroy_pipeline(self.prepass, None);
+            d.destroy_pipeline(self.accum, None);
+            d.destroy_pipeline(self.geometry, None);
+            d.destroy_pipeline_layout(self.layout, None);
+            d.destroy_descriptor_pool(self.pool, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+            d.destroy_sampler(self.sampler_clamp, None);
+            d.destroy_sampler(self.sampler_repeat, None);
+        }
+    }
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Mode {
+    DepthPrepass,
+    Accumulate,
+    Geometry,
+}
+
+fn mesh_pipeline(
+    ctx: &GpuContext,
+    layout: vk::PipelineLayout,
+    vert: vk::ShaderModule,
+    frag: vk::ShaderModule,
+    mode: Mode,
+) -> Result<vk::Pipeline> {
+    let entry = c"main";
+    let stages = [
+        vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::VERTEX)
+            .module(vert)
+            .name(entry),
+        vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::FRAGMENT)
+            .module(frag)
+            .name(entry),
+    ];
+    let bindings = [vk::VertexInputBindingDescription::default()
+        .binding(0)
+        .stride(VERTEX_BYTES as u32)
+        .input_rate(vk::VertexInputRate::VERTEX)];
+    let attr = |location: u32, format, offset: u32| {
+        vk::VertexInputAttributeDescription::default()
+            .location(location)
+            .binding(0)
+            .format(format)
+            .offset(offset)
+    };
+    let attributes = [
+        attr(0, vk::Format::R32G32B32_SFLOAT, 0),
+        attr(1, vk::Format::R32G32B32_SFLOAT, 12),
+        attr(2, vk::Format::R32G32_SFLOAT, 24),
+        attr(3, vk::Format::R32G32B32A32_SFLOAT, 32),
+    ];
+    let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
+        .vertex_binding_descriptions(&bindings)
+        .vertex_attribute_descriptions(&attributes);
+    let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+    let viewport = vk::PipelineViewportStateCreateInfo::default()
+        .viewport_count(1)
+        .scissor_count(1);
+    let raster = vk::PipelineRasterizationStateCreateInfo::default()
+        .polygon_mode(vk::PolygonMode::FILL)
+        .cull_mode(vk::CullModeFlags::NONE)
+        .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
+        .line_width(1.0);
+    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
+        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    let (compare, write) = match mode {
+        Mode::DepthPrepass | Mode::Geometry => (vk::CompareOp::GREATER, true),
+        Mode::Accumulate => (vk::CompareOp::GREATER_OR_EQUAL, false),
+    };
+    let depth = vk::PipelineDepthStencilStateCreateInfo::default()
+        .depth_test_enable(true)
+        .depth_write_enable(write)
+        .depth_compare_op(compare);
+    let blend_attachment = [vk::PipelineColorBlendAttachmentState::default()
+        .blend_enable(mode == Mode::Accumulate)
+        .src_color_blend_factor(vk::BlendFactor::ONE)
+        .dst_color_blend_factor(vk::BlendFactor::ONE)
+        .color_blend_op(vk::BlendOp::ADD)
+        .src_alpha_blend_factor(vk::BlendFactor::ONE)
+        .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+        .alpha_blend_op(vk::BlendOp::ADD)
+        .color_write_mask(if mode == Mode::DepthPrepass {
+            vk::ColorComponentFlags::empty()
+        } else {
+            vk::ColorComponentFlags::RGBA
+        })];
+    let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachment);
+    let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+    let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
+    let formats = [ACCUM_FORMAT];
+    let mut rendering = vk::PipelineRenderingCreateInfo::default()
+        .color_attachment_formats(&formats)
+        .depth_attachment_format(DEPTH_FORMAT);
+    let info = vk::GraphicsPipelineCreateInfo::default()
+        .stages(&stages)
+        .vertex_input_state(&vertex_input)
+        .input_assembly_state(&assembly)
+        .viewport_state(&viewport)
+        .rasterization_state(&raster)
+        .multisample_state(&multisample)
+        .depth_stencil_state(&depth)
+        .color_blend_state(&blend)
+        .dynamic_state(&dynamic)
+        .layout(layout)
+        .push_next(&mut rendering);
+    // SAFETY: every referenced structure lives until the call returns.
+    let pipelines = unsafe {
+        ctx.device
+            .create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
+    }
+    .map_err(|(_, e)| Error::from(e))?;
+    Ok(pipelines[0])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::camera::intrinsics;
+
+    /// Clip coordinates of a world point under `p`, as the GPU computes them (in f64).
+    fn clip(p: &Projection, x: DVec3) -> DVec4 {
+        glam::Mat4::from_cols_array(&p.clip_from_world)
+            .as_dmat4()
+            .mul_vec4(x.extend(1.0))
+    }
+
+    #[test]
+    fn pixel_centres_land_on_fragment_centres() {
+        let cam = Camera::from_centre(
+            intrinsics(100.0, 100.0, 31.5, 23.5),
+            DMat3::from_rotation_y(0.1),
+            DVec3::new(0.1, 0.0, -0.2),
+        );
+        let (w, h) = (64u32, 48u32);
+        let p = Projection::of_camera(&cam, w, h, DVec2::ZERO);
+        for (u, v) in [(0.0, 0.0), (10.0, 5.0), (63.0, 47.0)] {
+            let x = cam.back_project(DVec2::new(u, v), 2.5);
+            let c = clip(&p, x);
+            // Framebuffer coordinate = (ndc + 1)/2 · size = pixel index + ½.
+            let fx = (c.x / c.w + 1.0) / 2.0 * w as f64;
+            let fy = (c.y / c.w + 1.0) / 2.0 * h as f64;
+            assert!((fx - (u + 0.5)).abs() < 1e-4 && (fy - (v + 0.5)).abs() < 1e-4);
+            // Reverse Z: depth = near / z.
+            assert!((c.z / c.w - NEAR / 2.5).abs() < 1e-9);
+        }
+        // A jitter o renders the image point (i + o) at fragment centre i + ½.
+        let o = DVec2::new(0.25, -1.0 / 3.0);
+        let pj = Projection::of_camera(&cam, w, h, o);
+        let x = cam.back_project(DVec2::new(10.0, 5.0) + o, 3.0);
+        let c = clip(&pj, x);
+        assert!(((c.x / c.w + 1.0) / 2.0 * w as f64 - 10.5).abs() < 1e-4);
+        assert!(((c.y / c.w + 1.0) / 2.0 * h as f64 - 5.5).abs() < 1e-4);
+    }
+}

@@ -1,0 +1,324 @@
+//! glTF 2.0 input (`.gltf` with external or embedded buffers, or `.glb`) for `tiltfield synth`.
+//!
+//! What is read: the default scene (else the first) and its node hierarchy with node transforms
+//! applied; every mesh primitive in TRIANGLES mode with POSITION, optional NORMAL (else smooth
+//! normals from the faces), TEXCOORD_n of the base colour texture, COLOR_0; the material's
+//! `baseColorFactor` (multiplied into the vertex colour) and `baseColorTexture` (8-bit images:
+//! grey, grey+alpha, RGB, RGBA; treated as sRGB, as glTF specifies), with the sampler's wrap
+//! mode (repeat or clamp). Everything else (PBR parameters, lights, animation, skins, morph
+//! targets, alpha modes) is ignored: the model is albedo only.
+//!
+//! Coordinates: glTF is right-handed with +y up, and its cameras look down their local −z with
+//! +y up. tiltfield cameras look down +z with +y down, so a glTF camera whose node has world
+//! rotation Q and position C becomes the camera with `R = diag(1, −1, −1) · Qᵀ` and centre C.
+//! The world frame stays glTF's; `synth` then moves the mesh into the reference camera's frame.
+//!
+//! Errors name the file and the cause: unreadable or malformed file, a buffer or image that
+//! cannot be read (with its URI), unsupported primitive modes (POINTS, LINES, ...), a primitive
+//! without positions, orthographic cameras, unsupported texture formats, no triangles at all.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::{DMat3, DMat4, DVec3};
+
+use super::mesh::{MeshScene, MeshTexture, MeshVertex};
+use crate::error::{Error, Result};
+
+/// A camera found in the file, converted to tiltfield's convention.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GltfCamera {
+    /// World → camera rotation (x right, y down, z forward).
+    pub r: DMat3,
+    /// Camera centre in glTF world coordinates.
+    pub centre: DVec3,
+    /// Vertical field of view in radians.
+    pub yfov: f64,
+}
+
+/// A loaded glTF scene: the mesh in glTF world coordinates and the first camera, if any.
+#[derive(Debug, Clone)]
+pub struct GltfScene {
+    pub mesh: MeshScene,
+    pub camera: Option<GltfCamera>,
+}
+
+/// The rotation that turns a glTF camera frame (x right, y up, looking down −z) into
+/// tiltfield's (x right, y down, z forward).
+pub fn gl_to_cv() -> DMat3 {
+    DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0))
+}
+
+/// Loads `path` (see the module docs).
+pub fn load(path: &Path) -> Result<GltfScene> {
+    if !path.is_file() {
+        return Err(Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::NotFound, "no such glTF file"),
+        ));
+    }
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    if !matches!(ext.as_deref(), Some("gltf") | Some("glb")) {
+        return Err(Error::bad_file(
+            path,
+            "unsupported scene file: expected a .gltf or .glb file, or builtin:NAME",
+        ));
+    }
+    let bad = |m: String| Error::bad_file(path, m);
+    let gltf = gltf::Gltf::open(path).map_err(|e| bad(format!("not a readable glTF file: {e}")))?;
+    // Check external resources first, so a missing file is named.
+    let base = path.parent().unwrap_or(Path::new("."));
+    for b in gltf.buffers() {
+        if let gltf::buffer::Source::Uri(uri) = b.source() {
+            check_uri(path, base, uri, &format!("buffer {}", b.index()))?;
+        }
+    }
+    for i in gltf.images() {
+        if let gltf::image::Source::Uri { uri, .. } = i.source() {
+            check_uri(path, base, uri, &format!("image {}", i.index()))?;
+        }
+    }
+    let (doc, buffers, images) =
+        gltf::import(path).map_err(|e| bad(format!("cannot load its buffers or images: {e}")))?;
+    let name = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("gltf")
+        .to_string();
+    let mut mesh = MeshScene::new(&name, [0.0; 3]);
+    let mut textures: HashMap<usize, usize> = HashMap::new();
+    let mut camera = None;
+    let scene = doc.default_scene().or_else(|| doc.scenes().next());
+    let Some(scene) = scene else {
+        return Err(bad("no scene: the file has no geometry".into()));
+    };
+    let mut stack: Vec<(gltf::Node, DMat4)> = scene.nodes().map(|n| (n, DMat4::IDENTITY)).collect();
+    stack.reverse();
+    while let Some((node, parent)) = stack.pop() {
+        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+        let world = parent * local;
+        if let (Some(cam), None) = (node.camera(), camera.as_ref()) {
+            camera = Some(convert_camera(path, &cam, world)?);
+        }
+        if let Some(m) = node.mesh() {
+            for (k, prim) in m.primitives().enumerate() {
+                let what = format!(
+                    "mesh {} ('{}') primitive {k}",
+                    m.index(),
+                    m.name().unwrap_or("")
+                );
+                add_primitive(
+                    path,
+                    &what,
+                    &prim,
+                    world,
+                    &buffers,
+                    &images,
+                    &mut textures,
+                    &mut mesh,
+                )?;
+            }
+        }
+        for c in node.children() {
+            stack.push((c, world));
+        }
+    }
+    if mesh.triangle_count() == 0 {
+        return Err(bad(
+            "no triangles: the scene has no triangle geometry".into()
+        ));
+    }
+    Ok(GltfScene { mesh, camera })
+}
+
+/// A non-data URI must name a readable file next to the glTF file.
+fn check_uri(path: &Path, base: &Path, uri: &str, what: &str) -> Result<()> {
+    if uri.starts_with("data:") {
+        return Ok(());
+    }
+    let file = base.join(uri.replace("%20", " "));
+    std::fs::metadata(&file).map(|_| ()).map_err(|e| {
+        Error::bad_file(
+            path,
+            format!("{what} refers to '{uri}', which cannot be read: {e}"),
+        )
+    })
+}
+
+fn convert_camera(path: &Path, cam: &gltf::Camera, world: DMat4) -> Result<GltfCamera> {
+    let yfov = match cam.projection() {
+        gltf::camera::Projection::Perspective(p) => p.yfov() as f64,
+        gltf::camera::Projection::Orthographic(_) => {
+            return Err(Error::bad_file(
+                path,
+                format!(
+                    "camera {} is orthographic; only perspective cameras are supported",
+                    cam.index()
+                ),
+            ))
+        }
+    };
+    let m3 = DMat3::from_mat4(world);
+    let q = DMat3::from_cols(
+        m3.x_axis.normalize_or_zero(),
+        m3.y_axis.normalize_or_zero(),
+        m3.z_axis.normalize_or_zero(),
+    );
+    if !(yfov > 0.0 && yfov < std::f64::consts::PI) || (q.determinant() - 1.0).abs() > 1e-3 {
+        return Err(Error::bad_file(
+            path,
+            format!(
+                "camera {} has an invalid field of view or a non-rigid node transform",
+                cam.index()
+            ),
+        ));
+    }
+    Ok(GltfCamera {
+        r: gl_to_cv() * q.transpose(),
+        centre: world.w_axis.truncate(),
+        yfov,
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn add_primitive(
+    path: &Path,
+    what: &str,
+    prim: &gltf::Primitive,
+    world: DMat4,
+    buffers: &[gltf::buffer::Data],
+    images: &[gltf::image::Data],
+    textures: &mut HashMap<usize, usize>,
+    mesh: &mut MeshScene,
+) -> Result<()> {
+    let bad = |m: String| Error::bad_file(path, format!("{what}: {m}"));
+    if prim.mode() != gltf::mesh::Mode::Triangles {
+        return Err(bad(format!(
+            "unsupported primitive mode {:?}; only TRIANGLES is supported",
+            prim.mode()
+        )));
+    }
+    let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let positions: Vec<[f32; 3]> = reader
+        .read_positions()
+        .ok_or_else(|| bad("no POSITION attribute".into()))?
+        .collect();
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..positions.len() as u32).collect(),
+    };
+    if indices.iter().any(|&i| i as usize >= positions.len()) {
+        return Err(bad("an index points past the vertex data".into()));
+    }
+    let indices: Vec<u32> = indices[..indices.len() / 3 * 3].to_vec();
+    let material = prim.material();
+    let pbr = material.pbr_metallic_roughness();
+    let factor = pbr.base_color_factor();
+    let info = pbr.base_color_texture();
+    let uv_set = info.as_ref().map_or(0, |t| t.tex_coord());
+    let uvs: Option<Vec<[f32; 2]>> = reader
+        .read_tex_coords(uv_set)
+        .map(|t| t.into_f32().collect());
+    let colors: Option<Vec<[f32; 4]>> = reader.read_colors(0).map(|c| c.into_rgba_f32().collect());
+    let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(|n| n.collect());
+    let texture = match (&info, &uvs) {
+        (Some(info), Some(_)) => {
+            let tex = info.texture();
+            let image_index = tex.source().index();
+            let repeat = tex.sampler().wrap_s() != gltf::texture::WrappingMode::ClampToEdge;
+            let key = image_index * 2 + repeat as usize;
+            match textures.get(&key) {
+                Some(&i) => Some(i),
+                None => {
+                    let data = images
+                        .get(image_index)
+                        .ok_or_else(|| bad(format!("image {image_index} is missing")))?;
+                    let rgba = to_rgba8(data).ok_or_else(|| {
+                        bad(format!(
+                            "image {image_index} has the unsupported format {:?} (8-bit \
+                             images only)",
+                            data.format
+                        ))
+                    })?;
+                    mesh.textures.push(MeshTexture {
+                        width: data.width,
+                        height: data.height,
+                        rgba,
+                        repeat,
+                        name: format!("glTF image {image_index}"),
+                    });
+                    textures.insert(key, mesh.textures.len() - 1);
+                    Some(mesh.textures.len() - 1)
+                }
+            }
+        }
+        _ => None,
+    };
+    // Normals transform with the inverse transpose of the linear part.
+    let m3 = DMat3::from_mat4(world);
+    let normal_matrix = m3.inverse().transpose();
+    let world_pos: Vec<DVec3> = positions
+        .iter()
+        .map(|p| world.transform_point3(DVec3::from(p.map(f64::from))))
+        .collect();
+    let world_normals: Vec<DVec3> = match &normals {
+        Some(n) if n.len() == positions.len() => n
+            .iter()
+            .map(|v| (normal_matrix * DVec3::from(v.map(f64::from))).normalize_or_zero())
+            .collect(),
+        _ => {
+            // Smooth normals: area-weighted face normals summed per vertex.
+            let mut acc = vec![DVec3::ZERO; positions.len()];
+            for tri in indices.chunks_exact(3) {
+                let [a, b, c] = [0, 1, 2].map(|k| world_pos[tri[k] as usize]);
+                let n = (b - a).cross(c - a);
+                for &k in tri {
+                    acc[k as usize] += n;
+                }
+            }
+            acc.into_iter().map(|n| n.normalize_or_zero()).collect()
+        }
+    };
+    let vertices: Vec<MeshVertex> = (0..positions.len())
+        .map(|i| {
+            let c = colors
+                .as_ref()
+                .and_then(|c| c.get(i).copied())
+                .unwrap_or([1.0; 4]);
+            MeshVertex {
+                position: world_pos[i].as_vec3().to_array(),
+                normal: world_normals[i].as_vec3().to_array(),
+                uv: uvs
+                    .as_ref()
+                    .and_then(|u| u.get(i).copied())
+                    .unwrap_or([0.0; 2]),
+                color: std::array::from_fn(|k| c[k] * factor[k]),
+            }
+        })
+        .collect();
+    mesh.push(&vertices, &indices, texture);
+    Ok(())
+}
+
+/// 8-bit glTF image data → RGBA8 (grey expands to RGB).
+fn to_rgba8(data: &gltf::image::Data) -> Option<Vec<u8>> {
+    use gltf::image::Format;
+    let p = &data.pixels;
+    let out: Vec<u8> = match data.format {
+        Format::R8G8B8A8 => p.clone(),
+        Format::R8G8B8 => p
+            .chunks_exact(3)
+            .flat_map(|c| [c[0], c[1], c[2], 255])
+            .collect(),
+        Format::R8G8 => p
+            .chunks_exact(2)
+            .flat_map(|c| [c[0], c[0], c[0], c[1]])
+            .collect(),
+        Format::R8 => p.iter().flat_map(|&c| [c, c, c, 255]).collect(),
+        _ => return None,
+    };
+    (out.len() == data.width as usize * data.height as usize * 4).then_some(out)
+}

@@ -1,0 +1,470 @@
+//! Synthetic light fields rendered by the Vulkan mesh rasterizer ([`crate::passes::raster`]):
+//! views with exact depth, disparity and normals, parallel (HCI, sensor shift) or converging
+//! rigs, and the optical ground truth of a tilt-shift lens.
+//!
+//! Anti-aliasing: each pixel is the linear-light mean of an n×n stratified grid of jittered
+//! pinhole renders (offsets (k + ½)/n − ½ pixels, like the ray tracer's samples), encoded to
+//! 8-bit sRGB once. Depth and normals come from one render through the pixel centres.
+//!
+//! Optical ground truth ([`Rasterizer::optical_ground_truth`]): a thin lens focused on plane Λ
+//! is approximated by a dense grid of pinholes A on the reference camera's plane (z = 0 of its
+//! frame) inside a disk of radius ρ. Pinhole A projects with
+//! `P_A = K_r M_A [R_r | t_r − A]`, `M_A = I + A n_rᵀ / d_A`, where n_r is Λ's normal and
+//! d_A = n_r·(p_r − A) its distance from A, both in the reference frame. M_A maps every point of
+//! Λ to where the reference camera sees it (so Λ is sharp) while every other point is seen from
+//! A; the third row of P_A is still the depth, so the same reverse-Z rasterization applies, with
+//! no image resampling. The renders are averaged in linear light.
+
+use glam::{DMat3, DVec2, DVec3};
+use image::RgbaImage;
+use indicatif::{ProgressBar, ProgressStyle};
+
+use super::color::encode_srgb8;
+use super::mesh::MeshScene;
+use crate::error::{Error, Result};
+use crate::geometry::camera::{intrinsics, Camera};
+use crate::geometry::plane::Plane;
+use crate::gpu::{GpuContext, GpuOptions};
+use crate::lightfield::{DepthKind, DepthMap, GridSize, LightField, ParallelRig, Source, View};
+use crate::passes::raster::{camera_from_world, projection_rows, Projection, RasterPass};
+
+/// Linear RGBA pixels, row-major.
+type Pixels = Vec<[f32; 4]>;
+
+/// Samples per submission: keeps command buffers short on real GPUs.
+const SAMPLES_PER_SUBMISSION: usize = 128;
+
+/// One rendered view.
+#[derive(Debug, Clone)]
+pub struct RenderedView {
+    /// sRGB-encoded, alpha 255.
+    pub image: RgbaImage,
+    /// Linear RGB with the background composed in, alpha 1.
+    pub linear: Vec<[f32; 4]>,
+    /// Camera-frame depth at pixel centres (NaN where nothing is hit), when asked.
+    pub depth: Option<DepthMap>,
+    /// Camera-frame unit normals facing the camera (NaN where nothing is hit), when asked.
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// Pixels whose centre sees a surface.
+    pub covered: usize,
+}
+
+/// A Vulkan context with a mesh uploaded, torn down pass → context.
+pub struct Rasterizer {
+    pass: Option<RasterPass>,
+    background: [f32; 3],
+    name: String,
+    ctx: GpuContext,
+}
+
+/// Stratified sub-pixel offsets (k + ½)/n − ½.
+fn offsets(n: u32) -> Vec<f64> {
+    let n = n.max(1);
+    (0..n).map(|k| (k as f64 + 0.5) / n as f64 - 0.5).collect()
+}
+
+impl Rasterizer {
+    /// Creates a context and uploads `mesh`.
+    pub fn new(mesh: &MeshScene, options: &GpuOptions) -> Result<Self> {
+        Self::with_context(GpuContext::new(options)?, mesh)
+    }
+
+    /// Uploads `mesh` to an existing context.
+    pub fn with_context(ctx: GpuContext, mesh: &MeshScene) -> Result<Self> {
+        let pass = RasterPass::new(&ctx, mesh)?;
+        Ok(Rasterizer {
+            pass: Some(pass),
+            background: mesh.background,
+            name: mesh.name.clone(),
+            ctx,
+        })
+    }
+
+    /// The Vulkan context (device name, validation counts).
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// The mean of `samples` (linear, alpha = coverage), rendered in chunks.
+    fn mean(
+        &mut self,
+        width: u32,
+        height: u32,
+        samples: &[Projection],
+        geometry: Option<&Projection>,
+    ) -> Result<(Pixels, Option<Pixels>)> {
+        let Some(pass) = self.pass.as_mut() else {
+            unreachable!("the pass lives until drop")
+        };
+        let mut sum = vec![[0f32; 4]; (width * height) as usize];
+        let mut geom = None;
+        // Only renders of several submissions (the optical ground truth) get a progress bar.
+        let chunks = samples.len().div_ceil(SAMPLES_PER_SUBMISSION);
+        let progress = if chunks > 1 {
+            ProgressBar::new(samples.len() as u64).with_style(
+                ProgressStyle::with_template("rasterizing {msg} {bar:30} {pos}/{len} pinholes")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            )
+        } else {
+            ProgressBar::hidden()
+        };
+        progress.set_message(self.name.clone());
+        for (k, chunk) in samples.chunks(SAMPLES_PER_SUBMISSION).enumerate() {
+            let img = pass.render(
+                &self.ctx,
+                width,
+                height,
+                chunk,
+                if k == 0 { geometry } else { None },
+            )?;
+            let w = chunk.len() as f32 / samples.len() as f32;
+            for (s, c) in sum.iter_mut().zip(&img.color) {
+                for i in 0..4 {
+                    s[i] += c[i] * w;
+                }
+            }
+            if img.geometry.is_some() {
+                geom = img.geometry;
+            }
+            progress.inc(chunk.len() as u64);
+        }
+        progress.finish_and_clear();
+        Ok((sum, geom))
+    }
+
+    /// Renders `camera`'s `width × height` view with `samples_per_axis`² jittered samples per
+    /// pixel; with `geometry`, also its depth and normals.
+    pub fn render_view(
+        &mut self,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        samples_per_axis: u32,
+        geometry: bool,
+    ) -> Result<RenderedView> {
+        let offs = offsets(samples_per_axis);
+        let samples: Vec<Projection> = offs
+            .iter()
+            .flat_map(|&oy| offs.iter().map(move |&ox| DVec2::new(ox, oy)))
+            .map(|o| Projection::of_camera(camera, width, height, o))
+            .collect();
+        let centre = Projection::of_camera(camera, width, height, DVec2::ZERO);
+        let (color, geom) = self.mean(width, height, &samples, geometry.then_some(&centre))?;
+        let linear = self.compose(&color);
+        let image = encode(&linear, width, height);
+        let mut out = RenderedView {
+            image,
+            linear,
+            depth: None,
+            normals: None,
+            covered: 0,
+        };
+        if let Some(g) = geom {
+            let hit = |p: &[f32; 4]| p[3] > 0.0 && p[3].is_finite();
+            out.covered = g.iter().filter(|p| hit(p)).count();
+            out.depth = Some(DepthMap {
+                width,
+                height,
+                kind: DepthKind::Depth,
+                values: g
+                    .iter()
+                    .map(|p| if hit(p) { p[3] } else { f32::NAN })
+                    .collect(),
+                source: "generated".into(),
+            });
+            out.normals = Some(
+                g.iter()
+                    .map(|p| {
+                        if hit(p) {
+                            [p[0], p[1], p[2]]
+                        } else {
+                            [f32::NAN; 3]
+                        }
+                    })
+                    .collect(),
+            );
+        }
+        Ok(out)
+    }
+
+    /// The image a thin lens at the `reference` camera focused on `plane` would take: the
+    /// linear-light mean of pinhole renders from an `aperture_samples × aperture_samples` grid
+    /// over [−ρ, ρ]² on the reference camera plane, kept inside the disk of radius
+    /// `aperture_radius` ρ (world units), each with `samples_per_axis`² sub-pixel jitters
+    /// spread over the aperture grid (pinhole (i, j) takes jitter (i mod n, j mod n)).
+    /// Returns linear RGBA (alpha 1) and the number of pinholes used.
+    pub fn optical_ground_truth(
+        &mut self,
+        reference: &Camera,
+        plane: &Plane,
+        aperture_radius: f64,
+        aperture_samples: u32,
+        (width, height): (u32, u32),
+        samples_per_axis: u32,
+    ) -> Result<(Vec<[f32; 4]>, usize)> {
+        if !(aperture_radius.is_finite() && aperture_radius >= 0.0) {
+            return Err(Error::Invalid(format!(
+                "the aperture radius must be finite and ≥ 0, got {aperture_radius}"
+            )));
+        }
+        let n_r = reference.r * plane.normal;
+        let p_r = reference.to_camera(plane.point);
+        let grid = aperture_samples.max(1);
+        let offs = offsets(samples_per_axis);
+        let m = offs.len();
+        let mut samples = Vec::new();
+        for j in 0..grid {
+            for i in 0..grid {
+                let coord = |k: u32| {
+                    if grid == 1 {
+                        0.0
+                    } else {
+                        aperture_radius * (2.0 * k as f64 / (grid - 1) as f64 - 1.0)
+                    }
+                };
+                let a = DVec3::new(coord(i), coord(j), 0.0);
+                if a.length() > aperture_radius * (1.0 + 1e-9) {
+                    continue;
+                }
+                let d_a = n_r.dot(p_r - a);
+                if d_a.abs() < 1e-9 {
+                    return Err(Error::Geometry(
+                        "the focus plane passes through the lens aperture".into(),
+                    ));
+                }
+                let mm = DMat3::IDENTITY + outer(a, n_r) / d_a;
+                let rows = projection_rows(reference.k * mm, reference.r, reference.t - a);
+                let jitter = DVec2::new(offs[i as usize % m], offs[j as usize % m]);
+                samples.push(Projection::new(
+                    rows,
+                    camera_from_world(reference.r, reference.t - a),
+                    width,
+                    height,
+                    jitter,
+                ));
+            }
+        }
+        let (color, _) = self.mean(width, height, &samples, None)?;
+        Ok((self.compose(&color), samples.len()))
+    }
+
+    /// Composes the background into a mean of samples; alpha becomes 1.
+    fn compose(&self, color: &[[f32; 4]]) -> Vec<[f32; 4]> {
+        let b = self.background;
+        color
+            .iter()
+            .map(|c| {
+                let a = 1.0 - c[3].clamp(0.0, 1.0);
+                [c[0] + b[0] * a, c[1] + b[1] * a, c[2] + b[2] * a, 1.0]
+            })
+            .collect()
+    }
+
+    /// The scene's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+}
+
+impl Drop for Rasterizer {
+    fn drop(&mut self) {
+        if let Some(p) = self.pass.take() {
+            p.destroy(&self.ctx);
+        }
+    }
+}
+
+fn outer(u: DVec3, v: DVec3) -> DMat3 {
+    DMat3::from_cols(u * v.x, u * v.y, u * v.z)
+}
+
+/// Linear RGBA → 8-bit sRGB with alpha 255.
+pub fn encode(linear: &[[f32; 4]], width: u32, height: u32) -> RgbaImage {
+    let raw: Vec<u8> = linear
+        .iter()
+        .flat_map(|p| {
+            [
+                encode_srgb8(p[0]),
+                encode_srgb8(p[1]),
+                encode_srgb8(p[2]),
+                255,
+            ]
+        })
+        .collect();
+    RgbaImage::from_raw(width, height, raw).unwrap_or_else(|| RgbaImage::new(width, height))
+}
+
+/// How the cameras of a synthetic rig are oriented.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum RigKind {
+    /// Parallel cameras with sensor shift (the HCI benchmark's rig): zero disparity at the
+    /// focus distance.
+    Parallel,
+    /// Each camera rotated to look at the point (0, 0, `distance`) of the centre axis (a
+    /// converging camera-array video rig); principal points at the image centre.
+    Converging { distance: f64 },
+}
+
+/// A synthetic camera grid in the world frame of the centre camera (x right, y down,
+/// z forward): camera (s, t) sits at ((s − s_c)·b, (t − t_c)·b, 0).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SynthRig {
+    pub grid: GridSize,
+    pub width: u32,
+    pub height: u32,
+    pub focal_px: f64,
+    pub baseline: f64,
+    /// Zero-disparity distance of the parallel rig (HCI `focus_distance_m`).
+    pub focus_distance: f64,
+    pub kind: RigKind,
+}
+
+impl SynthRig {
+    /// The parallel rig's parameters (`None` for converging rigs).
+    pub fn parallel(&self) -> Option<ParallelRig> {
+        (self.kind == RigKind::Parallel).then_some(ParallelRig {
+            focal_px: self.focal_px,
+            baseline: self.baseline,
+            focus_distance: self.focus_distance,
+        })
+    }
+
+    /// The cameras, row-major.
+    pub fn cameras(&self) -> Vec<Camera> {
+        match self.kind {
+            RigKind::Parallel => self
+                .parallel()
+                .map_or_else(Vec::new, |r| r.cameras(self.grid, self.width, self.height)),
+            RigKind::Converging { distance } => {
+                let c = self.grid.centre();
+                let k = intrinsics(
+                    self.focal_px,
+                    self.focal_px,
+                    (self.width as f64 - 1.0) / 2.0,
+                    (self.height as f64 - 1.0) / 2.0,
+                );
+                let target = DVec3::new(0.0, 0.0, distance);
+                let mut cams = Vec::with_capacity(self.grid.len());
+                for t in 0..self.grid.rows {
+                    for s in 0..self.grid.cols {
+                        let centre = DVec3::new(
+                            (s as f64 - c.x) * self.baseline,
+                            (t as f64 - c.y) * self.baseline,
+                            0.0,
+                        );
+                        let z = (target - centre).normalize();
+                        let x = DVec3::Y.cross(z).normalize();
+                        let y = z.cross(x);
+                        let r = DMat3::from_cols(x, y, z).transpose();
+                        cams.push(Camera::from_centre(k, r, centre));
+                    }
+                }
+                cams
+            }
+        }
+    }
+}
+
+/// A rendered light field with the reference view's normals.
+#[derive(Debug, Clone)]
+pub struct SynthLightField {
+    pub light_field: LightField,
+    /// Index of the reference (centre) view.
+    pub reference: usize,
+    /// Camera-frame normals of the reference view (NaN on background).
+    pub normals: Vec<[f32; 3]>,
+}
+
+/// Renders every view of `rig` (with a progress bar on stderr). The reference view
+/// (`grid.index(cols / 2, rows / 2)`) gets depth and, for parallel rigs, HCI disparity;
+/// with `depth_all_views` every view gets its depth. Fails when the reference view sees no
+/// surface at all.
+pub fn render_light_field(
+    r: &mut Rasterizer,
+    rig: &SynthRig,
+    samples_per_axis: u32,
+    depth_all_views: bool,
+) -> Result<SynthLightField> {
+    let cameras = rig.cameras();
+    let grid = rig.grid;
+    let name = r.name().to_string();
+    let progress = ProgressBar::new(cameras.len() as u64).with_style(
+        ProgressStyle::with_template("rasterizing {msg} {bar:30} {pos}/{len} views")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    progress.set_message(name.clone());
+    let reference = grid.index(grid.cols / 2, grid.rows / 2);
+    let mut views = Vec::with_capacity(cameras.len());
+    let mut depth = Vec::new();
+    let mut normals = Vec::new();
+    for (index, camera) in cameras.into_iter().enumerate() {
+        let (s, t) = (index % grid.cols, index / grid.cols);
+        let want = depth_all_views || index == reference;
+        let v = r.render_view(&camera, rig.width, rig.height, samples_per_axis, want)?;
+        if index == reference {
+            if v.covered == 0 {
+                progress.finish_and_clear();
+                return Err(Error::Invalid(format!(
+                    "{name}: nothing in view: the reference camera sees no triangle (check the \
+                     camera placement, --focal-mm and the scene's scale)"
+                )));
+            }
+            normals = v.normals.clone().unwrap_or_default();
+        }
+        if let Some(z) = v.depth {
+            let z = DepthMap {
+                source: format!("{name} generated depth of view ({s},{t})"),
+                ..z
+            };
+            if index == reference {
+                if let Some(p) = rig.parallel() {
+                    depth.push((
+                        index,
+                        DepthMap {
+                            kind: DepthKind::Disparity,
+                            values: z
+                                .values
+                                .iter()
+                                .map(|&v| {
+                                    if v.is_nan() {
+                                        f32::NAN
+                                    } else {
+                                        p.disparity_of_depth(v as f64) as f32
+                                    }
+                                })
+                                .collect(),
+                            source: format!("{name} generated disparity of view ({s},{t})"),
+                            ..z.clone()
+                        },
+                    ));
+                }
+            }
+            depth.push((index, z));
+        }
+        views.push(View {
+            s,
+            t,
+            camera,
+            image: v.image,
+            source: format!("{name} view ({s},{t})"),
+        });
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+    let light_field = LightField {
+        name: name.clone(),
+        grid,
+        width: rig.width,
+        height: rig.height,
+        views,
+        depth,
+        rig: rig.parallel(),
+        source: Source::Generated { scene: name },
+    };
+    light_field.validate()?;
+    Ok(SynthLightField {
+        light_field,
+        reference,
+        normals,
+    })
+}
