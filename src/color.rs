@@ -24,7 +24,13 @@ pub fn decode_table() -> [f64; 256] {
     std::array::from_fn(|i| srgb_to_linear(i as f64 / 255.0))
 }
 
-/// Quantises [0, 1] to 8 bits with rounding (values outside are clamped).
+/// Linear light → 8-bit sRGB with rounding to nearest; out-of-range input saturates and NaN
+/// gives 0 (a defined value, never garbage). What the synthetic renderers store per pixel.
+pub fn encode_srgb8(linear: f32) -> u8 {
+    to_u8(linear_to_srgb(linear as f64))
+}
+
+/// Quantises [0, 1] to 8 bits with rounding (values outside are clamped, NaN gives 0).
 pub fn to_u8(c: f64) -> u8 {
     (c.clamp(0.0, 1.0) * 255.0).round() as u8
 }
@@ -42,5 +48,10 @@ mod tests {
         assert!((linear_to_srgb(0.5) - 0.735_356_983_052_449_4).abs() < 1e-12);
         assert_eq!(to_u8(linear_to_srgb(1.0)), 255);
         assert_eq!(to_u8(-0.2), 0);
+        assert_eq!(to_u8(f64::NAN), 0);
+        // 18 % grey is about 46 % encoded (118/255).
+        assert_eq!(encode_srgb8(0.18), 118);
+        assert_eq!(encode_srgb8(f32::NAN), 0);
+        assert_eq!(encode_srgb8(2.0), 255);
     }
 }

@@ -16,9 +16,9 @@
 use glam::{DMat3, DVec2, DVec3};
 use rayon::prelude::*;
 
-use super::color::encode_srgb8;
 use super::scene::{Quad, Scene};
 use super::texture::{Rgb, Texture};
+use crate::color::encode_srgb8;
 
 /// One vertex as the GPU reads it (48 bytes, `mesh.vert` locations 0–3).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -15,19 +15,17 @@
 //! - a built-in scene's world frame is its centre camera's frame, and its cameras are an HCI
 //!   parallel rig with sensor shift ([`crate::lightfield::ParallelRig::cameras`]);
 //! - colours are computed and averaged in linear light and stored as 8-bit sRGB
-//!   ([`color::linear_to_srgb`], [`color::srgb_to_linear`] — the exact IEC 61966-2-1 curves,
-//!   for reuse elsewhere);
+//!   ([`crate::color`], the exact IEC 61966-2-1 curves);
 //! - depth maps store camera-frame z at the pixel centre (NaN for background), disparity maps
 //!   the HCI disparity of that depth.
 //!
-//! Modules: [`color`] (sRGB), [`texture`] (procedural textures), [`scene`] (quads, ray
+//! Modules: [`texture`] (procedural textures), [`scene`] (quads, ray
 //! intersection, [`scene::plane_scene`]), [`raytrace`] (views and light fields), [`mod@builtin`]
 //! (the named scenes, their planes and disparity ranges); for the rasterizer [`mesh`] (triangle
 //! meshes, quad scenes baked into textured meshes), [`mod@gltf`] (glTF input), [`scenes`] (the
 //! built-in scenes of `synth`) and [`raster`] (views, rigs, light fields, optical ground truth).
 
 pub mod builtin;
-pub mod color;
 pub mod gltf;
 pub mod mesh;
 pub mod raster;
@@ -37,7 +35,6 @@ pub mod scenes;
 pub mod texture;
 
 pub use builtin::{builtin, builtin_names, BuiltinScene};
-pub use color::{linear_to_srgb, srgb_to_linear};
 pub use mesh::MeshScene;
 pub use raster::{Rasterizer, RigKind, SynthRig};
 pub use raytrace::{pixel_ray, render_light_field, render_view, trace_pixel};

@@ -19,8 +19,8 @@ use glam::{DMat3, DVec2, DVec3};
 use image::RgbaImage;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::color::encode_srgb8;
 use super::mesh::MeshScene;
+use crate::color::encode_srgb8;
 use crate::error::{Error, Result};
 use crate::geometry::camera::{intrinsics, Camera};
 use crate::geometry::plane::Plane;

@@ -15,8 +15,8 @@ use image::RgbaImage;
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 
-use super::color::encode_srgb8;
 use super::scene::{Hit, PreparedScene, Scene};
+use crate::color::encode_srgb8;
 use crate::geometry::camera::Camera;
 use crate::lightfield::{DepthKind, DepthMap, GridSize, LightField, ParallelRig, Source, View};
 
