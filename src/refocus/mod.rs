@@ -1,4 +1,4 @@
-//! Refocus requests, their resolution into per-view warps ([`plan`]), the f64 CPU reference
+//! Refocus requests, their resolution into per-view warps ([`mod@plan`]), the f64 CPU reference
 //! renderer ([`cpu`]) and the refocus image type shared with the GPU pass.
 
 pub mod cpu;
