@@ -4,5 +4,8 @@
 
 pub mod aperture;
 pub mod camera;
+pub mod depth;
 pub mod homography;
+pub mod normals;
+pub mod picking;
 pub mod plane;
