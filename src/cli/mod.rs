@@ -1,6 +1,8 @@
 //! The `tiltfield` command line: argument parsing and the subcommands.
 
+mod cloud;
 mod demo;
+mod focus;
 mod info;
 mod render;
 
@@ -29,6 +31,9 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Refocus a light field onto a plane and write PNG or EXR.
     Render(Box<render::RenderArgs>),
+    /// Write the point cloud of the depth map's view as binary PLY (positions, colours,
+    /// normals), optionally with the refocus plane and the camera centres.
+    Cloud(Box<cloud::CloudArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -130,6 +135,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Info(a) => info::run(&a),
         Command::Render(a) => render::run(&a),
+        Command::Cloud(a) => cloud::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }

@@ -8,24 +8,31 @@
 //! was measured against this window; see docs/stability.md: the window is faster and needs no
 //! build step, and a k-nearest query in 3D does not stop at discontinuities either.)
 //!
-//! Discontinuity guard, in two passes with one relative threshold τ (`max_depth_jump`):
-//! 1. keep the window's valid pixels whose depth differs from the centre pixel's by at most
-//!    τ·z_centre, fit a plane;
-//! 2. keep the window's valid pixels whose depth differs from that plane's depth along their
-//!    own ray by at most τ·z_plane, fit again.
-//!
-//! Pass 1 stops the fit from mixing surfaces at different depths; pass 2 restores the pixels of
-//! a steeply slanted surface that pass 1 cut off (its depth changes across the window even
-//! without an edge) and drops those of another surface that happens to lie near the centre's
-//! depth but not on its plane.
+//! Discontinuity guard: inverse depth w = 1/z is affine in the pixel coordinates on any plane,
+//! so each neighbour's w is compared with the centre's w extrapolated along the window's robust
+//! trend (the medians of the per-pixel changes of w in x and y): a neighbour enters the fit
+//! only when `|w − (w_c + g_x Δu + g_y Δv)| ≤ τ·w_c`. A window that straddles a depth edge
+//! thus uses the centre's side only (pairs across the edge are too few to move the medians),
+//! and a steep but smooth surface keeps its whole window. τ = max(`max_depth_jump` (default
+//! 2 %), 4·σ̂) with σ̂ the robust relative noise of the window (the median absolute deviation
+//! of the per-pixel changes from the trend): on noisy depth a fixed τ would cut into the noise
+//! distribution, drop good neighbours and bias the fit. A jump smaller than τ is not seen as an
+//! edge. (A second pass that re-selected pixels by their distance to a first fitted plane was
+//! measured and removed: it let noisy fits lock onto wrong planes — docs/stability.md.)
 //!
 //! Fit: the eigenvectors of the neighbours' covariance, eigenvalues λ0 ≤ λ1 ≤ λ2. The normal is
 //! the eigenvector of λ0, oriented towards the camera (n·(C − centroid) > 0). Reported quality:
 //! - `planarity = 1 − λ0/λ1` (1 for a perfect plane, → 0 when depth noise or curvature is as
 //!   large as the in-plane spread): the confidence of a click;
 //! - `curvature = λ0/(λ0 + λ1 + λ2)` (surface variation, Pauly et al. 2002);
-//! - `uncertainty_deg = atan(√(λ0 / ((N − 3)·λ1)))`: the standard error of the normal's
-//!   direction if the residuals were independent noise (least-squares slope error).
+//! - `view_angle_deg`: the angle between the normal and the line of sight.
+//!
+//! A normal is **reliable** when planarity ≥ 0.9 and the view angle ≤ 80°. Why: depth noise
+//! lies along the rays; PCA (a total-least-squares fit) tilts the normal towards the line of
+//! sight by roughly `(1 − planarity)·sin(2θ)/2` radians (θ the view angle), ≤ 3° at planarity
+//! 0.9, and when the noise exceeds the window's lateral extent the smallest-variance direction
+//! is no longer the normal at all but lies in the surface — planarity drops and the "normal"
+//! turns perpendicular to the line of sight, which the two checks refuse.
 
 use std::fmt;
 
@@ -39,25 +46,33 @@ use super::depth::{DepthProblem, ViewDepth};
 pub struct NormalParams {
     /// Side of the square image-space window in pixels (odd, ≥ 3).
     pub window: u32,
-    /// Discontinuity guard τ: neighbours whose depth deviates by more than τ·z (relative) from
-    /// the centre's depth (pass 1) or from the fitted plane (pass 2) are left out.
+    /// Discontinuity guard: the smallest relative jump τ of inverse depth (against the centre's,
+    /// extrapolated along the local trend) that leaves a neighbour out; raised to 4× the
+    /// window's estimated noise.
     pub max_depth_jump: f64,
     /// Fewest neighbours (centre included) a fit may use, as a fraction of the window's area;
     /// never fewer than 6.
     pub min_fraction: f64,
     /// Smallest planarity `1 − λ0/λ1` of a reliable normal.
     pub min_planarity: f64,
+    /// Largest angle (degrees) between a reliable normal and the line of sight to the
+    /// neighbourhood. Beyond it the surface is seen edge-on — or, far more often, depth noise
+    /// along the rays exceeds the window's lateral extent and PCA returns a direction inside
+    /// the surface instead of its normal (docs/stability.md).
+    pub max_view_angle_deg: f64,
 }
 
 impl Default for NormalParams {
-    /// Window 9, τ = 5 %, at least 20 % of the window, planarity ≥ 0.5. See docs/stability.md
+    /// Window 9, τ = 2 %, at least 20 % of the window, planarity ≥ 0.9, view angle ≤ 80°.
+    /// See docs/stability.md
     /// for the measurements behind these values.
     fn default() -> Self {
         NormalParams {
             window: 9,
-            max_depth_jump: 0.05,
+            max_depth_jump: 0.02,
             min_fraction: 0.2,
-            min_planarity: 0.5,
+            min_planarity: 0.9,
+            max_view_angle_deg: 80.0,
         }
     }
 }
@@ -109,12 +124,35 @@ pub struct NormalEstimate {
     pub planarity: f64,
     /// `λ0/(λ0 + λ1 + λ2)`, in [0, 1/3].
     pub curvature: f64,
-    /// Least-squares standard error of the normal's direction, degrees.
-    pub uncertainty_deg: f64,
-    /// Neighbours used by the final fit (centre included when it passed the guard).
+    /// Neighbours used by the fit, the centre included.
     pub neighbours: usize,
     /// Valid pixels in the window that the guard left out.
     pub rejected: usize,
+    /// Angle between the normal and the line of sight to the centroid, degrees.
+    pub view_angle_deg: f64,
+    /// Robust estimate σ̂ of the relative depth noise in the window (see the module docs).
+    pub noise: f64,
+    /// The guard threshold τ used: `max(max_depth_jump, 4·noise)`.
+    pub depth_jump: f64,
+}
+
+impl NormalEstimate {
+    /// Whether this estimate is reliable under `params` (planarity and view angle).
+    pub fn check(&self, params: &NormalParams) -> Result<(), NormalProblem> {
+        if self.planarity < params.min_planarity {
+            return Err(NormalProblem::LowPlanarity {
+                planarity: self.planarity,
+                min: params.min_planarity,
+            });
+        }
+        if self.view_angle_deg > params.max_view_angle_deg {
+            return Err(NormalProblem::Grazing {
+                angle_deg: self.view_angle_deg,
+                max: params.max_view_angle_deg,
+            });
+        }
+        Ok(())
+    }
 }
 
 /// Why no (reliable) normal exists at a pixel.
@@ -130,6 +168,8 @@ pub enum NormalProblem {
     Degenerate,
     /// The neighbours are not planar enough for a trustworthy normal.
     LowPlanarity { planarity: f64, min: f64 },
+    /// The normal is almost perpendicular to the line of sight.
+    Grazing { angle_deg: f64, max: f64 },
 }
 
 impl fmt::Display for NormalProblem {
@@ -152,6 +192,10 @@ impl fmt::Display for NormalProblem {
                 "the surface around it is not planar enough for a reliable normal (planarity \
                  {planarity:.3} < {min}); the depth is too noisy or the surface too curved at \
                  this window size — try a larger --normal-window or three clicks (--points)"
+            ),
+            NormalProblem::Grazing { angle_deg, max } => write!(
+                f,
+                "the estimated normal is {angle_deg:.1}° from the line of sight (more than                  {max}°): either the surface is seen edge-on or the depth noise exceeds the                  window's extent, and the normal cannot be trusted — try a larger                  --normal-window or three clicks (--points)"
             ),
         }
     }
@@ -258,6 +302,9 @@ struct Scratch {
     /// Valid window pixels: (camera-frame point, depth).
     window: Vec<(DVec3, f64)>,
     chosen: Vec<DVec3>,
+    dx: Vec<f64>,
+    dy: Vec<f64>,
+    diffs: Vec<f64>,
 }
 
 /// The PCA normal at pixel (x, y) of `depth` with `params`, whatever its planarity; errors
@@ -279,12 +326,7 @@ pub fn reliable_normal(
     params: &NormalParams,
 ) -> Result<NormalEstimate, NormalProblem> {
     let e = estimate_normal(depth, x, y, params)?;
-    if e.planarity < params.min_planarity {
-        return Err(NormalProblem::LowPlanarity {
-            planarity: e.planarity,
-            min: params.min_planarity,
-        });
-    }
+    e.check(params)?;
     Ok(e)
 }
 
@@ -318,7 +360,6 @@ fn estimate_with(
     let zc = depth
         .depth_checked(x, y)
         .map_err(NormalProblem::InvalidCentre)?;
-    let tau = params.max_depth_jump;
     let needed = params.required_neighbours();
     let r = params.window / 2;
     let (x0, x1) = (x.saturating_sub(r), (x + r).min(depth.width - 1));
@@ -331,64 +372,103 @@ fn estimate_with(
             }
         }
     }
+    let local = local_trend(depth, (x0, x1), (y0, y1), zc, s);
+    let tau = params.max_depth_jump.max(NOISE_TO_GUARD * local.noise);
 
-    // Pass 1: near the centre's depth.
-    s.chosen.clear();
-    s.chosen.extend(
-        s.window
-            .iter()
-            .filter(|(_, z)| (z - zc).abs() <= tau * zc)
-            .map(|(p, _)| *p),
-    );
-    // Pass 1 only needs enough pixels for a plane: on a steeply slanted surface few pixels lie
-    // within τ of the centre's depth, and pass 2 brings the rest back.
-    if s.chosen.len() < needed.min(6) {
-        return Err(NormalProblem::TooFewNeighbours {
-            found: s.chosen.len(),
-            needed,
-        });
-    }
-    let first = match fit(&s.chosen) {
-        Some(f) => f,
-        None if s.chosen.len() < needed => {
-            return Err(NormalProblem::TooFewNeighbours {
-                found: s.chosen.len(),
-                needed,
-            })
-        }
-        None => return Err(NormalProblem::Degenerate),
-    };
-    let first_count = s.chosen.len();
-
-    // Pass 2: near the fitted plane, depth measured along each pixel's own ray.
-    let d = first.normal.dot(first.centroid);
+    // The guard: only neighbours whose inverse depth lies near the centre's, extrapolated
+    // along the robust local trend (exactly affine in the pixel coordinates on a plane).
+    let wc = 1.0 / zc;
     s.chosen.clear();
     s.chosen.extend(
         s.window
             .iter()
             .filter(|(p, z)| {
-                let along = first.normal.dot(*p / *z);
-                if along.abs() < 1e-12 {
-                    return false;
-                }
-                let zp = d / along;
-                zp > 0.0 && (z - zp).abs() <= tau * zp
+                let (du, dv) = pixel_offset(depth, p, *z, x, y);
+                let predicted = wc + local.gx * du + local.gy * dv;
+                (1.0 / z - predicted).abs() <= tau * wc
             })
             .map(|(p, _)| *p),
     );
-    if s.chosen.len() >= needed {
-        if let Some(second) = fit(&s.chosen) {
-            return Ok(finish(depth, second, s.chosen.len(), s.window.len()));
+    if s.chosen.len() < needed {
+        return Err(NormalProblem::TooFewNeighbours {
+            found: s.chosen.len(),
+            needed,
+        });
+    }
+    let f = fit(&s.chosen).ok_or(NormalProblem::Degenerate)?;
+    let mut e = finish(depth, f, s.chosen.len(), s.window.len());
+    e.noise = local.noise;
+    e.depth_jump = tau;
+    Ok(e)
+}
+
+/// The guard's threshold is at least this many noise standard deviations.
+const NOISE_TO_GUARD: f64 = 4.0;
+
+/// The robust local behaviour of inverse depth w = 1/z in a window.
+struct LocalTrend {
+    /// Median change of w per pixel in x and in y.
+    gx: f64,
+    gy: f64,
+    /// Relative noise σ̂: the median absolute deviation of the per-pixel changes from (gx, gy),
+    /// × 1.4826 (a Gaussian's MAD → σ), / √2 (a difference of two samples), / w_centre.
+    noise: f64,
+}
+
+/// Inverse-depth trend and noise from the 4-adjacent valid pairs of the window. Pairs across a
+/// depth edge are few (one row or column of the window), so the medians ignore them. Zero
+/// trend and noise when the window has no adjacent valid pair.
+fn local_trend(
+    depth: &ViewDepth,
+    (x0, x1): (u32, u32),
+    (y0, y1): (u32, u32),
+    zc: f64,
+    s: &mut Scratch,
+) -> LocalTrend {
+    s.dx.clear();
+    s.dy.clear();
+    for j in y0..=y1 {
+        for i in x0..=x1 {
+            let Some(z) = depth.depth(i, j) else { continue };
+            if i < x1 {
+                if let Some(zn) = depth.depth(i + 1, j) {
+                    s.dx.push(1.0 / zn - 1.0 / z);
+                }
+            }
+            if j < y1 {
+                if let Some(zn) = depth.depth(i, j + 1) {
+                    s.dy.push(1.0 / zn - 1.0 / z);
+                }
+            }
         }
     }
-    // Pass 2 loses pixels only when pass 1's plane was poor; keep pass 1's fit then.
-    if first_count >= needed {
-        return Ok(finish(depth, first, first_count, s.window.len()));
+    let gx = median(&mut s.dx);
+    let gy = median(&mut s.dy);
+    s.diffs.clear();
+    s.diffs.extend(s.dx.iter().map(|d| (d - gx).abs()));
+    s.diffs.extend(s.dy.iter().map(|d| (d - gy).abs()));
+    let mad = median(&mut s.diffs);
+    LocalTrend {
+        gx,
+        gy,
+        noise: 1.4826 * mad / std::f64::consts::SQRT_2 * zc,
     }
-    Err(NormalProblem::TooFewNeighbours {
-        found: first_count.max(s.chosen.len()),
-        needed,
-    })
+}
+
+/// Median of `v` (reordered), 0 for an empty slice.
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mid = v.len() / 2;
+    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
+    *m
+}
+
+/// Pixel offset (Δu, Δv) of the camera-frame point `p` (depth `z`) from pixel (x, y).
+fn pixel_offset(depth: &ViewDepth, p: &DVec3, z: f64, x: u32, y: u32) -> (f64, f64) {
+    let q = depth.camera.k * (*p / z);
+    (q.x - x as f64, q.y - y as f64)
 }
 
 fn finish(depth: &ViewDepth, f: Fit, used: usize, valid: usize) -> NormalEstimate {
@@ -400,13 +480,15 @@ fn finish(depth: &ViewDepth, f: Fit, used: usize, valid: usize) -> NormalEstimat
     let [l0, l1, l2] = f.eigenvalues;
     let l0 = l0.max(0.0);
     let rt: DMat3 = depth.camera.r.transpose();
-    let dof = (used as f64 - 3.0).max(1.0);
+    let to_eye = -f.centroid.normalize_or_zero();
     NormalEstimate {
+        view_angle_deg: n.dot(to_eye).clamp(-1.0, 1.0).acos().to_degrees(),
+        noise: 0.0,
+        depth_jump: 0.0,
         normal: (rt * n).normalize(),
         centroid: depth.camera.to_world(f.centroid),
         planarity: (1.0 - l0 / l1).clamp(0.0, 1.0),
         curvature: (l0 / (l0 + l1 + l2)).clamp(0.0, 1.0),
-        uncertainty_deg: (l0 / (dof * l1)).sqrt().atan().to_degrees(),
         neighbours: used,
         rejected: valid - used,
     }
@@ -484,8 +566,8 @@ mod tests {
                     e.normal
                 );
                 assert!(e.planarity > 1.0 - 1e-9 && e.curvature < 1e-9);
-                assert!(e.uncertainty_deg < 1e-4);
-                assert_eq!(e.rejected, 0);
+                assert_eq!(e.rejected, 0, "a plane has no depth jump");
+                assert!(e.noise < 1e-6, "{}", e.noise);
             }
         }
     }

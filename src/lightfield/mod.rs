@@ -14,6 +14,7 @@ pub mod hci;
 pub mod images;
 pub mod manifest;
 pub mod pfm;
+pub mod ply;
 
 use std::path::{Path, PathBuf};
 

@@ -20,12 +20,14 @@
 //!
 //! Modules: [`color`] (sRGB), [`texture`] (procedural textures), [`scene`] (quads, ray
 //! intersection, [`scene::plane_scene`]), [`raytrace`] (views and light fields), [`mod@builtin`]
-//! (the named scenes, their planes and disparity ranges).
+//! (the named scenes, their planes and disparity ranges), [`surfaces`] (analytic depth views
+//! with exact normals and seeded depth noise, for the geometry studies).
 
 pub mod builtin;
 pub mod color;
 pub mod raytrace;
 pub mod scene;
+pub mod surfaces;
 pub mod texture;
 
 pub use builtin::{builtin, builtin_names, BuiltinScene};
