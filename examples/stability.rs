@@ -215,7 +215,8 @@ fn edge_table(out: &mut String) {
         "\n**Depth edges** ({}): a frontoparallel card covering the left half of the image \
          (depth {} m) in front of a plane swung 30° whose depth at the edge is larger by the \
          jump. Pixels 0…{} px from the edge on either side (their {w}×{w} windows straddle it), \
-         400 per cell. τ is the guard's relative depth threshold; τ = ∞ turns the guard off.\n",
+         400 per cell. τ is `max_depth_jump`, the floor of the guard's relative threshold \
+         (which is max(τ, 4σ̂) with σ̂ the window's estimated noise); τ = ∞ turns the guard off.\n",
         c.label, c.distance, half
     )
     .ok();
