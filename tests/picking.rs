@@ -474,7 +474,7 @@ fn cloud_writes_a_ply_that_a_ply_reader_parses() {
         let quality = f32_of(e, "quality");
         if n != DVec3::ZERO {
             assert!((n.length() - 1.0).abs() < 1e-5);
-            assert!(quality >= 0.0 && quality <= 1.0);
+            assert!((0.0..=1.0).contains(&quality));
             // Both planes are frontoparallel; the guard keeps the 100 % depth jump at the
             // square's border from tilting any normal.
             assert!(angle_deg(n, -DVec3::Z) < 0.01, "({x}, {y}): {n}");

@@ -213,7 +213,7 @@ impl ViewDepth {
             // Refused in `new`; kept total so no sample can slip through as a number.
             (DepthKind::Disparity, None) => return Err(DepthProblem::NoValue),
         };
-        if !(z > 0.0) {
+        if z.is_nan() || z <= 0.0 {
             return Err(DepthProblem::NotPositive(z));
         }
         if !z.is_finite() {

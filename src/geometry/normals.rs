@@ -216,26 +216,21 @@ fn fit(points: &[DVec3]) -> Option<Fit> {
     let n = points.len() as f64;
     let centroid = points.iter().copied().sum::<DVec3>() / n;
     // Two-pass covariance (centred first): no cancellation at large depths.
-    let mut c = [[0.0f64; 3]; 3];
+    let (mut xx, mut xy, mut xz, mut yy, mut yz, mut zz) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     for p in points {
         let d = *p - centroid;
-        let d = [d.x, d.y, d.z];
-        for i in 0..3 {
-            for j in i..3 {
-                c[i][j] += d[i] * d[j];
-            }
-        }
+        xx += d.x * d.x;
+        xy += d.x * d.y;
+        xz += d.x * d.z;
+        yy += d.y * d.y;
+        yz += d.y * d.z;
+        zz += d.z * d.z;
     }
-    for i in 0..3 {
-        for j in i..3 {
-            c[i][j] /= n;
-            c[j][i] = c[i][j];
-        }
-    }
+    let c = [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]].map(|row| row.map(|v| v / n));
     let (values, vectors) = symmetric_eigen3(c);
     let scale = values[2].max(f64::MIN_POSITIVE);
     // Collinear or coincident neighbours: the middle eigenvalue vanishes with the smallest.
-    if !(values[1] > 1e-12 * scale) || !values.iter().all(|v| v.is_finite()) {
+    if values[1].is_nan() || values[1] <= 1e-12 * scale || !values.iter().all(|v| v.is_finite()) {
         return None;
     }
     Some(Fit {
@@ -265,17 +260,15 @@ pub fn symmetric_eigen3(m: [[f64; 3]; 3]) -> ([f64; 3], [DVec3; 3]) {
             let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
             let c = 1.0 / (t * t + 1.0).sqrt();
             let s = t * c;
-            // A ← JᵀAJ with the rotation J in the (p, q) plane.
-            for k in 0..3 {
-                let (akp, akq) = (a[k][p], a[k][q]);
-                a[k][p] = c * akp - s * akq;
-                a[k][q] = s * akp + c * akq;
+            // A ← JᵀAJ with the rotation J in the (p, q) plane: columns, then rows.
+            for row in a.iter_mut() {
+                let (akp, akq) = (row[p], row[q]);
+                row[p] = c * akp - s * akq;
+                row[q] = s * akp + c * akq;
             }
-            for k in 0..3 {
-                let (apk, aqk) = (a[p][k], a[q][k]);
-                a[p][k] = c * apk - s * aqk;
-                a[q][k] = s * apk + c * aqk;
-            }
+            let (rp, rq) = (a[p], a[q]);
+            a[p] = std::array::from_fn(|k| c * rp[k] - s * rq[k]);
+            a[q] = std::array::from_fn(|k| s * rp[k] + c * rq[k]);
             for row in v.iter_mut() {
                 let (vp, vq) = (row[p], row[q]);
                 row[p] = c * vp - s * vq;
