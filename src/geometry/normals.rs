@@ -292,8 +292,8 @@ pub fn symmetric_eigen3(m: [[f64; 3]; 3]) -> ([f64; 3], [DVec3; 3]) {
 /// Reusable buffers for one thread.
 #[derive(Default)]
 struct Scratch {
-    /// Valid window pixels: (camera-frame point, depth).
-    window: Vec<(DVec3, f64)>,
+    /// Valid window pixels: (camera-frame point, depth, pixel offset from the centre).
+    window: Vec<(DVec3, f64, (f64, f64))>,
     chosen: Vec<DVec3>,
     dx: Vec<f64>,
     dy: Vec<f64>,
@@ -361,7 +361,8 @@ fn estimate_with(
     for j in y0..=y1 {
         for i in x0..=x1 {
             if let Some(p) = depth.point_camera(i, j) {
-                s.window.push((p, p.z));
+                let offset = (i as f64 - x as f64, j as f64 - y as f64);
+                s.window.push((p, p.z, offset));
             }
         }
     }
@@ -375,12 +376,11 @@ fn estimate_with(
     s.chosen.extend(
         s.window
             .iter()
-            .filter(|(p, z)| {
-                let (du, dv) = pixel_offset(depth, p, *z, x, y);
+            .filter(|(_, z, (du, dv))| {
                 let predicted = wc + local.gx * du + local.gy * dv;
                 (1.0 / z - predicted).abs() <= tau * wc
             })
-            .map(|(p, _)| *p),
+            .map(|(p, _, _)| *p),
     );
     if s.chosen.len() < needed {
         return Err(NormalProblem::TooFewNeighbours {
@@ -456,12 +456,6 @@ fn median(v: &mut [f64]) -> f64 {
     let mid = v.len() / 2;
     let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
     *m
-}
-
-/// Pixel offset (Δu, Δv) of the camera-frame point `p` (depth `z`) from pixel (x, y).
-fn pixel_offset(depth: &ViewDepth, p: &DVec3, z: f64, x: u32, y: u32) -> (f64, f64) {
-    let q = depth.camera.k * (*p / z);
-    (q.x - x as f64, q.y - y as f64)
 }
 
 fn finish(depth: &ViewDepth, f: Fit, used: usize, valid: usize) -> NormalEstimate {
