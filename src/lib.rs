@@ -6,8 +6,10 @@
 //! are averaged, in linear light by default.
 //!
 //! Layout:
-//! - [`geometry`]: cameras, planes, homographies, apertures — pure f64 maths, no GPU;
-//! - [`lightfield`]: the data model and the loaders (HCI, manifest, grid folders, PFM);
+//! - [`geometry`]: cameras, planes, homographies, apertures, depth → point clouds, normals,
+//!   plane picking — pure f64 maths, no GPU;
+//! - [`lightfield`]: the data model and the loaders (HCI, manifest, grid folders, PFM), PLY
+//!   output;
 //! - [`refocus`]: requests → per-view warps (plan), the f64 CPU reference renderer;
 //! - [`gpu`]: hand-written Vulkan (context, resources, commands, timing, validation);
 //! - [`passes`]: the light field texture, the refocus pass and the mesh rasterizer;

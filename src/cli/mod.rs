@@ -1,6 +1,8 @@
 //! The `tiltfield` command line: argument parsing and the subcommands.
 
+mod cloud;
 mod demo;
+mod focus;
 mod info;
 mod render;
 mod synth;
@@ -33,6 +35,9 @@ pub enum Command {
     /// Render a synthetic light field with ground truth (depth, disparity, normals, optical
     /// tilt-shift image) from a glTF scene or a built-in scene.
     Synth(Box<synth::SynthArgs>),
+    /// Write the point cloud of the depth map's view as binary PLY (positions, colours,
+    /// normals), optionally with the refocus plane and the camera centres.
+    Cloud(Box<cloud::CloudArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -135,6 +140,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Info(a) => info::run(&a),
         Command::Render(a) => render::run(&a),
         Command::Synth(a) => synth::run(&a),
+        Command::Cloud(a) => cloud::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }

@@ -7,52 +7,18 @@ use clap::Args;
 use glam::{DVec2, DVec3};
 use serde_json::json;
 
+use super::focus::{FocusArgs, FocusReport, FOCUS_OPTIONS};
 use super::{ensure_parent, load_light_field, parse_numbers, GpuArgs, LightFieldArgs};
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
-use crate::geometry::plane::Plane;
 use crate::headless::HeadlessRenderer;
 use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
 use crate::passes::refocus::{GpuImage, OutputFormat, RenderSettings};
-use crate::refocus::{self, Averaging, FocusSpec, OutputKind, RefocusPlan, RefocusRequest};
-
-/// The refocus plane options (shared by `render` and `synth`'s optical ground truth).
-#[derive(Debug, Clone, Args)]
-pub struct PlaneArgs {
-    /// Frontoparallel focus by disparity in pixels per grid step. HCI convention on HCI data,
-    /// rig manifests and built-in scenes (positive = nearer than the focus distance); classic
-    /// shift-and-sum elsewhere (view (s,t) sampled at u + (s − s_r)·D, v + (t − t_r)·D).
-    #[arg(long, value_name = "D", allow_hyphen_values = true)]
-    pub disparity: Option<f64>,
-    /// Refocus plane: world point and normal.
-    #[arg(long, value_name = "PX,PY,PZ,NX,NY,NZ", allow_hyphen_values = true)]
-    pub plane: Option<String>,
-    /// Refocus plane through the reference optical axis at distance Z (world units).
-    #[arg(long, value_name = "Z", allow_hyphen_values = true)]
-    pub focus: Option<f64>,
-    /// Tilt of the --focus plane in degrees (positive: top of the image farther).
-    #[arg(
-        long,
-        value_name = "DEG",
-        requires = "focus",
-        allow_hyphen_values = true,
-        default_value_t = 0.0
-    )]
-    pub tilt: f64,
-    /// Swing of the --focus plane in degrees (positive: right side farther).
-    #[arg(
-        long,
-        value_name = "DEG",
-        requires = "focus",
-        allow_hyphen_values = true,
-        default_value_t = 0.0
-    )]
-    pub swing: f64,
-}
+use crate::refocus::{self, Averaging, OutputKind, RefocusPlan, RefocusRequest};
 
 #[derive(Debug, Args)]
-#[command(group(clap::ArgGroup::new("focus_plane").required(true).args(["disparity", "plane", "focus"])))]
+#[command(group(clap::ArgGroup::new("focus_plane").required(true).args(FOCUS_OPTIONS)))]
 pub struct RenderArgs {
     #[command(flatten)]
     pub lf: LightFieldArgs,
@@ -60,7 +26,7 @@ pub struct RenderArgs {
     #[arg(short, long, value_name = "OUT")]
     pub output: PathBuf,
     #[command(flatten)]
-    pub plane_opts: PlaneArgs,
+    pub focus: FocusArgs,
     /// Aperture shape: disk, square or gaussian.
     #[arg(long, default_value = "disk")]
     pub aperture: ApertureShape,
@@ -89,28 +55,6 @@ pub struct RenderArgs {
     pub gpu: GpuArgs,
 }
 
-/// The focus specification from the mutually exclusive options.
-pub fn focus_spec(args: &PlaneArgs) -> Result<FocusSpec> {
-    if let Some(d) = args.disparity {
-        return Ok(FocusSpec::Disparity(d));
-    }
-    if let Some(text) = &args.plane {
-        let v = parse_numbers(text, 6, "--plane")?;
-        let plane = Plane::new(DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]))?;
-        return Ok(FocusSpec::Plane(plane));
-    }
-    if let Some(z) = args.focus {
-        return Ok(FocusSpec::FocusTiltSwing {
-            distance: z,
-            tilt_deg: args.tilt,
-            swing_deg: args.swing,
-        });
-    }
-    Err(Error::Invalid(
-        "give one of --disparity, --plane or --focus".into(),
-    ))
-}
-
 /// Indices of views to leave out of the aperture (vignetted black views).
 pub fn dark_views(lf: &LightField, include_dark: bool) -> Vec<bool> {
     if include_dark {
@@ -126,8 +70,8 @@ pub fn dark_views(lf: &LightField, include_dark: bool) -> Vec<bool> {
     dark
 }
 
-/// The plan for `args` on `lf`.
-pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<RefocusPlan> {
+/// The plan for `args` on `lf`, and how its focus was set.
+pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, FocusReport)> {
     let reference = match &args.view {
         Some(text) => {
             let v = parse_numbers(text, 2, "--view")?;
@@ -135,15 +79,25 @@ pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<RefocusPlan> {
         }
         None => None,
     };
+    let (focus, report) = args
+        .focus
+        .resolve(lf, reference.unwrap_or_else(|| lf.grid.centre()))?
+        .ok_or_else(|| {
+            Error::Invalid(
+                "give one of --disparity, --plane, --focus, --click, --points or --points-3d"
+                    .into(),
+            )
+        })?;
     let req = RefocusRequest {
-        focus: focus_spec(&args.plane_opts)?,
+        focus,
         aperture: Aperture {
             shape: args.aperture,
             radius: args.aperture_radius,
         },
         reference,
     };
-    refocus::plan(lf, &req, &dark_views(lf, args.include_dark))
+    let plan = refocus::plan(lf, &req, &dark_views(lf, args.include_dark))?;
+    Ok((plan, report))
 }
 
 /// The JSON description of a plan (shared by `render --json` and `demo`).
@@ -192,7 +146,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let kind = OutputKind::from_path(&args.output)?;
     let lf = load_light_field(&args.lf)?;
     let t_load = t0.elapsed().as_secs_f64() * 1e3;
-    let plan = make_plan(&lf, args)?;
+    let (plan, focus) = make_plan(&lf, args)?;
+    if !args.json {
+        if let Some(line) = focus.summary() {
+            eprintln!("{line}");
+        }
+    }
     let t1 = Instant::now();
     let mut renderer = HeadlessRenderer::new(&lf, &args.gpu.options())?;
     let t_upload = t1.elapsed().as_secs_f64() * 1e3;
@@ -237,6 +196,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                 "grid": [lf.grid.cols, lf.grid.rows],
                 "size": [lf.width, lf.height],
             },
+            "focus": focus.to_json(),
             "output": args.output,
             "averaging": args.average,
             "aperture": {"shape": args.aperture, "radius": args.aperture_radius},

@@ -9,7 +9,7 @@ use clap::{Args, ValueEnum};
 use glam::{DMat3, DVec3};
 use serde_json::json;
 
-use super::render::{focus_spec, PlaneArgs};
+use super::focus::PlaneArgs;
 use super::GpuArgs;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
@@ -39,6 +39,7 @@ pub enum RigArg {
 }
 
 #[derive(Debug, Args)]
+#[command(group(clap::ArgGroup::new("gt_plane").args(["disparity", "plane", "focus"])))]
 pub struct SynthArgs {
     /// The scene: a .gltf or .glb file, or builtin:NAME (see --list).
     #[arg(required_unless_present = "list")]
@@ -253,14 +254,7 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         focus_distance,
         kind,
     };
-    let focus = if args.plane_opts.disparity.is_some()
-        || args.plane_opts.plane.is_some()
-        || args.plane_opts.focus.is_some()
-    {
-        Some(focus_spec(&args.plane_opts)?)
-    } else {
-        None
-    };
+    let focus = args.plane_opts.spec()?.map(|(_, spec)| spec);
     let mut r = Rasterizer::new(&placed.mesh, &args.gpu.options())?;
     let device = r.context().info.name.clone();
     let t_render = Instant::now();

@@ -7,13 +7,14 @@
 //!
 //! Loaders: [`hci`] (HCI 4D Light Field Benchmark folders), [`manifest`] (our JSON manifest for
 //! calibrated arrays), [`grid_folder`] (rectified views named by row and column). [`open`] picks
-//! one from the path.
+//! one from the path. [`ply`] writes point clouds (`tiltfield cloud`).
 
 pub mod grid_folder;
 pub mod hci;
 pub mod images;
 pub mod manifest;
 pub mod pfm;
+pub mod ply;
 
 use std::path::{Path, PathBuf};
 

@@ -23,7 +23,9 @@
 //! intersection, [`scene::plane_scene`]), [`raytrace`] (views and light fields), [`mod@builtin`]
 //! (the named scenes, their planes and disparity ranges); for the rasterizer [`mesh`] (triangle
 //! meshes, quad scenes baked into textured meshes), [`mod@gltf`] (glTF input), [`scenes`] (the
-//! built-in scenes of `synth`) and [`raster`] (views, rigs, light fields, optical ground truth).
+//! built-in scenes of `synth`) and [`raster`] (views, rigs, light fields, optical ground truth);
+//! for the geometry studies [`surfaces`] (analytic depth views with exact normals and seeded
+//! depth noise).
 
 pub mod builtin;
 pub mod gltf;
@@ -32,6 +34,7 @@ pub mod raster;
 pub mod raytrace;
 pub mod scene;
 pub mod scenes;
+pub mod surfaces;
 pub mod texture;
 
 pub use builtin::{builtin, builtin_names, BuiltinScene};

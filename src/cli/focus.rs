@@ -1,0 +1,352 @@
+//! The focus options shared by `render` and `cloud`: the keyboard and plane definitions
+//! (`--disparity`, `--plane`, `--focus/--tilt/--swing`) and the scene-based ones (`--click`,
+//! `--points`, `--points-3d`) with keyboard fine adjustment (`--nudge-*`).
+//!
+//! Pixels given to `--click` and `--points` are pixels of the view that carries the depth map
+//! (normally the centre view), also when `--view` renders from another viewpoint: the plane
+//! found is a world-frame plane. Nudges act in the keyboard definition relative to the
+//! reference camera of the render (`--view`, default the grid centre).
+
+use clap::Args;
+use glam::{DVec2, DVec3};
+use serde_json::{json, Value};
+
+use super::parse_numbers;
+use crate::error::{Error, Result};
+use crate::geometry::depth::ViewDepth;
+use crate::geometry::normals::NormalParams;
+use crate::geometry::picking::{self, Nudge, Pick, PickMethod};
+use crate::geometry::plane::Plane;
+use crate::lightfield::LightField;
+use crate::refocus::plan::reference_camera;
+use crate::refocus::FocusSpec;
+
+/// Ids of all focus options, for the parent command's mutually exclusive group.
+pub const FOCUS_OPTIONS: [&str; 6] = [
+    "disparity",
+    "plane",
+    "focus",
+    "click",
+    "points",
+    "points_3d",
+];
+
+/// The keyboard and plane definitions of the refocus plane (shared by `render`, `cloud` and
+/// `synth`'s optical ground truth). Mutual exclusion is the parent command's group.
+#[derive(Debug, Clone, Args)]
+pub struct PlaneArgs {
+    /// Frontoparallel focus by disparity in pixels per grid step. HCI convention on HCI data,
+    /// rig manifests and built-in scenes (positive = nearer than the focus distance); classic
+    /// shift-and-sum elsewhere (view (s,t) sampled at u + (s − s_r)·D, v + (t − t_r)·D).
+    #[arg(long, value_name = "D", allow_hyphen_values = true)]
+    pub disparity: Option<f64>,
+    /// Refocus plane: world point and normal.
+    #[arg(long, value_name = "PX,PY,PZ,NX,NY,NZ", allow_hyphen_values = true)]
+    pub plane: Option<String>,
+    /// Refocus plane through the reference optical axis at distance Z (world units).
+    #[arg(long, value_name = "Z", allow_hyphen_values = true)]
+    pub focus: Option<f64>,
+    /// Tilt of the --focus plane in degrees (positive: top of the image farther).
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "focus",
+        allow_hyphen_values = true,
+        default_value_t = 0.0
+    )]
+    pub tilt: f64,
+    /// Swing of the --focus plane in degrees (positive: right side farther).
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "focus",
+        allow_hyphen_values = true,
+        default_value_t = 0.0
+    )]
+    pub swing: f64,
+}
+
+impl PlaneArgs {
+    /// The focus these options give, with its name for reports; `None` when none is given.
+    pub fn spec(&self) -> Result<Option<(&'static str, FocusSpec)>> {
+        if let Some(d) = self.disparity {
+            return Ok(Some(("disparity", FocusSpec::Disparity(d))));
+        }
+        if let Some(text) = &self.plane {
+            let v = parse_numbers(text, 6, "--plane")?;
+            let p = Plane::new(DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]))?;
+            return Ok(Some(("plane", FocusSpec::Plane(p))));
+        }
+        Ok(self.focus.map(|z| {
+            (
+                "focus-tilt-swing",
+                FocusSpec::FocusTiltSwing {
+                    distance: z,
+                    tilt_deg: self.tilt,
+                    swing_deg: self.swing,
+                },
+            )
+        }))
+    }
+}
+
+/// Focus options. The parent command defines the group `focus_plane` over [`FOCUS_OPTIONS`].
+#[derive(Debug, Clone, Args)]
+#[command(group(clap::ArgGroup::new("pick").args(["click", "points", "points_3d"])))]
+pub struct FocusArgs {
+    #[command(flatten)]
+    pub keyboard: PlaneArgs,
+    /// Single click: the plane through pixel U,V of the depth map's view (normally the centre
+    /// view) with the surface normal there (local PCA of the depth map).
+    #[arg(long, value_name = "U,V")]
+    pub click: Option<String>,
+    /// Three clicks: the plane through three pixels of the depth map's view.
+    #[arg(long, value_name = "U1,V1,U2,V2,U3,V3")]
+    pub points: Option<String>,
+    /// The plane through three world points.
+    #[arg(
+        long = "points-3d",
+        value_name = "X1,Y1,Z1,X2,Y2,Z2,X3,Y3,Z3",
+        allow_hyphen_values = true
+    )]
+    pub points_3d: Option<String>,
+    /// After --click/--points/--points-3d: add DZ to the plane's distance along the reference
+    /// optical axis (world units).
+    #[arg(long, value_name = "DZ", requires = "pick", allow_hyphen_values = true)]
+    pub nudge_distance: Option<f64>,
+    /// After --click/--points/--points-3d: add DEG to the plane's tilt (as --tilt).
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "pick",
+        allow_hyphen_values = true
+    )]
+    pub nudge_tilt: Option<f64>,
+    /// After --click/--points/--points-3d: add DEG to the plane's swing (as --swing).
+    #[arg(
+        long,
+        value_name = "DEG",
+        requires = "pick",
+        allow_hyphen_values = true
+    )]
+    pub nudge_swing: Option<f64>,
+    /// Side of the image window (odd, pixels) of the --click normal estimate.
+    #[arg(long, value_name = "N", default_value_t = NormalParams::default().window)]
+    pub normal_window: u32,
+}
+
+/// How the focus was set, for reports.
+#[derive(Debug, Clone)]
+pub struct FocusReport {
+    /// `disparity`, `plane`, `focus-tilt-swing`, `click`, `three-points` or `three-points-3d`.
+    pub how: &'static str,
+    /// The scene pick, for the click methods.
+    pub pick: Option<Pick>,
+    /// Where the depth of a pixel pick came from.
+    pub depth: Option<DepthInfo>,
+}
+
+/// The depth map a pixel pick used.
+#[derive(Debug, Clone)]
+pub struct DepthInfo {
+    pub source: String,
+    pub view: (usize, usize),
+    pub kind: crate::lightfield::DepthKind,
+}
+
+impl FocusArgs {
+    /// True when any focus option is given.
+    pub fn any(&self) -> bool {
+        self.keyboard.disparity.is_some()
+            || self.keyboard.plane.is_some()
+            || self.keyboard.focus.is_some()
+            || self.click.is_some()
+            || self.points.is_some()
+            || self.points_3d.is_some()
+    }
+
+    /// The nudge, when any `--nudge-*` is given.
+    pub fn nudge(&self) -> Option<Nudge> {
+        if self.nudge_distance.is_none() && self.nudge_tilt.is_none() && self.nudge_swing.is_none()
+        {
+            return None;
+        }
+        Some(Nudge {
+            distance: self.nudge_distance.unwrap_or(0.0),
+            tilt_deg: self.nudge_tilt.unwrap_or(0.0),
+            swing_deg: self.nudge_swing.unwrap_or(0.0),
+        })
+    }
+
+    /// The focus of these options on `lf` for the reference view `reference` (grid units), or
+    /// `None` when no focus option is given. Click methods resolve to [`FocusSpec::Plane`].
+    pub fn resolve(
+        &self,
+        lf: &LightField,
+        reference: DVec2,
+    ) -> Result<Option<(FocusSpec, FocusReport)>> {
+        if let Some((how, spec)) = self.keyboard.spec()? {
+            let report = FocusReport {
+                how,
+                pick: None,
+                depth: None,
+            };
+            return Ok(Some((spec, report)));
+        }
+        let pixel_depth = || -> Result<ViewDepth> {
+            let d = ViewDepth::from_light_field(lf)?;
+            if d.valid_count() == 0 {
+                return Err(Error::LightField(format!(
+                    "{}: depth map {} has no valid sample",
+                    lf.name, d.source
+                )));
+            }
+            Ok(d)
+        };
+        let (pick, depth) = if let Some(text) = &self.click {
+            let v = parse_numbers(text, 2, "--click")?;
+            let params = NormalParams::default().with_window(self.normal_window);
+            let d = pixel_depth()?;
+            (picking::click(&d, v[0], v[1], &params)?, Some(d))
+        } else if let Some(text) = &self.points {
+            let v = parse_numbers(text, 6, "--points")?;
+            let d = pixel_depth()?;
+            let px = [
+                DVec2::new(v[0], v[1]),
+                DVec2::new(v[2], v[3]),
+                DVec2::new(v[4], v[5]),
+            ];
+            (picking::three_clicks(&d, px)?, Some(d))
+        } else if let Some(text) = &self.points_3d {
+            let v = parse_numbers(text, 9, "--points-3d")?;
+            let camera = reference_camera(lf, reference)?;
+            let pts = [
+                DVec3::new(v[0], v[1], v[2]),
+                DVec3::new(v[3], v[4], v[5]),
+                DVec3::new(v[6], v[7], v[8]),
+            ];
+            (picking::three_points(pts, &camera)?, None)
+        } else {
+            return Ok(None);
+        };
+        let pick = match self.nudge() {
+            Some(n) => pick.nudged(&reference_camera(lf, reference)?, n)?,
+            None => pick,
+        };
+        if pick.method != PickMethod::Click && pick.confidence < 0.2 {
+            log::warn!(
+                "the three points are nearly collinear (smallest angle {:.2}°): the plane's \
+                 orientation is very sensitive to depth errors; spread the points wider",
+                pick.min_angle_deg.unwrap_or(0.0)
+            );
+        }
+        let report = FocusReport {
+            how: pick.method.name(),
+            depth: depth.map(|d| DepthInfo {
+                source: d.source.clone(),
+                view: d.grid_position,
+                kind: d.kind,
+            }),
+            pick: Some(pick.clone()),
+        };
+        Ok(Some((FocusSpec::Plane(pick.plane), report)))
+    }
+}
+
+fn v3(v: DVec3) -> [f64; 3] {
+    [v.x, v.y, v.z]
+}
+
+fn plane_json(p: &Plane) -> Value {
+    json!({"point": v3(p.point), "normal": v3(p.normal)})
+}
+
+impl FocusReport {
+    /// The JSON report: `how`, `nudged`, `confidence` and, for picks, the details.
+    pub fn to_json(&self) -> Value {
+        let Some(pick) = &self.pick else {
+            return json!({"how": self.how, "nudged": false, "confidence": null});
+        };
+        let mut v = json!({
+            "how": self.how,
+            "nudged": pick.nudge.is_some(),
+            "confidence": pick.confidence,
+            "plane_found": plane_json(&pick.found),
+            "plane": plane_json(&pick.plane),
+            "points": pick.points.iter().map(|p| v3(*p)).collect::<Vec<_>>(),
+        });
+        let obj = v.as_object_mut();
+        if let Some(obj) = obj {
+            if !pick.pixels.is_empty() {
+                obj.insert("pixels".into(), json!(pick.pixels));
+            }
+            if let Some(n) = &pick.normal {
+                obj.insert(
+                    "normal_estimate".into(),
+                    json!({
+                        "normal": v3(n.normal),
+                        "centroid": v3(n.centroid),
+                        "planarity": n.planarity,
+                        "curvature": n.curvature,
+                        "view_angle_deg": n.view_angle_deg,
+                        "neighbours": n.neighbours,
+                        "rejected": n.rejected,
+                    }),
+                );
+            }
+            if let Some(a) = pick.min_angle_deg {
+                obj.insert("min_angle_deg".into(), json!(a));
+            }
+            if let Some(n) = &pick.nudge {
+                obj.insert("nudge".into(), json!(n));
+            }
+            if let Some(d) = &self.depth {
+                obj.insert(
+                    "depth_map".into(),
+                    json!({"source": d.source, "view": [d.view.0, d.view.1], "kind": d.kind}),
+                );
+            }
+        }
+        v
+    }
+
+    /// One human-readable line about a pick (`None` for the plain options).
+    pub fn summary(&self) -> Option<String> {
+        let pick = self.pick.as_ref()?;
+        let p = pick.plane;
+        let mut s = format!(
+            "{}{} → plane through ({:.4}, {:.4}, {:.4}) with normal ({:.4}, {:.4}, {:.4}), \
+             confidence {:.3}",
+            self.how,
+            match pick.pixels.as_slice() {
+                [] => String::new(),
+                px => format!(
+                    " at {}",
+                    px.iter()
+                        .map(|(x, y)| format!("({x}, {y})"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            },
+            p.point.x,
+            p.point.y,
+            p.point.z,
+            p.normal.x,
+            p.normal.y,
+            p.normal.z,
+            pick.confidence
+        );
+        if let Some(n) = &pick.nudge {
+            s.push_str(&format!(
+                "; nudged from distance {:.4}, tilt {:.2}°, swing {:.2}° to {:.4}, {:.2}°, {:.2}°",
+                n.before.distance,
+                n.before.tilt_deg,
+                n.before.swing_deg,
+                n.after.distance,
+                n.after.tilt_deg,
+                n.after.swing_deg
+            ));
+        }
+        Some(s)
+    }
+}
