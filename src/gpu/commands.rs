@@ -113,6 +113,66 @@ pub fn image_barrier(
     };
 }
 
+/// Begins dynamic rendering into one colour attachment (and optionally a depth attachment,
+/// cleared to `clear_depth` and not stored) covering `extent`, and sets viewport and scissor
+/// to it. `color_load` CLEAR clears colour to 0.
+pub fn begin_rendering(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    extent: vk::Extent2D,
+    color: vk::ImageView,
+    color_load: vk::AttachmentLoadOp,
+    depth: Option<(vk::ImageView, f32)>,
+) {
+    let attachment = [vk::RenderingAttachmentInfo::default()
+        .image_view(color)
+        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+        .load_op(color_load)
+        .store_op(vk::AttachmentStoreOp::STORE)
+        .clear_value(vk::ClearValue {
+            color: vk::ClearColorValue { float32: [0.0; 4] },
+        })];
+    let depth_attachment = depth.map(|(view, clear)| {
+        vk::RenderingAttachmentInfo::default()
+            .image_view(view)
+            .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: clear,
+                    stencil: 0,
+                },
+            })
+    });
+    let area = vk::Rect2D {
+        offset: vk::Offset2D { x: 0, y: 0 },
+        extent,
+    };
+    let mut info = vk::RenderingInfo::default()
+        .render_area(area)
+        .layer_count(1)
+        .color_attachments(&attachment);
+    if let Some(d) = &depth_attachment {
+        info = info.depth_attachment(d);
+    }
+    let viewport = [vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: extent.width as f32,
+        height: extent.height as f32,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    }];
+    // SAFETY: recording outside a rendering instance; the attachments are in the layouts
+    // named above (the callers' barriers put them there).
+    unsafe {
+        d.cmd_begin_rendering(cmd, &info);
+        d.cmd_set_viewport(cmd, 0, &viewport);
+        d.cmd_set_scissor(cmd, 0, &[area]);
+    }
+}
+
 /// Common barrier endpoints.
 pub mod stage {
     use ash::vk::{AccessFlags2 as A, ImageLayout as L, PipelineStageFlags2 as S};

@@ -13,6 +13,7 @@
 
 pub mod commands;
 pub mod context;
+pub mod pipeline;
 pub mod resources;
 pub mod shaders;
 pub mod timing;

@@ -34,7 +34,8 @@ use glam::{DMat3, DMat4, DVec2, DVec3, DVec4};
 
 use crate::error::{Error, Result};
 use crate::geometry::camera::Camera;
-use crate::gpu::commands::{image_barrier, stage, ImageTransition, Submission};
+use crate::gpu::commands::{begin_rendering, image_barrier, stage, ImageTransition, Submission};
+use crate::gpu::pipeline::{graphics_pipeline, DepthTest, PipelineDesc};
 use crate::gpu::resources::{range_of, Buffer, Image, ImageDesc};
 use crate::gpu::shaders;
 use crate::gpu::GpuContext;
@@ -322,7 +323,18 @@ impl RasterPass {
                 if k > 0 {
                     attachments_barrier(d, cmd);
                 }
-                begin_rendering(d, cmd, accum.views[0], depth.views[0], extent, k == 0);
+                begin_rendering(
+                    d,
+                    cmd,
+                    extent,
+                    accum.views[0],
+                    if k == 0 {
+                        vk::AttachmentLoadOp::CLEAR
+                    } else {
+                        vk::AttachmentLoadOp::LOAD
+                    },
+                    Some((depth.views[0], 0.0)),
+                );
                 draw_all(b.prepass, p);
                 draw_all(b.accum, p);
                 // SAFETY: inside the rendering instance begun above.
@@ -375,7 +387,14 @@ impl RasterPass {
                         to: stage::COLOR_WRITE,
                     },
                 );
-                begin_rendering(d, cmd, geom.views[0], depth.views[0], extent, true);
+                begin_rendering(
+                    d,
+                    cmd,
+                    extent,
+                    geom.views[0],
+                    vk::AttachmentLoadOp::CLEAR,
+                    Some((depth.views[0], 0.0)),
+                );
                 draw_all(b.geometry, g);
                 // SAFETY: inside the rendering instance begun above.
                 unsafe { d.cmd_end_rendering(cmd) };
@@ -487,62 +506,6 @@ fn depth_barrier(d: &ash::Device, cmd: vk::CommandBuffer, image: vk::Image) {
             &vk::DependencyInfo::default().image_memory_barriers(&barrier),
         )
     };
-}
-
-fn begin_rendering(
-    d: &ash::Device,
-    cmd: vk::CommandBuffer,
-    color: vk::ImageView,
-    depth: vk::ImageView,
-    extent: vk::Extent2D,
-    clear_color: bool,
-) {
-    let attachment = [vk::RenderingAttachmentInfo::default()
-        .image_view(color)
-        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-        .load_op(if clear_color {
-            vk::AttachmentLoadOp::CLEAR
-        } else {
-            vk::AttachmentLoadOp::LOAD
-        })
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(vk::ClearValue {
-            color: vk::ClearColorValue { float32: [0.0; 4] },
-        })];
-    let depth_attachment = vk::RenderingAttachmentInfo::default()
-        .image_view(depth)
-        .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-        .load_op(vk::AttachmentLoadOp::CLEAR)
-        .store_op(vk::AttachmentStoreOp::DONT_CARE)
-        .clear_value(vk::ClearValue {
-            depth_stencil: vk::ClearDepthStencilValue {
-                depth: 0.0,
-                stencil: 0,
-            },
-        });
-    let area = vk::Rect2D {
-        offset: vk::Offset2D { x: 0, y: 0 },
-        extent,
-    };
-    let info = vk::RenderingInfo::default()
-        .render_area(area)
-        .layer_count(1)
-        .color_attachments(&attachment)
-        .depth_attachment(&depth_attachment);
-    let viewport = [vk::Viewport {
-        x: 0.0,
-        y: 0.0,
-        width: extent.width as f32,
-        height: extent.height as f32,
-        min_depth: 0.0,
-        max_depth: 1.0,
-    }];
-    // SAFETY: recording; the attachments are in the layouts named above.
-    unsafe {
-        d.cmd_begin_rendering(cmd, &info);
-        d.cmd_set_viewport(cmd, 0, &viewport);
-        d.cmd_set_scissor(cmd, 0, &[area]);
-    }
 }
 
 /// Handles of the pass under construction (null until created); destroying it frees exactly
@@ -844,17 +807,6 @@ fn mesh_pipeline(
     frag: vk::ShaderModule,
     mode: Mode,
 ) -> Result<vk::Pipeline> {
-    let entry = c"main";
-    let stages = [
-        vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::VERTEX)
-            .module(vert)
-            .name(entry),
-        vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::FRAGMENT)
-            .module(frag)
-            .name(entry),
-    ];
     let bindings = [vk::VertexInputBindingDescription::default()
         .binding(0)
         .stride(VERTEX_BYTES as u32)
@@ -872,68 +824,30 @@ fn mesh_pipeline(
         attr(2, vk::Format::R32G32_SFLOAT, 24),
         attr(3, vk::Format::R32G32B32A32_SFLOAT, 32),
     ];
-    let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
-        .vertex_binding_descriptions(&bindings)
-        .vertex_attribute_descriptions(&attributes);
-    let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-    let viewport = vk::PipelineViewportStateCreateInfo::default()
-        .viewport_count(1)
-        .scissor_count(1);
-    let raster = vk::PipelineRasterizationStateCreateInfo::default()
-        .polygon_mode(vk::PolygonMode::FILL)
-        .cull_mode(vk::CullModeFlags::NONE)
-        .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
-        .line_width(1.0);
-    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
+    // Reverse-Z: nearer is greater. The accumulation pass re-draws the pre-pass depth exactly,
+    // so it tests with GREATER_OR_EQUAL and writes no depth.
     let (compare, write) = match mode {
         Mode::DepthPrepass | Mode::Geometry => (vk::CompareOp::GREATER, true),
         Mode::Accumulate => (vk::CompareOp::GREATER_OR_EQUAL, false),
     };
-    let depth = vk::PipelineDepthStencilStateCreateInfo::default()
-        .depth_test_enable(true)
-        .depth_write_enable(write)
-        .depth_compare_op(compare);
-    let blend_attachment = [vk::PipelineColorBlendAttachmentState::default()
-        .blend_enable(mode == Mode::Accumulate)
-        .src_color_blend_factor(vk::BlendFactor::ONE)
-        .dst_color_blend_factor(vk::BlendFactor::ONE)
-        .color_blend_op(vk::BlendOp::ADD)
-        .src_alpha_blend_factor(vk::BlendFactor::ONE)
-        .dst_alpha_blend_factor(vk::BlendFactor::ONE)
-        .alpha_blend_op(vk::BlendOp::ADD)
-        .color_write_mask(if mode == Mode::DepthPrepass {
-            vk::ColorComponentFlags::empty()
-        } else {
-            vk::ColorComponentFlags::RGBA
-        })];
-    let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachment);
-    let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
-    let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-    let formats = [ACCUM_FORMAT];
-    let mut rendering = vk::PipelineRenderingCreateInfo::default()
-        .color_attachment_formats(&formats)
-        .depth_attachment_format(DEPTH_FORMAT);
-    let info = vk::GraphicsPipelineCreateInfo::default()
-        .stages(&stages)
-        .vertex_input_state(&vertex_input)
-        .input_assembly_state(&assembly)
-        .viewport_state(&viewport)
-        .rasterization_state(&raster)
-        .multisample_state(&multisample)
-        .depth_stencil_state(&depth)
-        .color_blend_state(&blend)
-        .dynamic_state(&dynamic)
-        .layout(layout)
-        .push_next(&mut rendering);
-    // SAFETY: every referenced structure lives until the call returns.
-    let pipelines = unsafe {
-        ctx.device
-            .create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
-    }
-    .map_err(|(_, e)| Error::from(e))?;
-    Ok(pipelines[0])
+    graphics_pipeline(
+        ctx,
+        &PipelineDesc {
+            layout,
+            vert,
+            frag,
+            color_format: ACCUM_FORMAT,
+            additive: mode == Mode::Accumulate,
+            color_write: mode != Mode::DepthPrepass,
+            depth: Some(DepthTest {
+                format: DEPTH_FORMAT,
+                compare,
+                write,
+            }),
+            vertex_bindings: &bindings,
+            vertex_attributes: &attributes,
+        },
+    )
 }
 
 #[cfg(test)]

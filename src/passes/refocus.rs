@@ -16,7 +16,8 @@ use image::RgbaImage;
 
 use super::texture::{LightFieldTexture, VIEW_SRGB, VIEW_UNORM};
 use crate::error::{Error, Result};
-use crate::gpu::commands::{image_barrier, stage, ImageTransition, Submission};
+use crate::gpu::commands::{begin_rendering, image_barrier, stage, ImageTransition, Submission};
+use crate::gpu::pipeline::{graphics_pipeline, PipelineDesc};
 use crate::gpu::resources::{Buffer, Image, ImageDesc};
 use crate::gpu::shaders;
 use crate::gpu::timing::Timestamps;
@@ -547,10 +548,14 @@ impl RefocusPass {
                     to: stage::COLOR_WRITE,
                 },
             );
-            let clear = vk::ClearValue {
-                color: vk::ClearColorValue { float32: [0.0; 4] },
-            };
-            begin_rendering(d, cmd, t.accum.views[0], extent, Some(clear));
+            begin_rendering(
+                d,
+                cmd,
+                extent,
+                t.accum.views[0],
+                vk::AttachmentLoadOp::CLEAR,
+                None,
+            );
             // SAFETY: recording inside a dynamic rendering instance with matching formats.
             unsafe {
                 d.cmd_bind_pipeline(
@@ -606,7 +611,14 @@ impl RefocusPass {
                     to: stage::COLOR_WRITE,
                 },
             );
-            begin_rendering(d, cmd, out_view, extent, None);
+            begin_rendering(
+                d,
+                cmd,
+                extent,
+                out_view,
+                vk::AttachmentLoadOp::DONT_CARE,
+                None,
+            );
             // SAFETY: as above.
             unsafe {
                 d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, resolve_pipeline);
@@ -782,49 +794,8 @@ fn push_bytes(plane: [f32; 4], view_size: [f32; 2], first: u32, count: u32) -> [
     out
 }
 
-fn begin_rendering(
-    d: &ash::Device,
-    cmd: vk::CommandBuffer,
-    view: vk::ImageView,
-    extent: vk::Extent2D,
-    clear: Option<vk::ClearValue>,
-) {
-    let attachment = [vk::RenderingAttachmentInfo::default()
-        .image_view(view)
-        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-        .load_op(if clear.is_some() {
-            vk::AttachmentLoadOp::CLEAR
-        } else {
-            vk::AttachmentLoadOp::DONT_CARE
-        })
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(clear.unwrap_or_default())];
-    let area = vk::Rect2D {
-        offset: vk::Offset2D { x: 0, y: 0 },
-        extent,
-    };
-    let info = vk::RenderingInfo::default()
-        .render_area(area)
-        .layer_count(1)
-        .color_attachments(&attachment);
-    let viewport = [vk::Viewport {
-        x: 0.0,
-        y: 0.0,
-        width: extent.width as f32,
-        height: extent.height as f32,
-        min_depth: 0.0,
-        max_depth: 1.0,
-    }];
-    // SAFETY: recording; the attachment is in COLOR_ATTACHMENT_OPTIMAL.
-    unsafe {
-        d.cmd_begin_rendering(cmd, &info);
-        d.cmd_set_viewport(cmd, 0, &viewport);
-        d.cmd_set_scissor(cmd, 0, &[area]);
-    }
-}
-
-/// A pipeline drawing one fullscreen triangle into one colour attachment of `format`, with
-/// additive blending when `additive`.
+/// A pipeline drawing one fullscreen triangle (no vertex input) into one colour attachment of
+/// `format`, with additive blending when `additive`.
 fn fullscreen_pipeline(
     ctx: &GpuContext,
     layout: vk::PipelineLayout,
@@ -833,61 +804,18 @@ fn fullscreen_pipeline(
     format: vk::Format,
     additive: bool,
 ) -> Result<vk::Pipeline> {
-    let entry = c"main";
-    let stages = [
-        vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::VERTEX)
-            .module(vert)
-            .name(entry),
-        vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::FRAGMENT)
-            .module(frag)
-            .name(entry),
-    ];
-    let vertex_input = vk::PipelineVertexInputStateCreateInfo::default();
-    let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-    let viewport = vk::PipelineViewportStateCreateInfo::default()
-        .viewport_count(1)
-        .scissor_count(1);
-    let raster = vk::PipelineRasterizationStateCreateInfo::default()
-        .polygon_mode(vk::PolygonMode::FILL)
-        .cull_mode(vk::CullModeFlags::NONE)
-        .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
-        .line_width(1.0);
-    let multisample = vk::PipelineMultisampleStateCreateInfo::default()
-        .rasterization_samples(vk::SampleCountFlags::TYPE_1);
-    let blend_attachment = [vk::PipelineColorBlendAttachmentState::default()
-        .blend_enable(additive)
-        .src_color_blend_factor(vk::BlendFactor::ONE)
-        .dst_color_blend_factor(vk::BlendFactor::ONE)
-        .color_blend_op(vk::BlendOp::ADD)
-        .src_alpha_blend_factor(vk::BlendFactor::ONE)
-        .dst_alpha_blend_factor(vk::BlendFactor::ONE)
-        .alpha_blend_op(vk::BlendOp::ADD)
-        .color_write_mask(vk::ColorComponentFlags::RGBA)];
-    let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&blend_attachment);
-    let dynamic_states = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
-    let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic_states);
-    let formats = [format];
-    let mut rendering =
-        vk::PipelineRenderingCreateInfo::default().color_attachment_formats(&formats);
-    let info = vk::GraphicsPipelineCreateInfo::default()
-        .stages(&stages)
-        .vertex_input_state(&vertex_input)
-        .input_assembly_state(&assembly)
-        .viewport_state(&viewport)
-        .rasterization_state(&raster)
-        .multisample_state(&multisample)
-        .color_blend_state(&blend)
-        .dynamic_state(&dynamic)
-        .layout(layout)
-        .push_next(&mut rendering);
-    // SAFETY: every referenced structure lives until the call returns.
-    let pipelines = unsafe {
-        ctx.device
-            .create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
-    }
-    .map_err(|(_, e)| Error::from(e))?;
-    Ok(pipelines[0])
+    graphics_pipeline(
+        ctx,
+        &PipelineDesc {
+            layout,
+            vert,
+            frag,
+            color_format: format,
+            additive,
+            color_write: true,
+            depth: None,
+            vertex_bindings: &[],
+            vertex_attributes: &[],
+        },
+    )
 }
