@@ -6,36 +6,11 @@
 mod common;
 
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
+
+use common::{fails_with, stderr, tiltfield};
 
 use tiltfield::lightfield::hci;
-
-fn tiltfield(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tiltfield"))
-        .args(args)
-        .env("TILTFIELD_VALIDATION", "1")
-        .env_remove("RUST_LOG")
-        .output()
-        .expect("run tiltfield")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// Asserts failure with a message containing every `needle`, and no panic.
-fn fails_with(args: &[&str], needles: &[&str]) {
-    let o = tiltfield(args);
-    let err = stderr(&o);
-    assert!(!o.status.success(), "{args:?} should fail; stderr: {err}");
-    assert!(
-        !err.contains("panicked") && !err.contains("RUST_BACKTRACE"),
-        "{args:?} panicked: {err}"
-    );
-    for n in needles {
-        assert!(err.contains(n), "{args:?}: expected '{n}' in: {err}");
-    }
-}
 
 /// Writes the two-plane scene (back plane at disparity −1, card at +2) in the exact HCI
 /// layout into `dir`.

@@ -6,7 +6,6 @@
 mod common;
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use common::*;
 use glam::{DVec2, DVec3};
@@ -18,37 +17,6 @@ use tiltfield::geometry::plane::Plane;
 use tiltfield::lightfield::{hci, manifest, DepthKind};
 use tiltfield::refocus::{self, Averaging, FocusSpec, RefocusRequest};
 use tiltfield::synth::surfaces::angle_deg;
-
-fn tiltfield(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tiltfield"))
-        .args(args)
-        .env("TILTFIELD_VALIDATION", "1")
-        .env_remove("RUST_LOG")
-        .output()
-        .expect("run tiltfield")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn json_of(o: &Output) -> serde_json::Value {
-    assert!(o.status.success(), "{}", stderr(o));
-    serde_json::from_slice(&o.stdout).expect("JSON on stdout")
-}
-
-fn fails_with(args: &[&str], needles: &[&str]) {
-    let o = tiltfield(args);
-    let err = stderr(&o);
-    assert!(!o.status.success(), "{args:?} should fail; stderr: {err}");
-    assert!(
-        !err.contains("panicked") && !err.contains("RUST_BACKTRACE") && !err.contains("NaN,"),
-        "{args:?}: {err}"
-    );
-    for n in needles {
-        assert!(err.contains(n), "{args:?}: expected '{n}' in: {err}");
-    }
-}
 
 fn v3(v: &serde_json::Value) -> DVec3 {
     DVec3::new(

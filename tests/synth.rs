@@ -5,8 +5,8 @@
 
 mod common;
 
+use common::{fails_with, stderr, tiltfield};
 use std::path::Path;
-use std::process::{Command, Output};
 
 use glam::{DVec2, DVec3};
 use tiltfield::geometry::aperture::{Aperture, ApertureShape};
@@ -16,29 +16,6 @@ use tiltfield::refocus::{self, Averaging, FocusSpec, RefocusRequest};
 use tiltfield::synth::{synth_scene, MeshScene, Rasterizer, RigKind, SynthRig};
 
 const EXAMPLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/example.gltf");
-
-fn tiltfield(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_tiltfield"))
-        .args(args)
-        .env("TILTFIELD_VALIDATION", "1")
-        .env_remove("RUST_LOG")
-        .output()
-        .expect("run tiltfield")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-fn fails_with(args: &[&str], needles: &[&str]) {
-    let o = tiltfield(args);
-    let err = stderr(&o);
-    assert!(!o.status.success(), "{args:?} should fail; stderr: {err}");
-    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
-    for n in needles {
-        assert!(err.contains(n), "{args:?}: expected '{n}' in: {err}");
-    }
-}
 
 fn rasterizer(mesh: &MeshScene) -> Rasterizer {
     Rasterizer::new(mesh, &common::gpu_options())

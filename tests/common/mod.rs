@@ -265,3 +265,40 @@ pub fn rect_mask(x0: usize, y0: usize, x1: usize, y1: usize) -> Vec<bool> {
         })
         .collect()
 }
+
+/// Runs the `tiltfield` binary with the validation layer on (commands that touch the GPU then
+/// fail on any validation error).
+pub fn tiltfield(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+        .args(args)
+        .env("TILTFIELD_VALIDATION", "1")
+        .env_remove("RUST_LOG")
+        .output()
+        .expect("run tiltfield")
+}
+
+/// A command's stderr as text.
+pub fn stderr(o: &std::process::Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The JSON a successful command printed on stdout.
+pub fn json_of(o: &std::process::Output) -> serde_json::Value {
+    assert!(o.status.success(), "{}", stderr(o));
+    serde_json::from_slice(&o.stdout).expect("JSON on stdout")
+}
+
+/// Asserts that `tiltfield args` fails with a message containing every `needle`, without a
+/// panic or backtrace.
+pub fn fails_with(args: &[&str], needles: &[&str]) {
+    let o = tiltfield(args);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{args:?} should fail; stderr: {err}");
+    assert!(
+        !err.contains("panicked") && !err.contains("RUST_BACKTRACE"),
+        "{args:?} panicked: {err}"
+    );
+    for n in needles {
+        assert!(err.contains(n), "{args:?}: expected '{n}' in: {err}");
+    }
+}
