@@ -83,6 +83,27 @@ impl DepthMap {
     pub fn at(&self, x: u32, y: u32) -> f32 {
         self.values[(y * self.width + x) as usize]
     }
+
+    /// The HCI disparity map of this depth map on `rig` (NaN stays NaN), labelled `source`.
+    pub fn to_disparity(&self, rig: &ParallelRig, source: String) -> DepthMap {
+        DepthMap {
+            width: self.width,
+            height: self.height,
+            kind: DepthKind::Disparity,
+            values: self
+                .values
+                .iter()
+                .map(|&z| {
+                    if z.is_nan() {
+                        f32::NAN
+                    } else {
+                        rig.disparity_of_depth(z as f64) as f32
+                    }
+                })
+                .collect(),
+            source,
+        }
+    }
 }
 
 /// One view of the grid.

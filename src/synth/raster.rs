@@ -420,22 +420,7 @@ pub fn render_light_field(
                 if let Some(p) = rig.parallel() {
                     depth.push((
                         index,
-                        DepthMap {
-                            kind: DepthKind::Disparity,
-                            values: z
-                                .values
-                                .iter()
-                                .map(|&v| {
-                                    if v.is_nan() {
-                                        f32::NAN
-                                    } else {
-                                        p.disparity_of_depth(v as f64) as f32
-                                    }
-                                })
-                                .collect(),
-                            source: format!("{name} generated disparity of view ({s},{t})"),
-                            ..z.clone()
-                        },
+                        z.to_disparity(&p, format!("{name} generated disparity of view ({s},{t})")),
                     ));
                 }
             }

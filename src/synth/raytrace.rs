@@ -158,22 +158,8 @@ pub fn render_light_field(
         let (s, t) = (index % grid.cols.max(1), index / grid.cols.max(1));
         let (image, z) = render_view(scene, &camera, width, height, samples_per_axis);
         if index == centre_index {
-            let disparity = DepthMap {
-                kind: DepthKind::Disparity,
-                values: z
-                    .values
-                    .iter()
-                    .map(|&v| {
-                        if v.is_nan() {
-                            f32::NAN
-                        } else {
-                            rig.disparity_of_depth(v as f64) as f32
-                        }
-                    })
-                    .collect(),
-                source: format!("{name} generated disparity of view ({s},{t})"),
-                ..z.clone()
-            };
+            let disparity =
+                z.to_disparity(rig, format!("{name} generated disparity of view ({s},{t})"));
             let z = DepthMap {
                 source: format!("{name} generated depth of view ({s},{t})"),
                 ..z
