@@ -68,6 +68,18 @@ impl Buffer {
         })
     }
 
+    /// A host-visible buffer holding a copy of `bytes`.
+    pub fn with_bytes(
+        ctx: &GpuContext,
+        bytes: &[u8],
+        usage: vk::BufferUsageFlags,
+        name: &str,
+    ) -> Result<Self> {
+        let mut b = Buffer::new(ctx, bytes.len() as u64, usage, true, name)?;
+        b.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
+        Ok(b)
+    }
+
     /// The mapped bytes of a host-visible buffer.
     pub fn bytes_mut(&mut self) -> &mut [u8] {
         match self.mapped {

@@ -601,24 +601,18 @@ impl PassBuilder {
             }
         }
         let ibytes: Vec<u8> = mesh.indices.iter().flat_map(|i| i.to_ne_bytes()).collect();
-        let mut vb = Buffer::new(
+        self.vertices = Some(Buffer::with_bytes(
             ctx,
-            vbytes.len() as u64,
+            &vbytes,
             vk::BufferUsageFlags::VERTEX_BUFFER,
-            true,
             "mesh vertices",
-        )?;
-        vb.bytes_mut()[..vbytes.len()].copy_from_slice(&vbytes);
-        self.vertices = Some(vb);
-        let mut ib = Buffer::new(
+        )?);
+        self.indices = Some(Buffer::with_bytes(
             ctx,
-            ibytes.len() as u64,
+            &ibytes,
             vk::BufferUsageFlags::INDEX_BUFFER,
-            true,
             "mesh indices",
-        )?;
-        ib.bytes_mut()[..ibytes.len()].copy_from_slice(&ibytes);
-        self.indices = Some(ib);
+        )?);
         let submission = Submission::new(ctx, "mesh raster")?;
 
         // Textures, then a 1×1 white one for untextured draws, through one staging upload.
