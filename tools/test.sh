@@ -10,4 +10,13 @@ cargo fmt --all -- --check
 echo "== cargo clippy --all-targets -- -D warnings" >&2
 cargo clippy --quiet --all-targets -- -D warnings
 echo "== cargo test" >&2
-cargo test --all-targets "$@"
+# Library, binary and integration tests (examples are checked by clippy above); the closing
+# line sums every test binary's results.
+log=$(mktemp)
+set +e
+cargo test --lib --bins --tests "$@" 2>&1 | tee "$log"
+status=${PIPESTATUS[0]}
+set -e
+awk '/^test result:/ { p += $4; f += $6 } END { printf "tests: %d passed, %d failed\n", p, f }' "$log"
+rm -f "$log"
+exit "$status"
