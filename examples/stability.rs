@@ -18,8 +18,7 @@ use tiltfield::geometry::normals::{estimate_normal, estimate_normals, NormalPara
 use tiltfield::geometry::picking::{self, triangle_min_angle_deg, Nudge};
 use tiltfield::geometry::plane::{tilt_swing_normal, Plane};
 use tiltfield::lightfield::{DepthKind, DepthMap, ParallelRig};
-use tiltfield::synth::surfaces::{angle_deg, quantile, AnalyticView, Rng, Surface};
-use tiltfield::synth::{plane_scene, Texture};
+use tiltfield::synth::surfaces::{angle_deg, depth_edge, quantile, AnalyticView, Rng, Surface};
 
 const NOISES: [f64; 5] = [0.0, 0.005, 0.01, 0.02, 0.05];
 const WINDOWS: [u32; 4] = [5, 9, 15, 21];
@@ -50,10 +49,6 @@ const CAMERAS: [Cam; 2] = [
 fn camera(c: &Cam) -> Camera {
     let cc = (c.size as f64 - 1.0) / 2.0;
     Camera::from_centre(intrinsics(c.f, c.f, cc, cc), DMat3::IDENTITY, DVec3::ZERO)
-}
-
-fn quad(normal: DVec3, point: DVec3, half: f64) -> Surface {
-    Surface::Quad(plane_scene(normal, point, half, Texture::Solid([1.0; 3])).quads[0].clone())
 }
 
 /// The generic test plane: tilt 30°, swing 20°, through the optical axis at `distance`.
@@ -156,7 +151,7 @@ fn inverse_depth_normal(depth: &ViewDepth, x: u32, y: u32, w: u32) -> Option<DVe
 
 fn noise_table(out: &mut String, c: &Cam) {
     let (p, n) = test_plane(c);
-    let view = AnalyticView::new(camera(c), c.size, c.size, &[quad(n, p, 50.0)]);
+    let view = AnalyticView::new(camera(c), c.size, c.size, &[Surface::plane(n, p, 50.0)]);
     let pixels = sample_pixels(c.size, SAMPLES, 1);
     writeln!(out, "\n**{}**, plane tilted 30° and swung 20°.\n", c.label).ok();
     write!(out, "| depth noise σ |").ok();
@@ -236,26 +231,12 @@ fn edge_table(out: &mut String) {
     let edge_x = c.size as f64 / 2.0 - 0.5;
     let cam = camera(c);
     for jump in [0.01, 0.02, 0.05, 0.1, 0.3] {
-        // World x of the image edge column at the card's depth.
-        let x_at = |z: f64| (edge_x - cam.k.z_axis.x) * z / c.f;
-        let zf = c.distance;
-        let card = {
-            let x0 = x_at(zf);
-            // Left half: from far left to the edge column, full height.
-            Surface::Quad(tiltfield::synth::Quad {
-                centre: DVec3::new(x0 - 25.0, 0.0, zf),
-                half_u: DVec3::new(25.0, 0.0, 0.0),
-                half_v: DVec3::new(0.0, 25.0, 0.0),
-                texture: Texture::Solid([1.0; 3]),
-            })
-        };
-        let zb = zf * (1.0 + jump);
-        let back = quad(
-            -tilt_swing_normal(0.0, 30.0),
-            DVec3::new(x_at(zb), 0.0, zb),
-            100.0,
+        let view = AnalyticView::new(
+            cam,
+            c.size,
+            c.size,
+            &depth_edge(&cam, edge_x, c.distance, jump),
         );
-        let view = AnalyticView::new(cam, c.size, c.size, &[card, back]);
         let mut rng = Rng::new(7);
         let pixels: Vec<(u32, u32)> = (0..SAMPLES)
             .map(|_| {
@@ -399,7 +380,7 @@ fn three_click_errors(depth: &ViewDepth, truth: DVec3, tris: &[[DVec2; 3]]) -> (
 fn three_click_tables(out: &mut String) {
     for c in &CAMERAS {
         let (p, n) = test_plane(c);
-        let view = AnalyticView::new(camera(c), c.size, c.size, &[quad(n, p, 50.0)]);
+        let view = AnalyticView::new(camera(c), c.size, c.size, &[Surface::plane(n, p, 50.0)]);
         writeln!(
             out,
             "\n**Three clicks** ({}), same plane; equilateral triangles of pixels (rounded to \
@@ -435,7 +416,7 @@ fn three_click_tables(out: &mut String) {
     // Near-collinear picks: isosceles triangles with a 300-px base and base angles θ.
     let c = &CAMERAS[0];
     let (p, n) = test_plane(c);
-    let view = AnalyticView::new(camera(c), c.size, c.size, &[quad(n, p, 50.0)]);
+    let view = AnalyticView::new(camera(c), c.size, c.size, &[Surface::plane(n, p, 50.0)]);
     writeln!(
         out,
         "\n**Near-collinear picks** ({}): isosceles triangles with a 300-px base and base \
@@ -655,7 +636,7 @@ fn refusal_section(out: &mut String) {
     // Strong noise: low planarity.
     let c = &CAMERAS[0];
     let (pp, n) = test_plane(c);
-    let view = AnalyticView::new(camera(c), c.size, c.size, &[quad(n, pp, 50.0)]);
+    let view = AnalyticView::new(camera(c), c.size, c.size, &[Surface::plane(n, pp, 50.0)]);
     let noisy = view.noisy_depth(0.05, 9);
     let mut low = None;
     for x in 100..200 {
@@ -718,7 +699,7 @@ fn refusal_section(out: &mut String) {
 fn timing_section(out: &mut String) {
     let c = &CAMERAS[0];
     let (p, n) = test_plane(c);
-    let view = AnalyticView::new(camera(c), c.size, c.size, &[quad(n, p, 50.0)]);
+    let view = AnalyticView::new(camera(c), c.size, c.size, &[Surface::plane(n, p, 50.0)]);
     let depth = view.noisy_depth(0.01, 1);
     writeln!(
         out,

@@ -9,8 +9,7 @@ use tiltfield::geometry::normals::{estimate_normal, NormalParams};
 use tiltfield::geometry::picking::{self, Nudge};
 use tiltfield::geometry::plane::{tilt_swing_normal, Plane};
 use tiltfield::lightfield::{DepthKind, DepthMap};
-use tiltfield::synth::surfaces::{angle_deg, quantile, AnalyticView, Rng, Surface};
-use tiltfield::synth::{plane_scene, Quad, Texture};
+use tiltfield::synth::surfaces::{angle_deg, depth_edge, quantile, AnalyticView, Rng, Surface};
 
 /// The "wide" camera of the study: 256² px, f = 307.2 px, identity pose.
 fn wide() -> Camera {
@@ -27,10 +26,6 @@ fn hci_like() -> Camera {
     Camera::from_centre(intrinsics(f, f, 255.5, 255.5), DMat3::IDENTITY, DVec3::ZERO)
 }
 
-fn quad(normal: DVec3, point: DVec3, half: f64) -> Surface {
-    Surface::Quad(plane_scene(normal, point, half, Texture::Solid([1.0; 3])).quads[0].clone())
-}
-
 /// The study's plane (tilt 30°, swing 20°) through the optical axis at `z`.
 fn plane_view(camera: Camera, size: u32, z: f64) -> (AnalyticView, DVec3) {
     let n = -tilt_swing_normal(30.0, 20.0);
@@ -38,7 +33,7 @@ fn plane_view(camera: Camera, size: u32, z: f64) -> (AnalyticView, DVec3) {
         camera,
         size,
         size,
-        &[quad(n, DVec3::new(0.0, 0.0, z), 50.0)],
+        &[Surface::plane(n, DVec3::new(0.0, 0.0, z), 50.0)],
     );
     (v, n)
 }
@@ -166,22 +161,8 @@ fn accepted_normals_stay_bounded_and_hopeless_cases_are_refused() {
 /// `jump` nearer at the edge; pixels 0…7 px from the edge, window 15.
 fn edge_errors(jump: f64, sigma: f64, tau: f64) -> (Vec<f64>, Vec<f64>, f64) {
     let cam = wide();
-    let zf = 2.5;
-    // The edge lies on the optical axis (x = 0), between pixel columns 127 and 128.
-    let x_at = |_z: f64| 0.0;
-    let card = Surface::Quad(Quad {
-        centre: DVec3::new(x_at(zf) - 25.0, 0.0, zf),
-        half_u: DVec3::new(25.0, 0.0, 0.0),
-        half_v: DVec3::new(0.0, 25.0, 0.0),
-        texture: Texture::Solid([1.0; 3]),
-    });
-    let zb = zf * (1.0 + jump);
-    let back = quad(
-        -tilt_swing_normal(0.0, 30.0),
-        DVec3::new(x_at(zb), 0.0, zb),
-        100.0,
-    );
-    let view = AnalyticView::new(cam, 256, 256, &[card, back]);
+    // The edge lies on the optical axis, between pixel columns 127 and 128.
+    let view = AnalyticView::new(cam, 256, 256, &depth_edge(&cam, 127.5, 2.5, jump));
     let mut rng = Rng::new(7);
     let px: Vec<(u32, u32)> = (0..200)
         .map(|_| {

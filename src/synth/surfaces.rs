@@ -13,10 +13,33 @@
 use glam::{DVec2, DVec3};
 
 use super::raytrace::pixel_ray;
-use super::scene::Quad;
+use super::scene::{plane_scene, Quad};
+use super::texture::Texture;
 use crate::geometry::camera::Camera;
 use crate::geometry::depth::ViewDepth;
+use crate::geometry::plane::tilt_swing_normal;
 use crate::lightfield::{DepthKind, DepthMap};
+
+/// The depth-edge scene of the stability study: a frontoparallel card at depth `z_front`
+/// covering everything left of image column `edge_x` (fractional: between two pixel columns),
+/// in front of a plane swung 30° whose depth at the edge is `z_front · (1 + jump)`.
+pub fn depth_edge(camera: &Camera, edge_x: f64, z_front: f64, jump: f64) -> [Surface; 2] {
+    // World x of the edge column at depth z (parallel camera at the origin).
+    let x_at = |z: f64| (edge_x - camera.k.z_axis.x) * z / camera.focal_px();
+    let card = Surface::Quad(Quad {
+        centre: DVec3::new(x_at(z_front) - 25.0, 0.0, z_front),
+        half_u: DVec3::new(25.0, 0.0, 0.0),
+        half_v: DVec3::new(0.0, 25.0, 0.0),
+        texture: Texture::Solid([1.0; 3]),
+    });
+    let z_back = z_front * (1.0 + jump);
+    let back = Surface::plane(
+        -tilt_swing_normal(0.0, 30.0),
+        DVec3::new(x_at(z_back), 0.0, z_back),
+        100.0,
+    );
+    [card, back]
+}
 
 /// A surface of an analytic depth view.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,6 +51,13 @@ pub enum Surface {
 }
 
 impl Surface {
+    /// An untextured square of half-side `half` on the plane through `point` with normal
+    /// `normal` (the normal may be flipped to face away, as [`plane_scene`] does; only the
+    /// plane matters here).
+    pub fn plane(normal: DVec3, point: DVec3, half: f64) -> Surface {
+        Surface::Quad(plane_scene(normal, point, half, Texture::Solid([1.0; 3])).quads[0].clone())
+    }
+
     /// Nearest hit `t > 0` of the ray `origin + t·dir` and the outward unit normal there.
     fn intersect(&self, origin: DVec3, dir: DVec3) -> Option<(f64, DVec3)> {
         match self {
