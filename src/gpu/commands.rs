@@ -173,6 +173,24 @@ pub fn begin_rendering(
     }
 }
 
+/// A buffer ↔ image copy of mip 0 of `layers` colour layers of a `width × height` image, the
+/// buffer tightly packed from `offset` (layer after layer).
+pub fn color_copy(offset: u64, width: u32, height: u32, layers: u32) -> vk::BufferImageCopy {
+    vk::BufferImageCopy::default()
+        .buffer_offset(offset)
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: layers,
+        })
+        .image_extent(vk::Extent3D {
+            width,
+            height,
+            depth: 1,
+        })
+}
+
 /// Common barrier endpoints.
 pub mod stage {
     use ash::vk::{AccessFlags2 as A, ImageLayout as L, PipelineStageFlags2 as S};

@@ -34,7 +34,9 @@ use glam::{DMat3, DMat4, DVec2, DVec3, DVec4};
 
 use crate::error::{Error, Result};
 use crate::geometry::camera::Camera;
-use crate::gpu::commands::{begin_rendering, image_barrier, stage, ImageTransition, Submission};
+use crate::gpu::commands::{
+    begin_rendering, color_copy, image_barrier, stage, ImageTransition, Submission,
+};
 use crate::gpu::pipeline::{graphics_pipeline, DepthTest, PipelineDesc};
 use crate::gpu::resources::{range_of, Buffer, Image, ImageDesc};
 use crate::gpu::shaders;
@@ -351,19 +353,7 @@ impl RasterPass {
                         to: stage::TRANSFER_SRC,
                     },
                 );
-                let region = vk::BufferImageCopy::default()
-                    .buffer_offset(offset)
-                    .image_subresource(vk::ImageSubresourceLayers {
-                        aspect_mask: vk::ImageAspectFlags::COLOR,
-                        mip_level: 0,
-                        base_array_layer: 0,
-                        layer_count: 1,
-                    })
-                    .image_extent(vk::Extent3D {
-                        width,
-                        height,
-                        depth: 1,
-                    });
+                let region = color_copy(offset, width, height, 1);
                 // SAFETY: the readback buffer holds 2 · w·h·16 bytes.
                 unsafe {
                     d.cmd_copy_image_to_buffer(
@@ -676,19 +666,7 @@ impl PassBuilder {
                             to: stage::TRANSFER_DST,
                         },
                     );
-                    let region = vk::BufferImageCopy::default()
-                        .buffer_offset(offsets[i])
-                        .image_subresource(vk::ImageSubresourceLayers {
-                            aspect_mask: vk::ImageAspectFlags::COLOR,
-                            mip_level: 0,
-                            base_array_layer: 0,
-                            layer_count: 1,
-                        })
-                        .image_extent(vk::Extent3D {
-                            width: img.desc.width,
-                            height: img.desc.height,
-                            depth: 1,
-                        });
+                    let region = color_copy(offsets[i], img.desc.width, img.desc.height, 1);
                     // SAFETY: recording; the staging buffer holds every texture.
                     unsafe {
                         d.cmd_copy_buffer_to_image(

@@ -16,7 +16,9 @@ use image::RgbaImage;
 
 use super::texture::{LightFieldTexture, VIEW_SRGB, VIEW_UNORM};
 use crate::error::{Error, Result};
-use crate::gpu::commands::{begin_rendering, image_barrier, stage, ImageTransition, Submission};
+use crate::gpu::commands::{
+    begin_rendering, color_copy, image_barrier, stage, ImageTransition, Submission,
+};
 use crate::gpu::pipeline::{graphics_pipeline, PipelineDesc};
 use crate::gpu::resources::{Buffer, Image, ImageDesc};
 use crate::gpu::shaders;
@@ -647,18 +649,7 @@ impl RefocusPass {
                         to: stage::TRANSFER_SRC,
                     },
                 );
-                let region = vk::BufferImageCopy::default()
-                    .image_subresource(vk::ImageSubresourceLayers {
-                        aspect_mask: vk::ImageAspectFlags::COLOR,
-                        mip_level: 0,
-                        base_array_layer: 0,
-                        layer_count: 1,
-                    })
-                    .image_extent(vk::Extent3D {
-                        width: w,
-                        height: h,
-                        depth: 1,
-                    });
+                let region = color_copy(0, w, h, 1);
                 let to_host = [vk::MemoryBarrier2::default()
                     .src_stage_mask(vk::PipelineStageFlags2::COPY)
                     .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)

@@ -8,7 +8,7 @@
 use ash::vk;
 
 use crate::error::{Error, Result};
-use crate::gpu::commands::{image_barrier, stage, ImageTransition, Submission};
+use crate::gpu::commands::{color_copy, image_barrier, stage, ImageTransition, Submission};
 use crate::gpu::resources::{Buffer, Image, ImageDesc};
 use crate::gpu::GpuContext;
 use crate::lightfield::LightField;
@@ -153,18 +153,7 @@ impl LightFieldTexture {
                     },
                 );
                 // Views are packed layer after layer, so one region covers all of them.
-                let region = vk::BufferImageCopy::default()
-                    .image_subresource(vk::ImageSubresourceLayers {
-                        aspect_mask: vk::ImageAspectFlags::COLOR,
-                        mip_level: 0,
-                        base_array_layer: 0,
-                        layer_count: desc.layers,
-                    })
-                    .image_extent(vk::Extent3D {
-                        width: w,
-                        height: h,
-                        depth: 1,
-                    });
+                let region = color_copy(0, w, h, desc.layers);
                 // SAFETY: recording; the buffer holds layers·w·h·4 bytes.
                 unsafe {
                     d.cmd_copy_buffer_to_image(
