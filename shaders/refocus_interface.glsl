@@ -1,9 +1,11 @@
-// Interface of the refocus pass, shared by refocus.frag and mirrored by
-// src/passes/refocus.rs (`GpuViewWarp`, `RefocusPush`): keep the two in step.
+// Interface of the refocus pass, shared by refocus.frag and refocus.comp. Mirrored by
+// `GpuViewWarp` and `RefocusPush` in src/passes/refocus/interface.rs; a unit test there reads
+// this file and checks that member names, types and offsets agree with the Rust types.
 //
-// Per view i the warp is H_i = A_i + b_i m^T (see src/geometry/homography.rs):
+// Per view i the warp is H_i = A_i + b_i m^T (docs/conventions.md, "Homographies"): the
 // columns of A_i in a0..a2 (xyz), the texture layer in a0.w, b_i in b_weight.xyz and the
-// aperture weight in b_weight.w.
+// aperture weight in b_weight.w. A_i and b_i change only with the view set, the aperture or the
+// reference camera; moving the plane changes m alone, a push constant.
 struct ViewWarp {
     vec4 a0;
     vec4 a1;
@@ -14,7 +16,9 @@ struct ViewWarp {
 layout(push_constant) uniform RefocusPush {
     vec4 plane;      // m = K_r^-T n_r / d_r in xyz
     vec2 view_size;  // W, H of the views in pixels
-    vec2 out_scale;  // reference-view pixels per output pixel
-    uint first_view; // first warp of this draw
-    uint view_count; // number of warps of this draw
+    vec2 out_scale;  // reference-view pixels per output pixel (x, y)
+    uint first_view; // first warp of this draw or dispatch
+    uint view_count; // number of warps of this draw or dispatch
+    uint accumulate; // compute: 1 adds to the accumulation image, 0 replaces its contents
+    uint pad;
 } pc;

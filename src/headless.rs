@@ -1,48 +1,124 @@
-//! Headless offscreen refocus: a context, the uploaded light field and the refocus pass,
-//! torn down in the right order (pass → texture → context). What the CLI, the tests and the
-//! benchmark drive.
+//! Headless offscreen refocus: the uploaded light field, the refocus pass, one target, a
+//! submission, timestamps and a readback buffer on a shared [`GpuContext`]. What the CLI and the
+//! tests drive. Every frame is submitted and waited for, since its pixels are read back.
+//!
+//! Teardown (in `Drop`): readback → timestamps → submission → target → pass → texture; the
+//! context is shared (`Arc`) and goes when its last user does.
 
-use crate::error::Result;
+use std::ops::Range;
+use std::sync::Arc;
+
+use ash::vk;
+use image::RgbaImage;
+
+use crate::error::{Error, Result};
+use crate::gpu::commands::{color_copy, image_barrier, stage, ImageTransition, Submission};
+use crate::gpu::resources::Buffer;
+use crate::gpu::timing::Timestamps;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
-use crate::passes::refocus::{GpuImage, PassTimings, RefocusPass, RenderSettings};
-use crate::passes::texture::LightFieldTexture;
-use crate::refocus::RefocusPlan;
+use crate::passes::refocus::{
+    Accumulate, Filter, OutputFormat, RefocusPass, RefocusTarget, Strategy,
+};
+use crate::passes::texture::{LightFieldTexture, ViewStorage};
+use crate::refocus::{Averaging, RefocusImage, RefocusPlan};
+
+/// Per-render settings.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderSettings {
+    pub averaging: Averaging,
+    pub output: OutputFormat,
+    pub strategy: Strategy,
+    pub filter: Filter,
+    /// Output size; `None` = the views' size.
+    pub size: Option<(u32, u32)>,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            averaging: Averaging::Linear,
+            output: OutputFormat::Srgb8,
+            strategy: Strategy::default(),
+            filter: Filter::default(),
+            size: None,
+        }
+    }
+}
+
+/// GPU times of one frame, from timestamp queries.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct PassTimings {
+    pub refocus_ms: f64,
+    pub resolve_ms: f64,
+}
+
+/// A refocus result read back from the GPU.
+#[derive(Debug, Clone)]
+pub enum GpuImage {
+    Srgb8(RgbaImage),
+    Float(RefocusImage),
+}
 
 /// A ready-to-render light field on a Vulkan device.
 pub struct HeadlessRenderer {
+    readback: Option<Buffer>,
+    timestamps: Option<Timestamps>,
+    submission: Option<Submission>,
+    target: Option<RefocusTarget>,
     pass: Option<RefocusPass>,
     texture: Option<LightFieldTexture>,
-    ctx: GpuContext,
+    ctx: Arc<GpuContext>,
 }
 
 impl HeadlessRenderer {
-    /// Creates a context and uploads `lf`.
+    /// Creates a context and uploads `lf` with the default view storage.
     pub fn new(lf: &LightField, options: &GpuOptions) -> Result<Self> {
-        let ctx = GpuContext::new(options)?;
-        Self::with_context(ctx, lf)
+        let ctx = Arc::new(GpuContext::new(options)?);
+        Self::with_context(ctx, lf, ViewStorage::default())
     }
 
-    /// Uploads `lf` to an existing context.
-    pub fn with_context(ctx: GpuContext, lf: &LightField) -> Result<Self> {
-        let texture = LightFieldTexture::upload(&ctx, lf)?;
-        let pass = match RefocusPass::new(&ctx, &texture) {
-            Ok(p) => p,
-            Err(e) => {
-                texture.destroy(&ctx);
-                return Err(e);
-            }
-        };
-        Ok(HeadlessRenderer {
-            pass: Some(pass),
-            texture: Some(texture),
+    /// Uploads `lf` in `storage` to a shared context.
+    pub fn with_context(
+        ctx: Arc<GpuContext>,
+        lf: &LightField,
+        storage: ViewStorage,
+    ) -> Result<Self> {
+        let mut r = HeadlessRenderer {
+            readback: None,
+            timestamps: None,
+            submission: None,
+            target: None,
+            pass: None,
+            texture: None,
             ctx,
-        })
+        };
+        // Each step stores what it made, so `Drop` frees it if a later step fails.
+        let ctx = &r.ctx;
+        let texture = LightFieldTexture::upload(ctx, lf, storage)?;
+        let pass = RefocusPass::new(ctx, &texture);
+        r.texture = Some(texture);
+        r.pass = Some(pass?);
+        r.submission = Some(Submission::new(&r.ctx, "refocus frame")?);
+        r.timestamps = Timestamps::new(&r.ctx, 3)?;
+        Ok(r)
     }
 
     /// The Vulkan context (device name, validation counts).
     pub fn context(&self) -> &GpuContext {
         &self.ctx
+    }
+
+    /// The shared context, for other passes on the same device.
+    pub fn shared_context(&self) -> Arc<GpuContext> {
+        Arc::clone(&self.ctx)
+    }
+
+    /// How the views are stored on the GPU.
+    pub fn storage(&self) -> ViewStorage {
+        self.texture
+            .as_ref()
+            .map_or_else(ViewStorage::default, |t| t.storage)
     }
 
     /// Renders `plan` and reads the image back.
@@ -51,10 +127,9 @@ impl HeadlessRenderer {
         plan: &RefocusPlan,
         settings: &RenderSettings,
     ) -> Result<(GpuImage, Option<PassTimings>)> {
-        let (Some(pass), Some(tex)) = (self.pass.as_mut(), self.texture.as_ref()) else {
-            unreachable!("pass and texture live until drop")
-        };
-        pass.render(&self.ctx, tex, plan, settings)
+        let views = 0..plan.views.len();
+        let timings = self.frame(plan, settings, views, true, true)?;
+        Ok((self.read_image(settings)?, timings))
     }
 
     /// Renders `plan` without readback and returns the GPU timings (for benchmarks).
@@ -63,20 +138,191 @@ impl HeadlessRenderer {
         plan: &RefocusPlan,
         settings: &RenderSettings,
     ) -> Result<Option<PassTimings>> {
-        let (Some(pass), Some(tex)) = (self.pass.as_mut(), self.texture.as_ref()) else {
-            unreachable!("pass and texture live until drop")
+        self.frame(plan, settings, 0..plan.views.len(), true, false)
+    }
+
+    /// Progressive accumulation: adds the views `views` of `plan` (plan order) to the sum, in a
+    /// submission of its own, starting from zero when `restart`; then resolves and reads back
+    /// the normalised partial sum (what a viewer shows while it refines).
+    pub fn accumulate(
+        &mut self,
+        plan: &RefocusPlan,
+        settings: &RenderSettings,
+        views: Range<usize>,
+        restart: bool,
+    ) -> Result<GpuImage> {
+        self.frame(plan, settings, views, restart, true)?;
+        self.read_image(settings)
+    }
+
+    fn frame(
+        &mut self,
+        plan: &RefocusPlan,
+        settings: &RenderSettings,
+        views: Range<usize>,
+        restart: bool,
+        readback: bool,
+    ) -> Result<Option<PassTimings>> {
+        let ctx = Arc::clone(&self.ctx);
+        let (Some(pass), Some(texture)) = (self.pass.as_mut(), self.texture.as_ref()) else {
+            return Err(Error::Vulkan("the renderer was not fully created".into()));
         };
-        pass.render_timed(&self.ctx, tex, plan, settings)
+        let (w, h) = settings.size.unwrap_or((texture.width, texture.height));
+        if self.target.as_ref().map(|t| (t.width, t.height)) != Some((w, h)) {
+            if let Some(t) = self.target.take() {
+                t.destroy(&ctx);
+            }
+            if let Some(b) = self.readback.take() {
+                b.destroy(&ctx);
+            }
+            self.target = Some(pass.create_target(&ctx, w, h)?);
+            self.readback = Some(Buffer::readback(
+                &ctx,
+                w as u64 * h as u64 * 16,
+                "refocus readback",
+            )?);
+        }
+        pass.set_views(plan)?;
+        let (Some(target), Some(submission), Some(readback_buffer)) = (
+            self.target.as_mut(),
+            self.submission.as_ref(),
+            self.readback.as_ref(),
+        ) else {
+            return Err(Error::Vulkan("no target".into()));
+        };
+        let m = plan.m.as_vec3();
+        let accumulate = Accumulate {
+            m: [m.x, m.y, m.z],
+            views,
+            clear: restart,
+            strategy: settings.strategy,
+            filter: settings.filter,
+            averaging: settings.averaging,
+        };
+        let ts = self.timestamps.as_ref();
+        let all = vk::PipelineStageFlags2::ALL_COMMANDS;
+        let mut recorded = Ok(());
+        submission.run(&ctx, |d, cmd| {
+            if let Some(ts) = ts {
+                ts.reset(d, cmd);
+                ts.write(d, cmd, all, 0);
+            }
+            recorded = pass.record_accumulate(&ctx, cmd, target, &accumulate);
+            if let Some(ts) = ts {
+                ts.write(d, cmd, all, 1);
+            }
+            if recorded.is_err() {
+                if let Some(ts) = ts {
+                    ts.write(d, cmd, all, 2);
+                }
+                return;
+            }
+            recorded = pass.record_resolve(&ctx, cmd, target, settings.output, settings.averaging);
+            if let Some(ts) = ts {
+                ts.write(d, cmd, all, 2);
+            }
+            if readback && recorded.is_ok() {
+                let (out, _) = target.output(settings.output);
+                image_barrier(
+                    d,
+                    cmd,
+                    out.image,
+                    1,
+                    ImageTransition {
+                        from: stage::COLOR_WRITE,
+                        to: stage::TRANSFER_SRC,
+                    },
+                );
+                let to_host = [vk::MemoryBarrier2::default()
+                    .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                    .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                    .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                    .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+                // SAFETY: recording; the readback buffer holds w·h·16 bytes.
+                unsafe {
+                    d.cmd_copy_image_to_buffer(
+                        cmd,
+                        out.image,
+                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                        readback_buffer.buffer,
+                        &[color_copy(0, w, h, 1)],
+                    );
+                    d.cmd_pipeline_barrier2(
+                        cmd,
+                        &vk::DependencyInfo::default().memory_barriers(&to_host),
+                    );
+                }
+            }
+        })?;
+        recorded?;
+        let Some(ts) = &self.timestamps else {
+            return Ok(None);
+        };
+        Ok(ts.read_ms(&ctx)?.map(|ms| PassTimings {
+            refocus_ms: ms[0],
+            resolve_ms: ms[1],
+        }))
+    }
+
+    fn read_image(&mut self, settings: &RenderSettings) -> Result<GpuImage> {
+        let (Some(t), Some(buffer)) = (self.target.as_ref(), self.readback.as_mut()) else {
+            return Err(Error::Vulkan("no target".into()));
+        };
+        let (w, h) = (t.width, t.height);
+        buffer.invalidate(&self.ctx)?;
+        let bytes = buffer.bytes_mut();
+        Ok(match settings.output {
+            OutputFormat::Srgb8 => {
+                let raw = bytes[..(w * h * 4) as usize].to_vec();
+                GpuImage::Srgb8(
+                    RgbaImage::from_raw(w, h, raw)
+                        .ok_or_else(|| Error::Vulkan("readback size mismatch".into()))?,
+                )
+            }
+            OutputFormat::Float => {
+                let pixels = bytes[..(w * h * 16) as usize]
+                    .chunks_exact(16)
+                    .map(|c| {
+                        let f = |i: usize| f32::from_ne_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]);
+                        [f(0), f(4), f(8), f(12)]
+                    })
+                    .collect();
+                GpuImage::Float(RefocusImage {
+                    width: w,
+                    height: h,
+                    averaging: settings.averaging,
+                    pixels,
+                })
+            }
+        })
     }
 }
 
 impl Drop for HeadlessRenderer {
     fn drop(&mut self) {
+        let ctx = &self.ctx;
+        // SAFETY: waiting for idle has no preconditions; every submission of this renderer
+        // completes before its resources go.
+        unsafe {
+            let _ = ctx.device.device_wait_idle();
+        }
+        if let Some(b) = self.readback.take() {
+            b.destroy(ctx);
+        }
+        if let Some(t) = self.timestamps.take() {
+            t.destroy(ctx);
+        }
+        if let Some(s) = self.submission.take() {
+            s.destroy(ctx);
+        }
+        if let Some(t) = self.target.take() {
+            t.destroy(ctx);
+        }
         if let Some(p) = self.pass.take() {
-            p.destroy(&self.ctx);
+            p.destroy(ctx);
         }
         if let Some(t) = self.texture.take() {
-            t.destroy(&self.ctx);
+            t.destroy(ctx);
         }
     }
 }

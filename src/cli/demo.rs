@@ -15,7 +15,8 @@ use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::geometry::plane::Plane;
 use crate::headless::HeadlessRenderer;
-use crate::passes::refocus::{OutputFormat, RenderSettings};
+use crate::headless::RenderSettings;
+use crate::passes::refocus::OutputFormat;
 use crate::refocus::{self, FocusSpec, RefocusRequest};
 use crate::synth;
 

@@ -75,6 +75,7 @@ impl GpuArgs {
         GpuOptions {
             device: self.device.clone().or(env.device),
             validation: self.validate || env.validation,
+            ..GpuOptions::default()
         }
     }
 }

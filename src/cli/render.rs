@@ -11,10 +11,11 @@ use super::focus::{FocusArgs, FocusReport, FOCUS_OPTIONS};
 use super::{ensure_parent, load_light_field, parse_numbers, GpuArgs, LightFieldArgs};
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
-use crate::headless::HeadlessRenderer;
+use crate::headless::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
-use crate::passes::refocus::{GpuImage, OutputFormat, RenderSettings};
+use crate::passes::refocus::{Filter, OutputFormat, Strategy};
+use crate::passes::texture::ViewStorage;
 use crate::refocus::{self, Averaging, OutputKind, RefocusPlan, RefocusRequest};
 
 #[derive(Debug, Args)]
@@ -42,9 +43,26 @@ pub struct RenderArgs {
     /// Use views that are (almost) entirely black too (vignetted corners are skipped by default).
     #[arg(long)]
     pub include_dark: bool,
-    /// Split the views over draws of at most N views (0: one draw).
-    #[arg(long, value_name = "N", default_value_t = 0)]
+    /// How views are summed: fragment (one draw), batched[:N] (draws of N views) or compute.
+    #[arg(long, value_name = "STRATEGY")]
+    pub strategy: Option<Strategy>,
+    /// Same as --strategy batched:N (0: one draw).
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 0,
+        conflicts_with = "strategy"
+    )]
     pub views_per_draw: usize,
+    /// How views are sampled: hardware (bilinear), shader (exact bilinear) or nearest.
+    #[arg(long, value_name = "FILTER")]
+    pub filter: Option<Filter>,
+    /// How views are stored on the GPU: srgb8 or linear16 (exactly decoded linear light).
+    #[arg(long, value_name = "STORAGE")]
+    pub storage: Option<ViewStorage>,
+    /// Output size WxH (default: the views' size); pixel centres map exactly to the views.
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
     /// Render N more frames for timing and report the median GPU time.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub repeat: usize,
@@ -128,6 +146,30 @@ pub fn save(image: &GpuImage, path: &std::path::Path) -> Result<usize> {
     }
 }
 
+/// The GPU settings of `args` for an output of `kind`.
+pub fn render_settings(args: &RenderArgs, kind: OutputKind) -> Result<RenderSettings> {
+    let strategy = match (args.strategy, args.views_per_draw) {
+        (Some(s), _) => s,
+        (None, 0) => Strategy::default(),
+        (None, n) => Strategy::Batched { views_per_draw: n },
+    };
+    let size = args
+        .size
+        .as_deref()
+        .map(|text| super::synth::parse_pair(text, "--size"))
+        .transpose()?;
+    Ok(RenderSettings {
+        averaging: args.average,
+        output: match kind {
+            OutputKind::Png => OutputFormat::Srgb8,
+            OutputKind::Exr => OutputFormat::Float,
+        },
+        strategy,
+        filter: args.filter.unwrap_or_default(),
+        size,
+    })
+}
+
 fn median(mut v: Vec<f64>) -> Option<f64> {
     if v.is_empty() {
         return None;
@@ -152,17 +194,16 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             eprintln!("{line}");
         }
     }
+    let settings = render_settings(args, kind)?;
     let t1 = Instant::now();
-    let mut renderer = HeadlessRenderer::new(&lf, &args.gpu.options())?;
+    // Encoded averaging filters stored 8-bit texels directly (no per-texel re-encoding).
+    let storage = args.storage.unwrap_or(match args.average {
+        Averaging::Encoded => ViewStorage::Srgb8,
+        Averaging::Linear => ViewStorage::default(),
+    });
+    let ctx = std::sync::Arc::new(crate::gpu::GpuContext::new(&args.gpu.options())?);
+    let mut renderer = HeadlessRenderer::with_context(ctx, &lf, storage)?;
     let t_upload = t1.elapsed().as_secs_f64() * 1e3;
-    let settings = RenderSettings {
-        averaging: args.average,
-        output: match kind {
-            OutputKind::Png => OutputFormat::Srgb8,
-            OutputKind::Exr => OutputFormat::Float,
-        },
-        views_per_draw: args.views_per_draw,
-    };
     let t2 = Instant::now();
     let (image, timings) = renderer.render(&plan, &settings)?;
     let t_render = t2.elapsed().as_secs_f64() * 1e3;
@@ -179,6 +220,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let uncovered = save(&image, &args.output)?;
     let errors = renderer.context().validation().errors();
+    let renderer_storage = renderer.storage();
     let device = renderer.context().info.name.clone();
     drop(renderer);
     if errors > 0 {
@@ -187,7 +229,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         )));
     }
     let gpu_median = median(gpu_times.clone());
-    let pixels = (plan.width as f64) * (plan.height as f64);
+    let (out_w, out_h) = settings.size.unwrap_or((plan.width, plan.height));
+    let pixels = out_w as f64 * out_h as f64;
     if args.json {
         let mut report = plan_json(&plan);
         let extra = json!({
@@ -199,6 +242,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "focus": focus.to_json(),
             "output": args.output,
             "averaging": args.average,
+            "strategy": settings.strategy.name(),
+            "filter": settings.filter,
+            "storage": renderer_storage,
+            "size": [out_w, out_h],
             "aperture": {"shape": args.aperture, "radius": args.aperture_radius},
             "device": device,
             "uncovered_pixels": uncovered,
@@ -224,8 +271,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         eprintln!(
             "wrote {} ({}×{}, {} views, {}{})",
             args.output.display(),
-            plan.width,
-            plan.height,
+            out_w,
+            out_h,
             plan.views.len(),
             gpu_median.map_or("no GPU timer".to_string(), |ms| format!(
                 "GPU refocus {ms:.2} ms on {device}"

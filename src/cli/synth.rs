@@ -106,7 +106,7 @@ pub struct SynthArgs {
 }
 
 /// Parses "AxB" into two positive integers.
-fn parse_pair(text: &str, what: &str) -> Result<(u32, u32)> {
+pub(super) fn parse_pair(text: &str, what: &str) -> Result<(u32, u32)> {
     let err = || {
         Error::Invalid(format!(
             "{what}: expected AxB with positive integers, got '{text}'"

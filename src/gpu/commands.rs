@@ -3,7 +3,7 @@
 use ash::vk;
 
 use super::context::GpuContext;
-use super::resources::color_range;
+use super::resources::{color_range, range_of};
 use crate::error::Result;
 
 /// A primary command buffer and the fence of its submission, reused across frames.
@@ -85,12 +85,35 @@ pub struct ImageTransition {
     pub to: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
 }
 
-/// Records one image barrier (niagara's `imageBarrier`, synchronization2 form).
+/// Records one barrier on all `layers` layers of a colour image (niagara's `imageBarrier`,
+/// synchronization2 form).
 pub fn image_barrier(
     d: &ash::Device,
     cmd: vk::CommandBuffer,
     image: vk::Image,
     layers: u32,
+    t: ImageTransition,
+) {
+    barrier(d, cmd, image, color_range(layers), t);
+}
+
+/// Records one barrier on a single-layer image of `format`: the depth aspect for depth formats,
+/// colour otherwise.
+pub fn format_barrier(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    image: vk::Image,
+    format: vk::Format,
+    t: ImageTransition,
+) {
+    barrier(d, cmd, image, range_of(format, 1), t);
+}
+
+fn barrier(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    image: vk::Image,
+    range: vk::ImageSubresourceRange,
     t: ImageTransition,
 ) {
     let barrier = [vk::ImageMemoryBarrier2::default()
@@ -103,7 +126,7 @@ pub fn image_barrier(
         .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
         .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
         .image(image)
-        .subresource_range(color_range(layers))];
+        .subresource_range(range)];
     // SAFETY: cmd is recording; the barrier references a valid image.
     unsafe {
         d.cmd_pipeline_barrier2(
@@ -203,6 +226,39 @@ pub mod stage {
         L::SHADER_READ_ONLY_OPTIMAL,
         S::FRAGMENT_SHADER,
         A::SHADER_SAMPLED_READ,
+    );
+    /// Sampled by fragment or compute shaders.
+    pub const SHADER_READ: End = (
+        L::SHADER_READ_ONLY_OPTIMAL,
+        S::from_raw(S::FRAGMENT_SHADER.as_raw() | S::COMPUTE_SHADER.as_raw()),
+        A::SHADER_SAMPLED_READ,
+    );
+    /// Written (and read) as a depth attachment.
+    pub const DEPTH_WRITE: End = (
+        L::DEPTH_ATTACHMENT_OPTIMAL,
+        S::from_raw(S::EARLY_FRAGMENT_TESTS.as_raw() | S::LATE_FRAGMENT_TESTS.as_raw()),
+        A::from_raw(
+            A::DEPTH_STENCIL_ATTACHMENT_WRITE.as_raw() | A::DEPTH_STENCIL_ATTACHMENT_READ.as_raw(),
+        ),
+    );
+    /// Any use in `GENERAL` layout by attachments, shaders (sampled or storage) or copies:
+    /// the accumulation image of the refocus pass, between its strategies and the resolve.
+    pub const GENERAL_ANY: End = (
+        L::GENERAL,
+        S::from_raw(
+            S::COLOR_ATTACHMENT_OUTPUT.as_raw()
+                | S::FRAGMENT_SHADER.as_raw()
+                | S::COMPUTE_SHADER.as_raw()
+                | S::CLEAR.as_raw(),
+        ),
+        A::from_raw(
+            A::COLOR_ATTACHMENT_WRITE.as_raw()
+                | A::COLOR_ATTACHMENT_READ.as_raw()
+                | A::SHADER_SAMPLED_READ.as_raw()
+                | A::SHADER_STORAGE_READ.as_raw()
+                | A::SHADER_STORAGE_WRITE.as_raw()
+                | A::TRANSFER_WRITE.as_raw(),
+        ),
     );
     pub const COLOR_WRITE: End = (
         L::COLOR_ATTACHMENT_OPTIMAL,

@@ -22,6 +22,10 @@ pub struct GpuOptions {
     pub device: Option<String>,
     /// Enable the Khronos validation layer; creation fails if the layer is missing.
     pub validation: bool,
+    /// Extra instance extensions, e.g. the surface extensions a window system needs.
+    pub instance_extensions: Vec<CString>,
+    /// Enable `VK_KHR_swapchain` (presenting to windows); devices without it are unusable.
+    pub swapchain: bool,
 }
 
 impl GpuOptions {
@@ -33,6 +37,7 @@ impl GpuOptions {
                 .ok()
                 .filter(|s| !s.is_empty()),
             validation: std::env::var("TILTFIELD_VALIDATION").is_ok_and(|v| v != "0"),
+            ..GpuOptions::default()
         }
     }
 }
@@ -108,7 +113,11 @@ fn load_entry() -> Result<ash::Entry> {
 }
 
 /// Queue family with graphics support, the features tiltfield needs, or why not.
-fn check_device(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<(u32, u32), String> {
+fn check_device(
+    instance: &ash::Instance,
+    pd: vk::PhysicalDevice,
+    swapchain: bool,
+) -> Result<(u32, u32), String> {
     // SAFETY: pd comes from this instance.
     let props = unsafe { instance.get_physical_device_properties(pd) };
     if props.api_version < vk::API_VERSION_1_3 {
@@ -123,6 +132,18 @@ fn check_device(instance: &ash::Instance, pd: vk::PhysicalDevice) -> Result<(u32
     unsafe { instance.get_physical_device_features2(pd, &mut f2) };
     if f13.dynamic_rendering == vk::FALSE || f13.synchronization2 == vk::FALSE {
         return Err("lacks dynamicRendering or synchronization2".into());
+    }
+    if swapchain {
+        // SAFETY: pd comes from this instance.
+        let exts = unsafe { instance.enumerate_device_extension_properties(pd) }
+            .map_err(|e| format!("cannot list its extensions ({e})"))?;
+        let has = exts.iter().any(|e| {
+            e.extension_name_as_c_str()
+                .is_ok_and(|n| n == ash::khr::swapchain::NAME)
+        });
+        if !has {
+            return Err("cannot present to windows (no VK_KHR_swapchain)".into());
+        }
     }
     // SAFETY: pd comes from this instance.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
@@ -155,13 +176,14 @@ fn describe(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> D
         kind: kind_name(props.device_type).into(),
         api_version: version_string(props.api_version),
         driver,
-        unsupported: check_device(instance, pd).err(),
+        unsupported: check_device(instance, pd, false).err(),
     }
 }
 
 fn create_instance(
     entry: &ash::Entry,
     validation: bool,
+    requested: &[CString],
     log: &Arc<ValidationLog>,
 ) -> Result<(ash::Instance, bool)> {
     // SAFETY: plain enumeration calls.
@@ -199,11 +221,23 @@ fn create_instance(
     } else {
         Vec::new()
     };
-    let ext_ptrs: Vec<*const c_char> = if has_debug_utils {
-        vec![ash::ext::debug_utils::NAME.as_ptr()]
-    } else {
-        Vec::new()
-    };
+    for name in requested {
+        let offered = extensions.iter().any(|e| {
+            e.extension_name_as_c_str()
+                .is_ok_and(|n| n == name.as_c_str())
+        });
+        if !offered {
+            return Err(Error::Vulkan(format!(
+                "the Vulkan loader does not offer the instance extension {}, which the window \
+                 system needs",
+                name.to_string_lossy()
+            )));
+        }
+    }
+    let mut ext_ptrs: Vec<*const c_char> = requested.iter().map(|n| n.as_ptr()).collect();
+    if has_debug_utils {
+        ext_ptrs.push(ash::ext::debug_utils::NAME.as_ptr());
+    }
     // Chained into instance creation so that messages about creating and destroying the
     // instance itself are counted too.
     let mut messenger_info = messenger_create_info(log);
@@ -245,7 +279,7 @@ fn messenger_create_info(
 pub fn list_devices() -> Result<Vec<DeviceInfo>> {
     let entry = load_entry()?;
     let log = Arc::new(ValidationLog::default());
-    let (instance, _) = create_instance(&entry, false, &log)?;
+    let (instance, _) = create_instance(&entry, false, &[], &log)?;
     // SAFETY: instance is valid; destroyed below after use.
     let result = unsafe { instance.enumerate_physical_devices() }
         .map(|pds| {
@@ -265,7 +299,12 @@ impl GpuContext {
     pub fn new(options: &GpuOptions) -> Result<Self> {
         let entry = load_entry()?;
         let log = Arc::new(ValidationLog::default());
-        let (instance, has_debug_utils) = create_instance(&entry, options.validation, &log)?;
+        let (instance, has_debug_utils) = create_instance(
+            &entry,
+            options.validation,
+            &options.instance_extensions,
+            &log,
+        )?;
         // From here on, `partial` tears down what exists if a later step fails.
         let debug = if has_debug_utils {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
@@ -292,7 +331,7 @@ impl GpuContext {
                     instance.destroy_instance(None);
                 }
             };
-        let chosen = match choose_device(&instance, options.device.as_deref()) {
+        let chosen = match choose_device(&instance, options.device.as_deref(), options.swapchain) {
             Ok(c) => c,
             Err(e) => {
                 destroy_instance(&debug);
@@ -307,8 +346,14 @@ impl GpuContext {
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true);
+        let device_extensions = if options.swapchain {
+            vec![ash::khr::swapchain::NAME.as_ptr()]
+        } else {
+            Vec::new()
+        };
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
+            .enabled_extension_names(&device_extensions)
             .push_next(&mut f13);
         // SAFETY: physical comes from this instance; the features were checked.
         let device = match unsafe { instance.create_device(physical, &device_info, None) } {
@@ -421,6 +466,7 @@ impl GpuContext {
 fn choose_device(
     instance: &ash::Instance,
     selector: Option<&str>,
+    swapchain: bool,
 ) -> Result<(vk::PhysicalDevice, DeviceInfo, u32, u32)> {
     // SAFETY: valid instance.
     let pds = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
@@ -434,7 +480,13 @@ fn choose_device(
     let infos: Vec<DeviceInfo> = pds
         .iter()
         .enumerate()
-        .map(|(i, &pd)| describe(instance, i, pd))
+        .map(|(i, &pd)| {
+            let mut info = describe(instance, i, pd);
+            if info.unsupported.is_none() {
+                info.unsupported = check_device(instance, pd, swapchain).err();
+            }
+            info
+        })
         .collect();
     let list = || {
         infos
@@ -482,7 +534,7 @@ fn choose_device(
         }
     };
     let info = infos[index].clone();
-    let (family, bits) = check_device(instance, pds[index])
+    let (family, bits) = check_device(instance, pds[index], swapchain)
         .map_err(|why| Error::Vulkan(format!("{} cannot be used: it {why}", info.name)))?;
     Ok((pds[index], info, family, bits))
 }

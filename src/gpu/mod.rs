@@ -1,5 +1,6 @@
-//! Hand-written Vulkan (ash) for tiltfield: the context, owning resource wrappers, command and
-//! barrier helpers, timestamp queries.
+//! Hand-written Vulkan (ash) for tiltfield: the context (shared by every pass of a process
+//! through an `Arc`), owning resource wrappers, one staging upload, command and barrier
+//! helpers, pipelines, frames in flight, the swapchain of a window, timestamp queries.
 //!
 //! Design decisions:
 //! - Vulkan 1.3 with `dynamicRendering` and `synchronization2`: no render pass or framebuffer
@@ -13,10 +14,13 @@
 
 pub mod commands;
 pub mod context;
+pub mod frames;
 pub mod pipeline;
 pub mod resources;
 pub mod shaders;
+pub mod swapchain;
 pub mod timing;
+pub mod upload;
 pub mod validation;
 
 pub use context::{GpuContext, GpuOptions};

@@ -1,6 +1,10 @@
-//! Graphics pipelines of the shape tiltfield uses: triangle lists, no culling, one colour
-//! attachment, optional depth, dynamic viewport and scissor, dynamic rendering (no render
-//! pass objects). Passes describe what differs; this builds the rest once.
+//! Pipelines of the shapes tiltfield uses. Graphics: one colour attachment, optional depth,
+//! no culling, dynamic viewport and scissor, dynamic rendering (no render pass objects), a
+//! topology (points, lines, triangles) and a blend mode (replace, additive, alpha). Compute:
+//! one shader. Passes describe what differs; this builds the rest once.
+//!
+//! Specialisation constants are 4-byte values at consecutive constant ids from 0, the form
+//! every tiltfield shader uses (`layout(constant_id = N) const uint/bool …`).
 
 use ash::vk;
 
@@ -15,6 +19,18 @@ pub struct DepthTest {
     pub write: bool,
 }
 
+/// How fragment outputs combine with the attachment.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Blend {
+    /// Replace the attachment's value.
+    #[default]
+    Replace,
+    /// Add (`ONE + ONE`): accumulation of weighted samples.
+    Additive,
+    /// Straight alpha over (`SRC_ALPHA, ONE_MINUS_SRC_ALPHA`): transparent overlays.
+    Alpha,
+}
+
 /// What differs between tiltfield's graphics pipelines.
 #[derive(Debug, Clone, Copy)]
 pub struct PipelineDesc<'a> {
@@ -22,18 +38,61 @@ pub struct PipelineDesc<'a> {
     pub vert: vk::ShaderModule,
     pub frag: vk::ShaderModule,
     pub color_format: vk::Format,
-    /// Add fragment outputs to the attachment (`ONE + ONE`) instead of replacing it.
-    pub additive: bool,
+    pub topology: vk::PrimitiveTopology,
+    pub blend: Blend,
     /// Write colour at all (a depth pre-pass does not).
     pub color_write: bool,
     pub depth: Option<DepthTest>,
     pub vertex_bindings: &'a [vk::VertexInputBindingDescription],
     pub vertex_attributes: &'a [vk::VertexInputAttributeDescription],
+    /// Fragment shader specialisation constants (ids 0, 1, …).
+    pub frag_constants: &'a [u32],
+}
+
+impl<'a> PipelineDesc<'a> {
+    /// A fullscreen-triangle pipeline (no vertex input) replacing one colour attachment.
+    pub fn fullscreen(
+        layout: vk::PipelineLayout,
+        vert: vk::ShaderModule,
+        frag: vk::ShaderModule,
+        color_format: vk::Format,
+    ) -> Self {
+        PipelineDesc {
+            layout,
+            vert,
+            frag,
+            color_format,
+            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+            blend: Blend::Replace,
+            color_write: true,
+            depth: None,
+            vertex_bindings: &[],
+            vertex_attributes: &[],
+            frag_constants: &[],
+        }
+    }
+}
+
+/// Map entries and data of 4-byte specialisation constants with ids 0, 1, ….
+fn specialization(values: &[u32]) -> (Vec<vk::SpecializationMapEntry>, Vec<u8>) {
+    let entries = (0..values.len() as u32)
+        .map(|i| vk::SpecializationMapEntry {
+            constant_id: i,
+            offset: i * 4,
+            size: 4,
+        })
+        .collect();
+    let data = values.iter().flat_map(|v| v.to_ne_bytes()).collect();
+    (entries, data)
 }
 
 /// Creates the pipeline described by `desc`.
 pub fn graphics_pipeline(ctx: &GpuContext, desc: &PipelineDesc) -> Result<vk::Pipeline> {
     let entry = c"main";
+    let (spec_entries, spec_data) = specialization(desc.frag_constants);
+    let spec = vk::SpecializationInfo::default()
+        .map_entries(&spec_entries)
+        .data(&spec_data);
     let stages = [
         vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::VERTEX)
@@ -42,13 +101,13 @@ pub fn graphics_pipeline(ctx: &GpuContext, desc: &PipelineDesc) -> Result<vk::Pi
         vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::FRAGMENT)
             .module(desc.frag)
-            .name(entry),
+            .name(entry)
+            .specialization_info(&spec),
     ];
     let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
         .vertex_binding_descriptions(desc.vertex_bindings)
         .vertex_attribute_descriptions(desc.vertex_attributes);
-    let assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-        .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+    let assembly = vk::PipelineInputAssemblyStateCreateInfo::default().topology(desc.topology);
     let viewport = vk::PipelineViewportStateCreateInfo::default()
         .viewport_count(1)
         .scissor_count(1);
@@ -67,13 +126,20 @@ pub fn graphics_pipeline(ctx: &GpuContext, desc: &PipelineDesc) -> Result<vk::Pi
                 .depth_write_enable(d.write)
                 .depth_compare_op(d.compare)
         });
+    let (src, dst) = match desc.blend {
+        Blend::Replace | Blend::Additive => (vk::BlendFactor::ONE, vk::BlendFactor::ONE),
+        Blend::Alpha => (
+            vk::BlendFactor::SRC_ALPHA,
+            vk::BlendFactor::ONE_MINUS_SRC_ALPHA,
+        ),
+    };
     let blend_attachment = [vk::PipelineColorBlendAttachmentState::default()
-        .blend_enable(desc.additive)
-        .src_color_blend_factor(vk::BlendFactor::ONE)
-        .dst_color_blend_factor(vk::BlendFactor::ONE)
+        .blend_enable(desc.blend != Blend::Replace)
+        .src_color_blend_factor(src)
+        .dst_color_blend_factor(dst)
         .color_blend_op(vk::BlendOp::ADD)
         .src_alpha_blend_factor(vk::BlendFactor::ONE)
-        .dst_alpha_blend_factor(vk::BlendFactor::ONE)
+        .dst_alpha_blend_factor(dst)
         .alpha_blend_op(vk::BlendOp::ADD)
         .color_write_mask(if desc.color_write {
             vk::ColorComponentFlags::RGBA
@@ -105,6 +171,34 @@ pub fn graphics_pipeline(ctx: &GpuContext, desc: &PipelineDesc) -> Result<vk::Pi
     let pipelines = unsafe {
         ctx.device
             .create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
+    }
+    .map_err(|(_, e)| Error::from(e))?;
+    Ok(pipelines[0])
+}
+
+/// Creates a compute pipeline running `module` with specialisation `constants` (ids 0, 1, …).
+pub fn compute_pipeline(
+    ctx: &GpuContext,
+    layout: vk::PipelineLayout,
+    module: vk::ShaderModule,
+    constants: &[u32],
+) -> Result<vk::Pipeline> {
+    let (spec_entries, spec_data) = specialization(constants);
+    let spec = vk::SpecializationInfo::default()
+        .map_entries(&spec_entries)
+        .data(&spec_data);
+    let stage = vk::PipelineShaderStageCreateInfo::default()
+        .stage(vk::ShaderStageFlags::COMPUTE)
+        .module(module)
+        .name(c"main")
+        .specialization_info(&spec);
+    let info = vk::ComputePipelineCreateInfo::default()
+        .stage(stage)
+        .layout(layout);
+    // SAFETY: every referenced structure lives until the call returns.
+    let pipelines = unsafe {
+        ctx.device
+            .create_compute_pipelines(vk::PipelineCache::null(), &[info], None)
     }
     .map_err(|(_, e)| Error::from(e))?;
     Ok(pipelines[0])

@@ -13,6 +13,7 @@ pub struct Buffer {
     memory: vk::DeviceMemory,
     pub size: u64,
     mapped: Option<*mut u8>,
+    coherent: bool,
 }
 
 impl Buffer {
@@ -24,6 +25,42 @@ impl Buffer {
         host: bool,
         name: &str,
     ) -> Result<Self> {
+        let flags = if host {
+            vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT
+        } else {
+            vk::MemoryPropertyFlags::DEVICE_LOCAL
+        };
+        Self::with_memory(ctx, size, usage, &[flags], name)
+    }
+
+    /// A mapped buffer the GPU writes and the CPU reads: host-cached memory where the device
+    /// has it (uncached reads of mapped memory are very slow on discrete GPUs), else any
+    /// host-visible memory. Call [`Buffer::invalidate`] before reading.
+    pub fn readback(ctx: &GpuContext, size: u64, name: &str) -> Result<Self> {
+        use vk::MemoryPropertyFlags as M;
+        let preferences = [
+            M::HOST_VISIBLE | M::HOST_CACHED | M::HOST_COHERENT,
+            M::HOST_VISIBLE | M::HOST_CACHED,
+            M::HOST_VISIBLE | M::HOST_COHERENT,
+        ];
+        Self::with_memory(
+            ctx,
+            size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            &preferences,
+            name,
+        )
+    }
+
+    /// Creates the buffer in the first memory kind of `preferences` the device offers for it;
+    /// host-visible memory is mapped. Frees what it made when a later step fails.
+    fn with_memory(
+        ctx: &GpuContext,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        preferences: &[vk::MemoryPropertyFlags],
+        name: &str,
+    ) -> Result<Self> {
         let d = &ctx.device;
         let info = vk::BufferCreateInfo::default()
             .size(size.max(4))
@@ -33,12 +70,20 @@ impl Buffer {
         let buffer = unsafe { d.create_buffer(&info, None) }?;
         // SAFETY: buffer belongs to d.
         let req = unsafe { d.get_buffer_memory_requirements(buffer) };
-        let flags = if host {
-            vk::MemoryPropertyFlags::HOST_VISIBLE | vk::MemoryPropertyFlags::HOST_COHERENT
-        } else {
-            vk::MemoryPropertyFlags::DEVICE_LOCAL
+        let chosen = preferences.iter().find_map(|&f| {
+            ctx.memory_type(req.memory_type_bits, f)
+                .ok()
+                .map(|t| (f, t))
+        });
+        let Some((flags, type_index)) = chosen else {
+            // SAFETY: unbound, unused buffer.
+            unsafe { d.destroy_buffer(buffer, None) };
+            return Err(crate::error::Error::DeviceLimit(format!(
+                "{} has no memory type among {preferences:?} for buffer '{name}'",
+                ctx.info.name
+            )));
         };
-        let memory = match allocate(ctx, req, flags) {
+        let memory = match allocate_type(ctx, req, type_index) {
             Ok(m) => m,
             Err(e) => {
                 // SAFETY: unbound, unused buffer.
@@ -46,16 +91,26 @@ impl Buffer {
                 return Err(e);
             }
         };
+        let host = flags.contains(vk::MemoryPropertyFlags::HOST_VISIBLE);
         // SAFETY: memory was allocated for this buffer's requirements.
-        let mapped = unsafe {
-            d.bind_buffer_memory(buffer, memory, 0)?;
+        let bound = unsafe { d.bind_buffer_memory(buffer, memory, 0) }.and_then(|()| {
             if host {
-                Some(
-                    d.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty())?
-                        as *mut u8,
-                )
+                // SAFETY: host-visible memory, not mapped yet.
+                unsafe { d.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+                    .map(|p| Some(p as *mut u8))
             } else {
-                None
+                Ok(None)
+            }
+        });
+        let mapped = match bound {
+            Ok(m) => m,
+            Err(e) => {
+                // SAFETY: nothing uses the buffer or the memory yet.
+                unsafe {
+                    d.destroy_buffer(buffer, None);
+                    d.free_memory(memory, None);
+                }
+                return Err(e.into());
             }
         };
         ctx.name(buffer, name);
@@ -65,7 +120,23 @@ impl Buffer {
             memory,
             size,
             mapped,
+            coherent: flags.contains(vk::MemoryPropertyFlags::HOST_COHERENT),
         })
+    }
+
+    /// Makes GPU writes visible to the mapping (needed for non-coherent memory; cheap
+    /// otherwise). Call after the writing submission completed and before reading.
+    pub fn invalidate(&self, ctx: &GpuContext) -> Result<()> {
+        if self.coherent || self.mapped.is_none() {
+            return Ok(());
+        }
+        let range = vk::MappedMemoryRange::default()
+            .memory(self.memory)
+            .offset(0)
+            .size(vk::WHOLE_SIZE);
+        // SAFETY: the memory is mapped; the GPU finished writing it.
+        unsafe { ctx.device.invalidate_mapped_memory_ranges(&[range]) }?;
+        Ok(())
     }
 
     /// A host-visible buffer holding a copy of `bytes`.
@@ -279,7 +350,14 @@ fn allocate(
     req: vk::MemoryRequirements,
     flags: vk::MemoryPropertyFlags,
 ) -> Result<vk::DeviceMemory> {
-    let type_index = ctx.memory_type(req.memory_type_bits, flags)?;
+    allocate_type(ctx, req, ctx.memory_type(req.memory_type_bits, flags)?)
+}
+
+fn allocate_type(
+    ctx: &GpuContext,
+    req: vk::MemoryRequirements,
+    type_index: u32,
+) -> Result<vk::DeviceMemory> {
     let info = vk::MemoryAllocateInfo::default()
         .allocation_size(req.size)
         .memory_type_index(type_index);

@@ -25,7 +25,7 @@ impl Timestamps {
             .query_count(count);
         // SAFETY: valid device.
         let pool = unsafe { ctx.device.create_query_pool(&info, None) }?;
-        ctx.name(pool, "refocus timestamps");
+        ctx.name(pool, "timestamps");
         Ok(Some(Timestamps {
             pool,
             count,
@@ -56,27 +56,30 @@ impl Timestamps {
         unsafe { d.cmd_write_timestamp2(cmd, stage, self.pool, i) };
     }
 
-    /// Milliseconds between consecutive timestamps (count − 1 values), after the submission
-    /// completed.
-    pub fn read_ms(&self, ctx: &GpuContext) -> Result<Vec<f64>> {
+    /// Milliseconds between consecutive timestamps (count − 1 values) once the submission
+    /// that wrote them completed; `None` while any is not available yet (NOT_READY is the
+    /// legal answer then, not an error). Never blocks: callers read after their fence.
+    pub fn read_ms(&self, ctx: &GpuContext) -> Result<Option<Vec<f64>>> {
         let mut raw = vec![0u64; self.count as usize];
-        // SAFETY: the submission that wrote the queries has completed.
-        unsafe {
-            ctx.device.get_query_pool_results(
-                self.pool,
-                0,
-                &mut raw,
-                vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-            )
-        }?;
-        Ok(raw
-            .windows(2)
-            .map(|w| {
-                let ticks =
-                    (w[1] & self.valid_mask).wrapping_sub(w[0] & self.valid_mask) & self.valid_mask;
-                ticks as f64 * self.period_ns / 1e6
-            })
-            .collect())
+        // SAFETY: valid pool; without WAIT the call returns at once.
+        let r = unsafe {
+            ctx.device
+                .get_query_pool_results(self.pool, 0, &mut raw, vk::QueryResultFlags::TYPE_64)
+        };
+        match r {
+            Ok(()) => {}
+            Err(vk::Result::NOT_READY) => return Ok(None),
+            Err(e) => return Err(e.into()),
+        }
+        Ok(Some(
+            raw.windows(2)
+                .map(|w| {
+                    let ticks = (w[1] & self.valid_mask).wrapping_sub(w[0] & self.valid_mask)
+                        & self.valid_mask;
+                    ticks as f64 * self.period_ns / 1e6
+                })
+                .collect(),
+        ))
     }
 
     /// Frees the pool.

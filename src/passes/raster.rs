@@ -35,11 +35,12 @@ use glam::{DMat3, DMat4, DVec2, DVec3, DVec4};
 use crate::error::{Error, Result};
 use crate::geometry::camera::Camera;
 use crate::gpu::commands::{
-    begin_rendering, color_copy, image_barrier, stage, ImageTransition, Submission,
+    begin_rendering, color_copy, format_barrier, image_barrier, stage, ImageTransition, Submission,
 };
-use crate::gpu::pipeline::{graphics_pipeline, DepthTest, PipelineDesc};
-use crate::gpu::resources::{range_of, Buffer, Image, ImageDesc};
+use crate::gpu::pipeline::{graphics_pipeline, Blend, DepthTest, PipelineDesc};
+use crate::gpu::resources::{Buffer, Image, ImageDesc};
 use crate::gpu::shaders;
+use crate::gpu::upload::{upload_images, ImageRegion};
 use crate::gpu::GpuContext;
 use crate::synth::mesh::{MeshDraw, MeshScene, VERTEX_BYTES};
 
@@ -292,7 +293,11 @@ impl RasterPass {
                     to: stage::COLOR_WRITE,
                 },
             );
-            depth_barrier(d, cmd, depth.image);
+            let to_depth = ImageTransition {
+                from: stage::UNDEFINED,
+                to: stage::DEPTH_WRITE,
+            };
+            format_barrier(d, cmd, depth.image, DEPTH_FORMAT, to_depth);
             let draw_all = |pipeline: vk::Pipeline, p: &Projection| {
                 let push = push_bytes(p);
                 // SAFETY: recording inside a rendering instance whose formats match.
@@ -475,29 +480,6 @@ fn attachments_barrier(d: &ash::Device, cmd: vk::CommandBuffer) {
     };
 }
 
-/// Moves the depth buffer from UNDEFINED into the depth attachment layout.
-fn depth_barrier(d: &ash::Device, cmd: vk::CommandBuffer, image: vk::Image) {
-    use vk::{AccessFlags2 as A, PipelineStageFlags2 as S};
-    let barrier = [vk::ImageMemoryBarrier2::default()
-        .src_stage_mask(S::NONE)
-        .src_access_mask(A::NONE)
-        .old_layout(vk::ImageLayout::UNDEFINED)
-        .dst_stage_mask(S::EARLY_FRAGMENT_TESTS | S::LATE_FRAGMENT_TESTS)
-        .dst_access_mask(A::DEPTH_STENCIL_ATTACHMENT_WRITE | A::DEPTH_STENCIL_ATTACHMENT_READ)
-        .new_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
-        .src_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-        .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
-        .image(image)
-        .subresource_range(range_of(DEPTH_FORMAT, 1))];
-    // SAFETY: recording; valid image.
-    unsafe {
-        d.cmd_pipeline_barrier2(
-            cmd,
-            &vk::DependencyInfo::default().image_memory_barriers(&barrier),
-        )
-    };
-}
-
 /// Handles of the pass under construction (null until created); destroying it frees exactly
 /// those that exist, so a failed set-up leaks nothing.
 #[derive(Default)]
@@ -614,84 +596,44 @@ impl PassBuilder {
             .collect();
         all.push((1, 1, &white[..], false, "white texture".into()));
         let total: usize = all.iter().map(|a| a.2.len()).sum();
-        let upload = (|| -> Result<()> {
-            let mut staging = Buffer::new(
-                ctx,
-                total as u64,
-                vk::BufferUsageFlags::TRANSFER_SRC,
-                true,
-                "mesh texture staging",
-            )?;
-            let mut offsets = Vec::new();
+        for (w, h, data, _, name) in &all {
+            if data.len() != (*w as usize) * (*h as usize) * 4 {
+                return Err(Error::Invalid(format!(
+                    "{}: texture {name} has {} bytes for {w}×{h} RGBA8",
+                    mesh.name,
+                    data.len()
+                )));
+            }
+        }
+        for (w, h, _, _, name) in &all {
+            let desc = ImageDesc::new_2d(
+                vk::Format::R8G8B8A8_SRGB,
+                *w,
+                *h,
+                vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+            );
+            self.textures
+                .push(Image::new(ctx, desc, &[vk::Format::R8G8B8A8_SRGB], name)?);
+        }
+        let mut at = 0u64;
+        let regions: Vec<ImageRegion> = self
+            .textures
+            .iter()
+            .zip(&all)
+            .map(|(image, a)| {
+                let offset = at;
+                at += a.2.len() as u64;
+                ImageRegion { image, offset }
+            })
+            .collect();
+        let upload = upload_images(ctx, &regions, total as u64, "mesh texture staging", |dst| {
             let mut at = 0usize;
-            let bytes = staging.bytes_mut();
-            for (w, h, data, _, name) in &all {
-                if data.len() != (*w as usize) * (*h as usize) * 4 {
-                    staging.destroy(ctx);
-                    return Err(Error::Invalid(format!(
-                        "{}: texture {name} has {} bytes for {w}×{h} RGBA8",
-                        mesh.name,
-                        data.len()
-                    )));
-                }
-                bytes[at..at + data.len()].copy_from_slice(data);
-                offsets.push(at as u64);
+            for (_, _, data, _, _) in &all {
+                dst[at..at + data.len()].copy_from_slice(data);
                 at += data.len();
             }
-            for (w, h, _, _, name) in &all {
-                let desc = ImageDesc::new_2d(
-                    vk::Format::R8G8B8A8_SRGB,
-                    *w,
-                    *h,
-                    vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
-                );
-                match Image::new(ctx, desc, &[vk::Format::R8G8B8A8_SRGB], name) {
-                    Ok(i) => self.textures.push(i),
-                    Err(e) => {
-                        staging.destroy(ctx);
-                        return Err(e);
-                    }
-                }
-            }
-            let textures = &self.textures;
-            let r = submission.run(ctx, |d, cmd| {
-                for (i, img) in textures.iter().enumerate() {
-                    image_barrier(
-                        d,
-                        cmd,
-                        img.image,
-                        1,
-                        ImageTransition {
-                            from: stage::UNDEFINED,
-                            to: stage::TRANSFER_DST,
-                        },
-                    );
-                    let region = color_copy(offsets[i], img.desc.width, img.desc.height, 1);
-                    // SAFETY: recording; the staging buffer holds every texture.
-                    unsafe {
-                        d.cmd_copy_buffer_to_image(
-                            cmd,
-                            staging.buffer,
-                            img.image,
-                            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                            &[region],
-                        )
-                    };
-                    image_barrier(
-                        d,
-                        cmd,
-                        img.image,
-                        1,
-                        ImageTransition {
-                            from: stage::TRANSFER_DST,
-                            to: stage::FRAGMENT_READ,
-                        },
-                    );
-                }
-            });
-            staging.destroy(ctx);
-            r
-        })();
+            Ok(())
+        });
         self.submission = Some(submission);
         upload?;
 
@@ -809,7 +751,12 @@ fn mesh_pipeline(
             vert,
             frag,
             color_format: ACCUM_FORMAT,
-            additive: mode == Mode::Accumulate,
+            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+            blend: if mode == Mode::Accumulate {
+                Blend::Additive
+            } else {
+                Blend::Replace
+            },
             color_write: mode != Mode::DepthPrepass,
             depth: Some(DepthTest {
                 format: DEPTH_FORMAT,
@@ -818,6 +765,7 @@ fn mesh_pipeline(
             }),
             vertex_bindings: &bindings,
             vertex_attributes: &attributes,
+            frag_constants: &[],
         },
     )
 }

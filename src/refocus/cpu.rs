@@ -10,21 +10,33 @@ use super::{Averaging, RefocusImage, RefocusPlan};
 use crate::color;
 use crate::lightfield::LightField;
 
-/// Renders `plan` on the CPU.
+/// Renders `plan` on the CPU at the views' size.
 pub fn render(lf: &LightField, plan: &RefocusPlan, averaging: Averaging) -> RefocusImage {
-    let (w, h) = (lf.width, lf.height);
+    render_scaled(lf, plan, averaging, lf.width, lf.height)
+}
+
+/// Renders `plan` on the CPU at `w × h`: output pixel (i, j) has its centre at reference-view
+/// pixel position ((i + ½)·W/w − ½, (j + ½)·H/h − ½), as on the GPU.
+pub fn render_scaled(
+    lf: &LightField,
+    plan: &RefocusPlan,
+    averaging: Averaging,
+    w: u32,
+    h: u32,
+) -> RefocusImage {
+    let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
     let table: [f64; 256] = match averaging {
         Averaging::Linear => color::decode_table(),
         Averaging::Encoded => std::array::from_fn(|i| i as f64 / 255.0),
     };
-    let (wf, hf) = (w as f64, h as f64);
+    let (wf, hf) = (lf.width as f64, lf.height as f64);
     let mut pixels = vec![[0f32; 4]; (w * h) as usize];
     pixels
         .par_chunks_mut(w as usize)
         .enumerate()
         .for_each(|(y, row)| {
             for (x, out) in row.iter_mut().enumerate() {
-                let px = DVec2::new(x as f64, y as f64);
+                let px = (DVec2::new(x as f64, y as f64) + 0.5) * scale - 0.5;
                 let mut sum = [0f64; 3];
                 let mut wsum = 0f64;
                 for v in &plan.views {

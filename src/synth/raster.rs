@@ -15,6 +15,8 @@
 //! A; the third row of P_A is still the depth, so the same reverse-Z rasterization applies, with
 //! no image resampling. The renders are averaged in linear light.
 
+use std::sync::Arc;
+
 use glam::{DMat3, DVec2, DVec3};
 use image::RgbaImage;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -49,12 +51,12 @@ pub struct RenderedView {
     pub covered: usize,
 }
 
-/// A Vulkan context with a mesh uploaded, torn down pass → context.
+/// A mesh uploaded to a (shared) Vulkan context; the pass goes before the context's last user.
 pub struct Rasterizer {
     pass: Option<RasterPass>,
     background: [f32; 3],
     name: String,
-    ctx: GpuContext,
+    ctx: Arc<GpuContext>,
 }
 
 /// Stratified sub-pixel offsets (k + ½)/n − ½.
@@ -66,11 +68,11 @@ fn offsets(n: u32) -> Vec<f64> {
 impl Rasterizer {
     /// Creates a context and uploads `mesh`.
     pub fn new(mesh: &MeshScene, options: &GpuOptions) -> Result<Self> {
-        Self::with_context(GpuContext::new(options)?, mesh)
+        Self::with_context(Arc::new(GpuContext::new(options)?), mesh)
     }
 
-    /// Uploads `mesh` to an existing context.
-    pub fn with_context(ctx: GpuContext, mesh: &MeshScene) -> Result<Self> {
+    /// Uploads `mesh` to a context shared with other passes of the process.
+    pub fn with_context(ctx: Arc<GpuContext>, mesh: &MeshScene) -> Result<Self> {
         let pass = RasterPass::new(&ctx, mesh)?;
         Ok(Rasterizer {
             pass: Some(pass),

@@ -4,9 +4,9 @@
 
 use tiltfield::color;
 use tiltfield::gpu::GpuOptions;
-use tiltfield::headless::HeadlessRenderer;
+use tiltfield::headless::{GpuImage, HeadlessRenderer, RenderSettings};
 use tiltfield::lightfield::LightField;
-use tiltfield::passes::refocus::{GpuImage, OutputFormat, RenderSettings};
+use tiltfield::passes::refocus::{OutputFormat, Strategy};
 use tiltfield::refocus::{Averaging, RefocusImage, RefocusPlan};
 
 /// A request with the default aperture (all views) at the grid centre.
@@ -25,6 +25,7 @@ pub fn gpu_options() -> GpuOptions {
             .ok()
             .filter(|s| !s.is_empty()),
         validation: true,
+        ..GpuOptions::default()
     }
 }
 
@@ -72,7 +73,12 @@ pub fn render_float_split(
     let settings = RenderSettings {
         averaging,
         output: OutputFormat::Float,
-        views_per_draw,
+        strategy: if views_per_draw == 0 {
+            Strategy::Fragment
+        } else {
+            Strategy::Batched { views_per_draw }
+        },
+        ..RenderSettings::default()
     };
     match r.render(plan, &settings).expect("render").0 {
         GpuImage::Float(img) => img,
@@ -89,7 +95,7 @@ pub fn render_srgb8(
     let settings = RenderSettings {
         averaging,
         output: OutputFormat::Srgb8,
-        views_per_draw: 0,
+        ..RenderSettings::default()
     };
     match r.render(plan, &settings).expect("render").0 {
         GpuImage::Srgb8(img) => img,

@@ -1,0 +1,85 @@
+// The generalized shift-and-sum loop shared by the fragment and compute strategies: for one
+// output pixel, sample every view of the draw at its homography, mask samples behind the view's
+// camera or outside its image, and return the weighted colour sum (rgb) and weight sum (a).
+#include "refocus_interface.glsl"
+
+// How a view is sampled (specialisation constants: each combination is its own pipeline, so
+// the unused paths cost nothing).
+//   FILTER 0: hardware bilinear (one filtered fetch; positions snap to 8 fractional bits);
+//   FILTER 1: nearest texel;
+//   FILTER 2: bilinear in the shader with f32 weights from four texel fetches.
+// TEXEL: what happens to each texel before filtering (only with FILTER 1 or 2: transforming
+// after hardware filtering would be a different image):
+//   0: nothing; 1: 8-bit sRGB-encoded texels are decoded exactly through `srgb_to_linear`
+//   (uploaded from Rust's `color::decode_table`); 2: linear texels are encoded with the exact
+//   sRGB curve (encoded averaging from linear storage).
+layout(constant_id = 0) const uint FILTER = 0;
+layout(constant_id = 1) const uint TEXEL = 0;
+
+layout(set = 0, binding = 0) uniform sampler2DArray views;
+layout(std430, set = 0, binding = 1) readonly buffer Warps { ViewWarp warps[]; };
+// A buffer, not a constant array: llvmpipe compiles dynamically indexed constant arrays very
+// slowly (minutes per pipeline).
+layout(std430, set = 0, binding = 2) readonly buffer Decode { float srgb_to_linear[256]; };
+
+vec3 decode(vec3 c) {
+    if (TEXEL == 2u) {
+        c = clamp(c, 0.0, 1.0);
+        return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055,
+                   greaterThan(c, vec3(0.0031308)));
+    }
+    if (TEXEL == 1u) {
+        ivec3 i = ivec3(c * 255.0 + 0.5);
+        return vec3(srgb_to_linear[i.r], srgb_to_linear[i.g], srgb_to_linear[i.b]);
+    }
+    return c;
+}
+
+vec3 texel(ivec2 p, int layer) {
+    ivec2 hi = ivec2(pc.view_size) - 1;
+    return decode(texelFetch(views, ivec3(clamp(p, ivec2(0), hi), layer), 0).rgb);
+}
+
+// Colour of the view in `layer` at pixel position p (pixel centres at integers).
+vec3 fetch(vec2 p, float layer) {
+    if (FILTER == 1u) {
+        return texel(ivec2(floor(p + 0.5)), int(layer));
+    }
+    if (FILTER == 2u) {
+        vec2 f0 = floor(p);
+        vec2 f = p - f0;
+        ivec2 i = ivec2(f0);
+        int l = int(layer);
+        vec3 top = mix(texel(i, l), texel(i + ivec2(1, 0), l), f.x);
+        vec3 bottom = mix(texel(i + ivec2(0, 1), l), texel(i + ivec2(1, 1), l), f.x);
+        return mix(top, bottom, f.y);
+    }
+    return textureLod(views, vec3((p + 0.5) / pc.view_size, layer), 0.0).rgb;
+}
+
+// frag: the output pixel's centre in output pixels (gl_FragCoord.xy, or id + 0.5).
+vec4 accumulate(vec2 frag) {
+    // Pixel-index coordinates of the reference view: pixel (i, j)'s centre is at (i, j).
+    vec3 x = vec3(frag * pc.out_scale - 0.5, 1.0);
+    // Inverse depth of the plane along this pixel's ray; <= 0 past the horizon, where the
+    // documented rule focuses at infinity.
+    float s = max(dot(pc.plane.xyz, x), 0.0);
+    vec2 lo = vec2(-0.5);
+    vec2 hi = pc.view_size - 0.5;
+    vec3 sum = vec3(0.0);
+    float wsum = 0.0;
+    for (uint k = pc.first_view; k < pc.first_view + pc.view_count; ++k) {
+        ViewWarp w = warps[k];
+        vec3 y = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz) * x + w.b_weight.xyz * s;
+        if (y.z <= 0.0) {
+            continue; // behind camera i
+        }
+        vec2 p = y.xy / y.z;
+        if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
+            continue; // outside view i
+        }
+        sum += w.b_weight.w * fetch(p, w.a0.w);
+        wsum += w.b_weight.w;
+    }
+    return vec4(sum, wsum);
+}

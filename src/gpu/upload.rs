@@ -1,0 +1,62 @@
+//! One staging upload for any number of images: one host-visible buffer filled by the caller,
+//! one submission that copies every region and leaves the images readable by shaders. Used for
+//! the light field views and the mesh textures alike (never one wait per image).
+
+use ash::vk;
+
+use super::commands::{color_copy, image_barrier, stage, ImageTransition, Submission};
+use super::context::GpuContext;
+use super::resources::{Buffer, Image};
+use crate::error::Result;
+
+/// Where one image's texels start in the staging buffer (tightly packed, layer after layer).
+pub struct ImageRegion<'a> {
+    pub image: &'a Image,
+    pub offset: u64,
+}
+
+/// Copies `bytes` bytes, written by `fill` into a staging buffer, into `regions` and waits.
+/// Every image ends in `SHADER_READ_ONLY_OPTIMAL` for fragment and compute shaders.
+pub fn upload_images(
+    ctx: &GpuContext,
+    regions: &[ImageRegion],
+    bytes: u64,
+    name: &str,
+    fill: impl FnOnce(&mut [u8]) -> Result<()>,
+) -> Result<()> {
+    let mut staging = Buffer::new(ctx, bytes, vk::BufferUsageFlags::TRANSFER_SRC, true, name)?;
+    let result = fill(&mut staging.bytes_mut()[..bytes as usize]).and_then(|()| {
+        let submission = Submission::new(ctx, name)?;
+        let r = submission.run(ctx, |d, cmd| {
+            for region in regions {
+                let img = region.image;
+                let layers = img.desc.layers;
+                let to_dst = ImageTransition {
+                    from: stage::UNDEFINED,
+                    to: stage::TRANSFER_DST,
+                };
+                image_barrier(d, cmd, img.image, layers, to_dst);
+                let copy = color_copy(region.offset, img.desc.width, img.desc.height, layers);
+                // SAFETY: recording; the staging buffer holds every region (the caller sized it).
+                unsafe {
+                    d.cmd_copy_buffer_to_image(
+                        cmd,
+                        staging.buffer,
+                        img.image,
+                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                        &[copy],
+                    )
+                };
+                let to_read = ImageTransition {
+                    from: stage::TRANSFER_DST,
+                    to: stage::SHADER_READ,
+                };
+                image_barrier(d, cmd, img.image, layers, to_read);
+            }
+        });
+        submission.destroy(ctx);
+        r
+    });
+    staging.destroy(ctx);
+    result
+}

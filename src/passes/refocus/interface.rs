@@ -1,0 +1,175 @@
+//! Host-side mirror of `shaders/refocus_interface.glsl`: the per-view warp record of the
+//! storage buffer and the push constants. `#[repr(C)]` with only 16-byte vectors and 4-byte
+//! scalars, so the C layout equals std430 / push-constant layout; the test below reads the GLSL
+//! file and checks that both sides declare the same members, in the same order, at the same
+//! offsets.
+
+use crate::geometry::homography::ViewWarp;
+
+/// One view's warp `H_i = A_i + b_i mᵀ` as the shaders read it (`ViewWarp` in GLSL).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GpuViewWarp {
+    /// Column 0 of A_i; `w`: the view's texture layer.
+    pub a0: [f32; 4],
+    /// Column 1 of A_i.
+    pub a1: [f32; 4],
+    /// Column 2 of A_i.
+    pub a2: [f32; 4],
+    /// b_i in xyz; `w`: the aperture weight.
+    pub b_weight: [f32; 4],
+}
+
+impl GpuViewWarp {
+    /// The record of view `layer` with `weight` (the f64 warp rounded to f32).
+    pub fn new(warp: &ViewWarp, layer: usize, weight: f64) -> Self {
+        let a = warp.a.as_mat3();
+        let b = warp.b.as_vec3();
+        GpuViewWarp {
+            a0: [a.x_axis.x, a.x_axis.y, a.x_axis.z, layer as f32],
+            a1: [a.y_axis.x, a.y_axis.y, a.y_axis.z, 0.0],
+            a2: [a.z_axis.x, a.z_axis.y, a.z_axis.z, 0.0],
+            b_weight: [b.x, b.y, b.z, weight as f32],
+        }
+    }
+}
+
+/// The push constants of the accumulation shaders (`RefocusPush` in GLSL).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct RefocusPush {
+    /// The plane term m in xyz.
+    pub plane: [f32; 4],
+    /// Width and height of the views in pixels.
+    pub view_size: [f32; 2],
+    /// Reference-view pixels per output pixel, x and y.
+    pub out_scale: [f32; 2],
+    pub first_view: u32,
+    pub view_count: u32,
+    /// Compute strategy: 1 adds to the accumulation image, 0 replaces it.
+    pub accumulate: u32,
+    pub pad: u32,
+}
+
+/// Plain-old-data that may be viewed as bytes.
+///
+/// # Safety
+/// Implementors are `#[repr(C)]`, `Copy`, and have no padding bytes.
+pub unsafe trait Pod: Copy {}
+// SAFETY: repr(C), only f32 arrays: no padding.
+unsafe impl Pod for GpuViewWarp {}
+// SAFETY: repr(C), f32 arrays then u32s, 48 bytes: no padding.
+unsafe impl Pod for RefocusPush {}
+
+/// The bytes of a slice of plain-old-data values.
+pub fn as_bytes<T: Pod>(values: &[T]) -> &[u8] {
+    // SAFETY: T is Pod (no padding, no pointers); the slice is valid for its length.
+    unsafe { std::slice::from_raw_parts(values.as_ptr().cast(), std::mem::size_of_val(values)) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::{offset_of, size_of};
+
+    const GLSL: &str = include_str!("../../../shaders/refocus_interface.glsl");
+
+    /// (type, name) of the members of the GLSL block whose declaration starts with `head`.
+    fn glsl_members(head: &str) -> Vec<(String, String)> {
+        let start = GLSL
+            .find(head)
+            .unwrap_or_else(|| panic!("no `{head}` in the GLSL"));
+        let body = &GLSL[start..];
+        let open = body.find('{').expect("block opens");
+        let close = body.find('}').expect("block closes");
+        body[open + 1..close]
+            .lines()
+            .map(|l| l.split("//").next().unwrap_or("").trim())
+            .filter(|l| !l.is_empty())
+            .map(|l| {
+                let mut parts = l.trim_end_matches(';').split_whitespace();
+                let ty = parts.next().expect("type").to_string();
+                let name = parts.next().expect("name").to_string();
+                (ty, name)
+            })
+            .collect()
+    }
+
+    /// std430 / push-constant offsets of GLSL members made of vec4, vec2 and uint.
+    fn glsl_offsets(members: &[(String, String)]) -> Vec<(String, usize, usize)> {
+        let mut offset = 0usize;
+        members
+            .iter()
+            .map(|(ty, name)| {
+                let (size, align): (usize, usize) = match ty.as_str() {
+                    "vec4" => (16, 16),
+                    "vec2" => (8, 8),
+                    "uint" | "float" => (4, 4),
+                    other => panic!("unexpected GLSL type {other}"),
+                };
+                offset = offset.next_multiple_of(align);
+                let here = offset;
+                offset += size;
+                (name.clone(), here, size)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn view_warp_matches_the_glsl_struct() {
+        let glsl = glsl_offsets(&glsl_members("struct ViewWarp"));
+        let rust = [
+            ("a0", offset_of!(GpuViewWarp, a0), 16),
+            ("a1", offset_of!(GpuViewWarp, a1), 16),
+            ("a2", offset_of!(GpuViewWarp, a2), 16),
+            ("b_weight", offset_of!(GpuViewWarp, b_weight), 16),
+        ];
+        let rust: Vec<_> = rust
+            .iter()
+            .map(|(n, o, s)| (n.to_string(), *o, *s))
+            .collect();
+        assert_eq!(glsl, rust);
+        assert_eq!(size_of::<GpuViewWarp>(), 64);
+    }
+
+    #[test]
+    fn push_constants_match_the_glsl_block() {
+        let glsl = glsl_offsets(&glsl_members("uniform RefocusPush"));
+        let rust = [
+            ("plane", offset_of!(RefocusPush, plane), 16),
+            ("view_size", offset_of!(RefocusPush, view_size), 8),
+            ("out_scale", offset_of!(RefocusPush, out_scale), 8),
+            ("first_view", offset_of!(RefocusPush, first_view), 4),
+            ("view_count", offset_of!(RefocusPush, view_count), 4),
+            ("accumulate", offset_of!(RefocusPush, accumulate), 4),
+            ("pad", offset_of!(RefocusPush, pad), 4),
+        ];
+        let rust: Vec<_> = rust
+            .iter()
+            .map(|(n, o, s)| (n.to_string(), *o, *s))
+            .collect();
+        assert_eq!(glsl, rust);
+        let end = glsl.last().map(|(_, o, s)| o + s).unwrap();
+        assert_eq!(size_of::<RefocusPush>(), end);
+        // Vulkan guarantees at least 128 bytes of push constants.
+        assert!(size_of::<RefocusPush>() <= 128);
+    }
+
+    #[test]
+    fn warp_record_keeps_layer_weight_and_columns() {
+        use glam::{DMat3, DVec3};
+        let warp = ViewWarp {
+            a: DMat3::from_cols(
+                DVec3::new(1.0, 2.0, 3.0),
+                DVec3::new(4.0, 5.0, 6.0),
+                DVec3::new(7.0, 8.0, 9.0),
+            ),
+            b: DVec3::new(-1.0, -2.0, -3.0),
+        };
+        let g = GpuViewWarp::new(&warp, 17, 0.25);
+        assert_eq!(g.a0, [1.0, 2.0, 3.0, 17.0]);
+        assert_eq!(g.a2, [7.0, 8.0, 9.0, 0.0]);
+        assert_eq!(g.b_weight, [-1.0, -2.0, -3.0, 0.25]);
+        assert_eq!(as_bytes(&[g, g]).len(), 128);
+    }
+}

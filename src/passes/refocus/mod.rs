@@ -1,0 +1,970 @@
+//! The refocus pass: generalized shift-and-sum on the GPU.
+//!
+//! Every view is warped by its homography `H_i = A_i + b_i mᵀ`, sampled from the view array
+//! texture, masked (behind camera i, outside its image) and its weighted colour and weight are
+//! summed into a float accumulation image; a resolve divides by the weight sum into the output.
+//!
+//! The pass owns what is shared by every frame of one light field: pipelines, the descriptor
+//! sets of the view texture and the warp buffer. It records into command buffers and targets
+//! the caller owns ([`RefocusTarget`]); submission, readback and frames in flight are the
+//! caller's (the headless renderer, a window).
+//!
+//! - [`RefocusPass::set_views`] uploads the per-view part `(A_i, b_i, weight, layer)`; it changes
+//!   only with the view set, the aperture or the reference camera. Moving the plane changes only
+//!   `m`, a push constant: no buffer or descriptor writes per frame.
+//! - [`RefocusPass::record_accumulate`] adds a range of the uploaded views into a target
+//!   ([`Strategy`]: one fullscreen draw, batched draws, or a compute dispatch), so a caller can
+//!   accumulate progressively over several submissions; [`RefocusPass::record_resolve`]
+//!   normalises whatever has been summed so far.
+//! - [`Filter`] picks hardware bilinear, nearest, or bilinear in the shader; with 8-bit sRGB
+//!   views and linear averaging the latter two decode texels exactly before filtering.
+//!
+//! Output pixel (i, j) has its centre at reference-view pixel position
+//! ((i + ½)·W_view/W_out − ½, (j + ½)·H_view/H_out − ½), so any output size is exact.
+//!
+//! Destruction order: pipelines → pipeline layouts → descriptor pool (frees the sets) → set
+//! layouts → samplers → warp buffer → decode table. Targets are the caller's and destroyed by it.
+
+mod interface;
+mod target;
+
+use std::ops::Range;
+
+use ash::vk;
+
+pub use interface::{as_bytes, GpuViewWarp, RefocusPush};
+pub use target::{OutputFormat, RefocusTarget};
+
+use super::texture::{LightFieldTexture, ViewStorage, VIEW_SRGB, VIEW_STORED};
+use crate::error::{Error, Result};
+use crate::gpu::commands::{begin_rendering, image_barrier, stage, ImageTransition};
+use crate::gpu::pipeline::{compute_pipeline, graphics_pipeline, Blend, PipelineDesc};
+use crate::gpu::resources::Buffer;
+use crate::gpu::shaders;
+use crate::gpu::GpuContext;
+use crate::refocus::{Averaging, RefocusPlan};
+
+/// Workgroup edge of `refocus.comp` (8 × 8 invocations).
+const COMPUTE_TILE: u32 = 8;
+
+/// How the views are summed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase", tag = "kind")]
+pub enum Strategy {
+    /// One fullscreen draw loops over every view.
+    #[default]
+    Fragment,
+    /// Draws of at most `views_per_draw` views, summed by additive blending.
+    Batched { views_per_draw: usize },
+    /// One compute dispatch per range of views, summed in a storage image.
+    Compute,
+}
+
+impl Strategy {
+    /// Batch size of `batched` when none is given.
+    pub const DEFAULT_BATCH: usize = 9;
+
+    /// A short name: `fragment`, `batched:N`, `compute`.
+    pub fn name(&self) -> String {
+        match self {
+            Strategy::Fragment => "fragment".into(),
+            Strategy::Batched { views_per_draw } => format!("batched:{views_per_draw}"),
+            Strategy::Compute => "compute".into(),
+        }
+    }
+}
+
+impl std::str::FromStr for Strategy {
+    type Err = Error;
+    /// `fragment`, `batched`, `batched:N` or `compute`.
+    fn from_str(s: &str) -> Result<Self> {
+        let bad = || {
+            Error::Invalid(format!(
+                "unknown strategy '{s}': expected fragment, batched, batched:N (N ≥ 1) or compute"
+            ))
+        };
+        match s.split_once(':') {
+            None => match s {
+                "fragment" => Ok(Self::Fragment),
+                "batched" => Ok(Self::Batched {
+                    views_per_draw: Self::DEFAULT_BATCH,
+                }),
+                "compute" => Ok(Self::Compute),
+                _ => Err(bad()),
+            },
+            Some(("batched", n)) => match n.parse::<usize>() {
+                Ok(n) if n >= 1 => Ok(Self::Batched { views_per_draw: n }),
+                _ => Err(bad()),
+            },
+            Some(_) => Err(bad()),
+        }
+    }
+}
+
+/// How a view is sampled at a warped position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Filter {
+    /// The sampler's bilinear filter: one fetch, positions snapped to 8 fractional bits.
+    #[default]
+    Hardware,
+    /// The nearest texel.
+    Nearest,
+    /// Bilinear in the shader from four texel fetches with f32 weights.
+    Shader,
+}
+
+impl Filter {
+    fn code(self) -> u32 {
+        match self {
+            Filter::Hardware => 0,
+            Filter::Nearest => 1,
+            Filter::Shader => 2,
+        }
+    }
+}
+
+impl std::str::FromStr for Filter {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "hardware" => Ok(Self::Hardware),
+            "nearest" => Ok(Self::Nearest),
+            "shader" => Ok(Self::Shader),
+            _ => Err(Error::Invalid(format!(
+                "unknown filter '{s}': expected hardware, nearest or shader"
+            ))),
+        }
+    }
+}
+
+/// What one accumulation records.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Accumulate {
+    /// The plane term m (zero for classic shift-and-sum).
+    pub m: [f32; 3],
+    /// Which uploaded views (indices into the last [`RefocusPass::set_views`]).
+    pub views: Range<usize>,
+    /// Start from zero (true) or add to what the target holds (false).
+    pub clear: bool,
+    pub strategy: Strategy,
+    pub filter: Filter,
+    pub averaging: Averaging,
+}
+
+/// What the shader does to each texel before filtering (`TEXEL` in refocus_accumulate.glsl).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Texel {
+    AsStored = 0,
+    /// 8-bit sRGB → linear through the exact table.
+    DecodeSrgb = 1,
+    /// Linear → sRGB with the exact curve.
+    EncodeSrgb = 2,
+}
+
+/// Texture view, texel transform and the filter actually used for `filter` and `averaging`
+/// on `storage`. Transforms need the shader's own filtering, so encoded averaging from linear
+/// storage filters in the shader even when hardware filtering was asked for.
+fn sampling(storage: ViewStorage, filter: Filter, averaging: Averaging) -> (usize, Texel, Filter) {
+    match (storage, averaging, filter) {
+        (ViewStorage::Srgb8, Averaging::Encoded, f) => (VIEW_STORED, Texel::AsStored, f),
+        (ViewStorage::Srgb8, Averaging::Linear, Filter::Hardware) => {
+            (VIEW_SRGB, Texel::AsStored, Filter::Hardware)
+        }
+        (ViewStorage::Srgb8, Averaging::Linear, f) => (VIEW_STORED, Texel::DecodeSrgb, f),
+        (ViewStorage::Linear16, Averaging::Linear, f) => (VIEW_STORED, Texel::AsStored, f),
+        (ViewStorage::Linear16, Averaging::Encoded, Filter::Hardware) => {
+            (VIEW_STORED, Texel::EncodeSrgb, Filter::Shader)
+        }
+        (ViewStorage::Linear16, Averaging::Encoded, f) => (VIEW_STORED, Texel::EncodeSrgb, f),
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct AccumKey {
+    compute: bool,
+    filter: u32,
+    texel: u32,
+    format: vk::Format,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct ResolveKey {
+    mode: u32,
+    format: vk::Format,
+}
+
+/// Pipelines, descriptors and the warp buffer of the refocus pass for one view texture.
+pub struct RefocusPass {
+    objects: PassObjects,
+    /// One input set per texture view (index = `VIEW_STORED`, `VIEW_SRGB`).
+    input_sets: Vec<vk::DescriptorSet>,
+    storage: ViewStorage,
+    view_size: [f32; 2],
+    layers: usize,
+    warps: Buffer,
+    /// `color::decode_table` as f32, read by shaders that decode texels exactly.
+    decode: Buffer,
+    warp_capacity: usize,
+    /// What `warps` holds now, so an unchanged view set is not rewritten.
+    uploaded: Vec<GpuViewWarp>,
+    accum_pipelines: Vec<(AccumKey, vk::Pipeline)>,
+    resolve_pipelines: Vec<(ResolveKey, vk::Pipeline)>,
+}
+
+/// The accumulation format: RGBA32F where the device blends into it (and, for the compute
+/// strategy, stores to it), else RGBA16F.
+pub fn pick_accum_format(ctx: &GpuContext) -> Result<(vk::Format, bool)> {
+    use vk::FormatFeatureFlags as F;
+    let need = F::COLOR_ATTACHMENT | F::COLOR_ATTACHMENT_BLEND | F::SAMPLED_IMAGE;
+    for f in [
+        vk::Format::R32G32B32A32_SFLOAT,
+        vk::Format::R16G16B16A16_SFLOAT,
+    ] {
+        // SAFETY: valid physical device.
+        let props = unsafe {
+            ctx.instance
+                .get_physical_device_format_properties(ctx.physical, f)
+        };
+        let features = props.optimal_tiling_features;
+        if features.contains(need) {
+            // refocus.comp declares rgba32f.
+            let storage =
+                f == vk::Format::R32G32B32A32_SFLOAT && features.contains(F::STORAGE_IMAGE);
+            return Ok((f, storage));
+        }
+    }
+    Err(Error::Vulkan(format!(
+        "{} cannot blend into a float colour attachment",
+        ctx.info.name
+    )))
+}
+
+impl RefocusPass {
+    /// Creates the pass for `texture`; the warp buffer holds one entry per layer.
+    pub fn new(ctx: &GpuContext, texture: &LightFieldTexture) -> Result<Self> {
+        let mut b = PassObjects::default();
+        let made = b.build(ctx, texture.image.views.len());
+        let sets = match made {
+            Ok(sets) => sets,
+            Err(e) => {
+                b.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let capacity = texture.layers as usize;
+        let table: Vec<u8> = crate::color::decode_table()
+            .iter()
+            .flat_map(|&v| (v as f32).to_ne_bytes())
+            .collect();
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let bytes = (capacity * std::mem::size_of::<GpuViewWarp>()) as u64;
+        let buffers = Buffer::new(ctx, bytes, usage, true, "view warps").and_then(|warps| {
+            match Buffer::with_bytes(ctx, &table, usage, "sRGB decode table") {
+                Ok(decode) => Ok((warps, decode)),
+                Err(e) => {
+                    warps.destroy(ctx);
+                    Err(e)
+                }
+            }
+        });
+        let (warps, decode) = match buffers {
+            Ok(x) => x,
+            Err(e) => {
+                b.destroy(ctx);
+                return Err(e);
+            }
+        };
+        // The input sets never change: texture and warp buffer live as long as the pass.
+        let buffer_info = [vk::DescriptorBufferInfo::default()
+            .buffer(warps.buffer)
+            .offset(0)
+            .range(vk::WHOLE_SIZE)];
+        let decode_info = [vk::DescriptorBufferInfo::default()
+            .buffer(decode.buffer)
+            .offset(0)
+            .range(vk::WHOLE_SIZE)];
+        let image_infos: Vec<[vk::DescriptorImageInfo; 1]> = texture
+            .image
+            .views
+            .iter()
+            .map(|&view| {
+                [vk::DescriptorImageInfo::default()
+                    .sampler(b.sampler_linear)
+                    .image_view(view)
+                    .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)]
+            })
+            .collect();
+        let mut writes = Vec::new();
+        for (set, info) in sets.iter().zip(&image_infos) {
+            writes.push(
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(0)
+                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                    .image_info(info),
+            );
+            writes.push(
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(1)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(&buffer_info),
+            );
+            writes.push(
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(2)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(&decode_info),
+            );
+        }
+        // SAFETY: new, unused sets; the infos reference live objects.
+        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+        Ok(RefocusPass {
+            objects: b,
+            input_sets: sets,
+            storage: texture.storage,
+            view_size: [texture.width as f32, texture.height as f32],
+            layers: texture.layers as usize,
+            warps,
+            decode,
+            warp_capacity: capacity,
+            uploaded: Vec::new(),
+            accum_pipelines: Vec::new(),
+            resolve_pipelines: Vec::new(),
+        })
+    }
+
+    /// How the views are stored in the texture this pass reads.
+    pub fn storage(&self) -> ViewStorage {
+        self.storage
+    }
+
+    /// A target of `width × height` for this pass (the caller owns and destroys it).
+    pub fn create_target(
+        &self,
+        ctx: &GpuContext,
+        width: u32,
+        height: u32,
+    ) -> Result<RefocusTarget> {
+        if width == 0 || height == 0 {
+            return Err(Error::Invalid(format!(
+                "output size {width}×{height} is empty"
+            )));
+        }
+        let limit = ctx.properties.limits.max_image_dimension2_d;
+        if width.max(height) > limit {
+            return Err(Error::DeviceLimit(format!(
+                "output size {width}×{height} exceeds {}'s maximum image size of {limit} px",
+                ctx.info.name
+            )));
+        }
+        let (format, storage) = pick_accum_format(ctx)?;
+        RefocusTarget::new(
+            ctx,
+            width,
+            height,
+            format,
+            storage,
+            (
+                self.objects.resolve_set_layout,
+                self.objects.storage_set_layout,
+            ),
+            self.objects.sampler_nearest,
+        )
+    }
+
+    /// Uploads the per-view warps of `plan`, in plan order. Returns false (and writes nothing)
+    /// when they equal what the buffer holds, as after a plane change alone. The GPU must not be
+    /// reading the buffer (callers wait for the frames that used it).
+    pub fn set_views(&mut self, plan: &RefocusPlan) -> Result<bool> {
+        if plan.views.len() > self.warp_capacity
+            || plan.views.iter().any(|v| v.index >= self.layers)
+        {
+            return Err(Error::Invalid(
+                "the refocus plan does not belong to this light field texture".into(),
+            ));
+        }
+        let records: Vec<GpuViewWarp> = plan
+            .views
+            .iter()
+            .map(|v| GpuViewWarp::new(&v.warp, v.index, v.weight))
+            .collect();
+        if records == self.uploaded {
+            return Ok(false);
+        }
+        let bytes = as_bytes(&records);
+        self.warps.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
+        self.uploaded = records;
+        Ok(true)
+    }
+
+    /// Number of views uploaded by the last [`RefocusPass::set_views`].
+    pub fn view_count(&self) -> usize {
+        self.uploaded.len()
+    }
+
+    /// Records the accumulation of `a.views` into `target` (see the module docs).
+    pub fn record_accumulate(
+        &mut self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        target: &mut RefocusTarget,
+        a: &Accumulate,
+    ) -> Result<()> {
+        if a.views.start > a.views.end || a.views.end > self.uploaded.len() {
+            return Err(Error::Invalid(format!(
+                "views {:?} lie outside the {} uploaded warps",
+                a.views,
+                self.uploaded.len()
+            )));
+        }
+        let (set_index, texel, filter) = sampling(self.storage, a.filter, a.averaging);
+        let compute = a.strategy == Strategy::Compute;
+        if compute && target.storage_set == vk::DescriptorSet::null() {
+            return Err(Error::DeviceLimit(format!(
+                "{} cannot store to an RGBA32F image: use a fragment strategy",
+                ctx.info.name
+            )));
+        }
+        let key = AccumKey {
+            compute,
+            filter: filter.code(),
+            texel: texel as u32,
+            format: target.accum_format,
+        };
+        let pipeline = self.accum_pipeline(ctx, key)?;
+        let d = &ctx.device;
+        let mut push = RefocusPush {
+            plane: [a.m[0], a.m[1], a.m[2], 0.0],
+            view_size: self.view_size,
+            out_scale: [
+                self.view_size[0] / target.width as f32,
+                self.view_size[1] / target.height as f32,
+            ],
+            first_view: a.views.start as u32,
+            view_count: 0,
+            accumulate: 0,
+            pad: 0,
+        };
+        // Whatever touched the accumulation image before (a previous accumulation, a resolve,
+        // possibly in an earlier submission) finishes first.
+        let from = if target.accum_ready {
+            stage::GENERAL_ANY
+        } else {
+            stage::UNDEFINED
+        };
+        let clear = a.clear || !target.accum_ready;
+        image_barrier(
+            d,
+            cmd,
+            target.accum.image,
+            1,
+            ImageTransition {
+                from,
+                to: stage::GENERAL_ANY,
+            },
+        );
+        target.accum_ready = true;
+        let input_set = self.input_sets[set_index];
+        let extent = vk::Extent2D {
+            width: target.width,
+            height: target.height,
+        };
+        if compute {
+            let layout = self.objects.compute_layout;
+            // SAFETY: recording outside a rendering instance; sets match the layout.
+            unsafe {
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+                d.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::COMPUTE,
+                    layout,
+                    0,
+                    &[input_set, target.storage_set],
+                    &[],
+                );
+            }
+            // An empty range still runs when clearing, so the image then holds zeros.
+            push.view_count = a.views.len() as u32;
+            push.accumulate = u32::from(!clear);
+            // SAFETY: as above; the push range covers RefocusPush.
+            unsafe {
+                d.cmd_push_constants(
+                    cmd,
+                    layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    as_bytes(&[push]),
+                );
+                d.cmd_dispatch(
+                    cmd,
+                    target.width.div_ceil(COMPUTE_TILE),
+                    target.height.div_ceil(COMPUTE_TILE),
+                    1,
+                );
+            }
+            return Ok(());
+        }
+        let load = if clear {
+            vk::AttachmentLoadOp::CLEAR
+        } else {
+            vk::AttachmentLoadOp::LOAD
+        };
+        begin_rendering_general(d, cmd, extent, target.accum.views[0], load);
+        let layout = self.objects.accum_layout;
+        // SAFETY: recording inside a dynamic rendering instance with matching formats.
+        unsafe {
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+            d.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                layout,
+                0,
+                &[input_set],
+                &[],
+            );
+        }
+        let batch = match a.strategy {
+            Strategy::Batched { views_per_draw } => views_per_draw.max(1),
+            _ => a.views.len().max(1),
+        };
+        let mut first = a.views.start;
+        while first < a.views.end {
+            let count = batch.min(a.views.end - first);
+            push.first_view = first as u32;
+            push.view_count = count as u32;
+            // SAFETY: as above; the push range covers RefocusPush.
+            unsafe {
+                d.cmd_push_constants(
+                    cmd,
+                    layout,
+                    vk::ShaderStageFlags::FRAGMENT,
+                    0,
+                    as_bytes(&[push]),
+                );
+                d.cmd_draw(cmd, 3, 1, 0, 0);
+            }
+            first += count;
+        }
+        // SAFETY: inside the rendering instance begun above.
+        unsafe { d.cmd_end_rendering(cmd) };
+        Ok(())
+    }
+
+    /// Records the resolve of what `target` has accumulated into its `format` output, which is
+    /// left in `COLOR_ATTACHMENT_OPTIMAL` after its colour writes; the caller adds the barrier
+    /// for its next use (copy, sampling). `averaging` is the space the sums are in.
+    pub fn record_resolve(
+        &mut self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        target: &RefocusTarget,
+        format: OutputFormat,
+        averaging: Averaging,
+    ) -> Result<()> {
+        if !target.accum_ready {
+            return Err(Error::Invalid(
+                "resolve before any accumulation into this target".into(),
+            ));
+        }
+        let (mode, vk_format) = match (format, averaging) {
+            (OutputFormat::Float, _) => (0, vk::Format::R32G32B32A32_SFLOAT),
+            (OutputFormat::Srgb8, Averaging::Encoded) => (1, vk::Format::R8G8B8A8_UNORM),
+            (OutputFormat::Srgb8, Averaging::Linear) => (2, vk::Format::R8G8B8A8_UNORM),
+        };
+        let pipeline = self.resolve_pipeline(
+            ctx,
+            ResolveKey {
+                mode,
+                format: vk_format,
+            },
+        )?;
+        let d = &ctx.device;
+        image_barrier(
+            d,
+            cmd,
+            target.accum.image,
+            1,
+            ImageTransition {
+                from: stage::GENERAL_ANY,
+                to: stage::GENERAL_ANY,
+            },
+        );
+        let (out, out_view) = target.output(format);
+        image_barrier(
+            d,
+            cmd,
+            out.image,
+            1,
+            ImageTransition {
+                from: stage::UNDEFINED,
+                to: stage::COLOR_WRITE,
+            },
+        );
+        let extent = vk::Extent2D {
+            width: target.width,
+            height: target.height,
+        };
+        begin_rendering(
+            d,
+            cmd,
+            extent,
+            out_view,
+            vk::AttachmentLoadOp::DONT_CARE,
+            None,
+        );
+        // SAFETY: recording inside a rendering instance whose format matches the pipeline.
+        unsafe {
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+            d.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.objects.resolve_layout,
+                0,
+                &[target.resolve_set],
+                &[],
+            );
+            d.cmd_draw(cmd, 3, 1, 0, 0);
+            d.cmd_end_rendering(cmd);
+        }
+        Ok(())
+    }
+
+    fn accum_pipeline(&mut self, ctx: &GpuContext, key: AccumKey) -> Result<vk::Pipeline> {
+        if let Some((_, p)) = self.accum_pipelines.iter().find(|(k, _)| *k == key) {
+            return Ok(*p);
+        }
+        let constants = [key.filter, key.texel];
+        let name = format!(
+            "refocus {} pipeline (filter {}, texel {})",
+            if key.compute { "compute" } else { "fragment" },
+            key.filter,
+            key.texel
+        );
+        let pipeline = if key.compute {
+            let module = shaders::module(ctx, shaders::REFOCUS_COMP, "refocus.comp")?;
+            let p = compute_pipeline(ctx, self.objects.compute_layout, module, &constants);
+            // SAFETY: pipelines keep their own copy of the code.
+            unsafe { ctx.device.destroy_shader_module(module, None) };
+            p?
+        } else {
+            let desc = PipelineDesc {
+                blend: Blend::Additive,
+                frag_constants: &constants,
+                ..PipelineDesc::fullscreen(
+                    self.objects.accum_layout,
+                    vk::ShaderModule::null(),
+                    vk::ShaderModule::null(),
+                    key.format,
+                )
+            };
+            fullscreen(ctx, desc, shaders::REFOCUS_FRAG, "refocus.frag")?
+        };
+        ctx.name(pipeline, &name);
+        self.accum_pipelines.push((key, pipeline));
+        Ok(pipeline)
+    }
+
+    fn resolve_pipeline(&mut self, ctx: &GpuContext, key: ResolveKey) -> Result<vk::Pipeline> {
+        if let Some((_, p)) = self.resolve_pipelines.iter().find(|(k, _)| *k == key) {
+            return Ok(*p);
+        }
+        let constants = [key.mode];
+        let desc = PipelineDesc {
+            frag_constants: &constants,
+            ..PipelineDesc::fullscreen(
+                self.objects.resolve_layout,
+                vk::ShaderModule::null(),
+                vk::ShaderModule::null(),
+                key.format,
+            )
+        };
+        let pipeline = fullscreen(ctx, desc, shaders::RESOLVE_FRAG, "resolve.frag")?;
+        ctx.name(
+            pipeline,
+            &format!("resolve pipeline (mode {}, {:?})", key.mode, key.format),
+        );
+        self.resolve_pipelines.push((key, pipeline));
+        Ok(pipeline)
+    }
+
+    /// Frees everything (see the module docs for the order). The GPU must be done with it.
+    pub fn destroy(self, ctx: &GpuContext) {
+        // SAFETY: no pending work uses these pipelines.
+        unsafe {
+            let accum = self.accum_pipelines.iter().map(|(_, p)| p);
+            for p in accum.chain(self.resolve_pipelines.iter().map(|(_, p)| p)) {
+                ctx.device.destroy_pipeline(*p, None);
+            }
+        }
+        self.objects.destroy(ctx);
+        self.warps.destroy(ctx);
+        self.decode.destroy(ctx);
+    }
+}
+
+/// Creates a fullscreen pipeline of `desc` with `fullscreen.vert` and the fragment shader
+/// `spirv`, freeing the modules afterwards.
+fn fullscreen(
+    ctx: &GpuContext,
+    mut desc: PipelineDesc,
+    spirv: &[u8],
+    name: &str,
+) -> Result<vk::Pipeline> {
+    let vert = shaders::module(ctx, shaders::FULLSCREEN_VERT, "fullscreen.vert")?;
+    let frag = match shaders::module(ctx, spirv, name) {
+        Ok(f) => f,
+        Err(e) => {
+            // SAFETY: unused module.
+            unsafe { ctx.device.destroy_shader_module(vert, None) };
+            return Err(e);
+        }
+    };
+    desc.vert = vert;
+    desc.frag = frag;
+    let p = graphics_pipeline(ctx, &desc);
+    // SAFETY: pipelines keep their own copy of the code.
+    unsafe {
+        ctx.device.destroy_shader_module(vert, None);
+        ctx.device.destroy_shader_module(frag, None);
+    }
+    p
+}
+
+/// Begins rendering into the accumulation image, which stays in `GENERAL` layout.
+fn begin_rendering_general(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    extent: vk::Extent2D,
+    view: vk::ImageView,
+    load: vk::AttachmentLoadOp,
+) {
+    let attachment = [vk::RenderingAttachmentInfo::default()
+        .image_view(view)
+        .image_layout(vk::ImageLayout::GENERAL)
+        .load_op(load)
+        .store_op(vk::AttachmentStoreOp::STORE)
+        .clear_value(vk::ClearValue {
+            color: vk::ClearColorValue { float32: [0.0; 4] },
+        })];
+    let area = vk::Rect2D {
+        offset: vk::Offset2D { x: 0, y: 0 },
+        extent,
+    };
+    let info = vk::RenderingInfo::default()
+        .render_area(area)
+        .layer_count(1)
+        .color_attachments(&attachment);
+    let viewport = [vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: extent.width as f32,
+        height: extent.height as f32,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    }];
+    // SAFETY: recording outside a rendering instance; the image is in GENERAL layout.
+    unsafe {
+        d.cmd_begin_rendering(cmd, &info);
+        d.cmd_set_viewport(cmd, 0, &viewport);
+        d.cmd_set_scissor(cmd, 0, &[area]);
+    }
+}
+
+/// The Vulkan objects of the pass that are plain handles (null until created). Destroying it
+/// frees exactly those that exist, so a failed set-up leaks nothing.
+#[derive(Default)]
+struct PassObjects {
+    sampler_linear: vk::Sampler,
+    sampler_nearest: vk::Sampler,
+    input_set_layout: vk::DescriptorSetLayout,
+    resolve_set_layout: vk::DescriptorSetLayout,
+    storage_set_layout: vk::DescriptorSetLayout,
+    accum_layout: vk::PipelineLayout,
+    compute_layout: vk::PipelineLayout,
+    resolve_layout: vk::PipelineLayout,
+    descriptor_pool: vk::DescriptorPool,
+}
+
+impl PassObjects {
+    /// Creates samplers, layouts and `input_sets` input descriptor sets.
+    fn build(&mut self, ctx: &GpuContext, input_sets: usize) -> Result<Vec<vk::DescriptorSet>> {
+        let d = &ctx.device;
+        let sampler = |filter| {
+            vk::SamplerCreateInfo::default()
+                .mag_filter(filter)
+                .min_filter(filter)
+                .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+                .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .max_lod(0.0)
+        };
+        let binding = |i: u32, ty, stages| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(i)
+                .descriptor_type(ty)
+                .descriptor_count(1)
+                .stage_flags(stages)
+        };
+        let shading = vk::ShaderStageFlags::FRAGMENT | vk::ShaderStageFlags::COMPUTE;
+        let set_layout = |bindings: &[vk::DescriptorSetLayoutBinding]| {
+            // SAFETY: valid device and create info.
+            unsafe {
+                d.create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(bindings),
+                    None,
+                )
+            }
+        };
+        let pipeline_layout = |sets: &[vk::DescriptorSetLayout], stages| {
+            let push = [vk::PushConstantRange::default()
+                .stage_flags(stages)
+                .offset(0)
+                .size(std::mem::size_of::<RefocusPush>() as u32)];
+            let info = vk::PipelineLayoutCreateInfo::default().set_layouts(sets);
+            let info = if stages.is_empty() {
+                info
+            } else {
+                info.push_constant_ranges(&push)
+            };
+            // SAFETY: valid device and create info.
+            unsafe { d.create_pipeline_layout(&info, None) }
+        };
+        // SAFETY: valid device and create infos.
+        unsafe {
+            self.sampler_linear = d.create_sampler(&sampler(vk::Filter::LINEAR), None)?;
+            self.sampler_nearest = d.create_sampler(&sampler(vk::Filter::NEAREST), None)?;
+        }
+        ctx.name(self.sampler_linear, "view sampler (bilinear)");
+        ctx.name(self.sampler_nearest, "accumulation sampler (nearest)");
+        use vk::DescriptorType as T;
+        self.input_set_layout = set_layout(&[
+            binding(0, T::COMBINED_IMAGE_SAMPLER, shading),
+            binding(1, T::STORAGE_BUFFER, shading),
+            binding(2, T::STORAGE_BUFFER, shading),
+        ])?;
+        self.resolve_set_layout = set_layout(&[binding(
+            0,
+            T::COMBINED_IMAGE_SAMPLER,
+            vk::ShaderStageFlags::FRAGMENT,
+        )])?;
+        self.storage_set_layout =
+            set_layout(&[binding(0, T::STORAGE_IMAGE, vk::ShaderStageFlags::COMPUTE)])?;
+        self.accum_layout =
+            pipeline_layout(&[self.input_set_layout], vk::ShaderStageFlags::FRAGMENT)?;
+        self.compute_layout = pipeline_layout(
+            &[self.input_set_layout, self.storage_set_layout],
+            vk::ShaderStageFlags::COMPUTE,
+        )?;
+        self.resolve_layout =
+            pipeline_layout(&[self.resolve_set_layout], vk::ShaderStageFlags::empty())?;
+        let n = input_sets as u32;
+        let sizes = [
+            vk::DescriptorPoolSize {
+                ty: T::COMBINED_IMAGE_SAMPLER,
+                descriptor_count: n,
+            },
+            vk::DescriptorPoolSize {
+                ty: T::STORAGE_BUFFER,
+                descriptor_count: 2 * n,
+            },
+        ];
+        // SAFETY: valid device and create info.
+        self.descriptor_pool = unsafe {
+            d.create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(n)
+                    .pool_sizes(&sizes),
+                None,
+            )
+        }?;
+        let layouts = vec![self.input_set_layout; input_sets];
+        // SAFETY: the pool has room for these sets.
+        let sets = unsafe {
+            d.allocate_descriptor_sets(
+                &vk::DescriptorSetAllocateInfo::default()
+                    .descriptor_pool(self.descriptor_pool)
+                    .set_layouts(&layouts),
+            )
+        }?;
+        Ok(sets)
+    }
+
+    fn destroy(self, ctx: &GpuContext) {
+        let d = &ctx.device;
+        // SAFETY: nothing uses these objects any more; destroying null handles is a no-op.
+        unsafe {
+            d.destroy_pipeline_layout(self.accum_layout, None);
+            d.destroy_pipeline_layout(self.compute_layout, None);
+            d.destroy_pipeline_layout(self.resolve_layout, None);
+            // Frees the sets allocated from it.
+            d.destroy_descriptor_pool(self.descriptor_pool, None);
+            d.destroy_descriptor_set_layout(self.input_set_layout, None);
+            d.destroy_descriptor_set_layout(self.resolve_set_layout, None);
+            d.destroy_descriptor_set_layout(self.storage_set_layout, None);
+            d.destroy_sampler(self.sampler_linear, None);
+            d.destroy_sampler(self.sampler_nearest, None);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn strategies_parse_and_name_round_trip() {
+        for s in ["fragment", "batched:4", "compute"] {
+            assert_eq!(s.parse::<Strategy>().unwrap().name(), s);
+        }
+        assert_eq!(
+            "batched".parse::<Strategy>().unwrap(),
+            Strategy::Batched {
+                views_per_draw: Strategy::DEFAULT_BATCH
+            }
+        );
+        for bad in ["batched:0", "batched:x", "vertex", "compute:2"] {
+            let e = bad.parse::<Strategy>().unwrap_err().to_string();
+            assert!(e.contains(bad), "{e}");
+        }
+    }
+
+    #[test]
+    fn sampling_transforms_texels_only_where_the_shader_filters() {
+        use Averaging::*;
+        use Filter::*;
+        let s8 = ViewStorage::Srgb8;
+        let l16 = ViewStorage::Linear16;
+        assert_eq!(
+            sampling(s8, Hardware, Linear),
+            (VIEW_SRGB, Texel::AsStored, Hardware)
+        );
+        assert_eq!(
+            sampling(s8, Shader, Linear),
+            (VIEW_STORED, Texel::DecodeSrgb, Shader)
+        );
+        assert_eq!(
+            sampling(s8, Nearest, Linear),
+            (VIEW_STORED, Texel::DecodeSrgb, Nearest)
+        );
+        assert_eq!(
+            sampling(s8, Hardware, Encoded),
+            (VIEW_STORED, Texel::AsStored, Hardware)
+        );
+        assert_eq!(
+            sampling(l16, Hardware, Linear),
+            (VIEW_STORED, Texel::AsStored, Hardware)
+        );
+        assert_eq!(
+            sampling(l16, Hardware, Encoded),
+            (VIEW_STORED, Texel::EncodeSrgb, Shader)
+        );
+        assert_eq!(
+            sampling(l16, Nearest, Encoded),
+            (VIEW_STORED, Texel::EncodeSrgb, Nearest)
+        );
+    }
+}
