@@ -41,7 +41,7 @@ use crate::gpu::pipeline::{graphics_pipeline, DepthTest, PipelineDesc};
 use crate::gpu::resources::{range_of, Buffer, Image, ImageDesc};
 use crate::gpu::shaders;
 use crate::gpu::GpuContext;
-use crate::synth::mesh::{MeshDraw, MeshScene, VERTEX_BYTES};
+use crate::scene::mesh::{MeshDraw, MeshScene, VERTEX_BYTES};
 
 /// Near plane distance (world units, metres for the synthetic scenes): surfaces nearer than
 /// this to a camera's image plane are clipped.
