@@ -1,5 +1,5 @@
-//! Degenerate and failing cases handled on purpose (docs/conventions.md §5): each gives a clear error or
-//! a documented, finite result — never NaN, a panic or a hang.
+//! Degenerate and failing cases handled on purpose (docs/conventions.md §5): each gives a clear
+//! error or a documented, finite result — never NaN, a panic or a hang.
 
 mod common;
 
