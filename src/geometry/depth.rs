@@ -17,8 +17,9 @@
 //! A sample is **valid** when it is finite, when (for disparity) it lies inside the dataset's
 //! disparity range ([`LightField::disparity_range`]: `[meta] disp_min … disp_max` of HCI
 //! folders, the documented range of built-in scenes) and in front of infinity (1/Z > 0), and
-//! when the resulting depth is finite and positive. Every other sample is invalid and carries a [`DepthProblem`] that says why,
-//! so that a click on it can be refused with a message instead of producing NaN.
+//! when the resulting depth is finite and positive. Every other sample is invalid and carries
+//! a [`DepthProblem`] that says why, so that a click on it can be refused with a message
+//! instead of producing NaN.
 //!
 //! The view with the map is normally the centre view. Pixels given to the picking functions
 //! ([`super::picking`]) are pixels of *this* view, whatever reference view a render uses;
