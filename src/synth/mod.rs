@@ -22,8 +22,9 @@
 //! Modules: [`texture`] (procedural textures), [`scene`] (quads, ray
 //! intersection, [`scene::plane_scene`]), [`raytrace`] (views and light fields), [`mod@builtin`]
 //! (the named scenes, their planes and disparity ranges); for the rasterizer [`mesh`] (quad
-//! scenes baked into textured meshes of [`crate::scene::mesh`]), [`mod@gltf`] (glTF input), [`scenes`] (the
-//! built-in scenes of `synth`) and [`raster`] (views, rigs, light fields, optical ground truth);
+//! scenes baked into textured meshes of [`crate::scene::mesh`]), [`mod@gltf`] (glTF input),
+//! [`scenes`] (the built-in scenes of `synth`) and [`raster`] (views, rigs, light fields,
+//! optical ground truth);
 //! for the geometry studies [`surfaces`] (analytic depth views with exact normals and seeded
 //! depth noise).
 
