@@ -6,20 +6,27 @@
 //! are averaged, in linear light by default.
 //!
 //! Layout:
-//! - [`geometry`]: cameras, planes, homographies, apertures, depth → point clouds, normals,
+//! - [`geometry`]: cameras, planes, homographies, apertures, depth → points, normals,
 //!   plane picking — pure f64 maths, no GPU;
 //! - [`lightfield`]: the data model and the loaders (HCI, manifest, grid folders, PFM), PLY
 //!   output;
-//! - [`refocus`]: requests → per-view warps (plan), the f64 CPU reference renderer;
+//! - [`refocus`]: focus requests → the refocus plane (focus), → per-view warps (plan), the f64
+//!   CPU reference renderer;
+//! - [`scene`]: scene geometry as CPU data — the point cloud, the plane quad, camera markers,
+//!   axis and normal lines — and the triangle meshes the rasterizer draws;
+//! - [`io`]: writing PNG and EXR images;
 //! - [`gpu`]: hand-written Vulkan (context, resources, commands, timing, validation);
 //! - [`passes`]: the light field texture, the refocus pass and the mesh rasterizer;
-//! - [`headless`]: offscreen rendering for the CLI, tests and benchmarks;
+//! - [`headless`]: offscreen rendering for the CLI and the tests;
 //! - [`synth`]: synthetic scenes with exact ground truth: a CPU ray tracer of textured quads,
 //!   triangle meshes from glTF or the built-in scenes rendered by the Vulkan rasterizer
 //!   (`tiltfield synth`), and the optical ground truth of a tilt-shift lens;
-//! - [`cli`]: the `tiltfield` command line.
+//! - [`cli`]: the `tiltfield` command line; it parses options into library requests and
+//!   reports the results.
 //!
-//! Conventions are stated in [`geometry::camera`] and [`geometry::homography`].
+//! Everything renders offscreen; there is no window yet. Conventions and equations (camera
+//! model, homographies, masks, disparity, colour) are stated in `docs/conventions.md`; the
+//! code cites its sections as `docs/conventions.md §N`.
 
 pub mod cli;
 pub mod color;
@@ -27,9 +34,11 @@ pub mod error;
 pub mod geometry;
 pub mod gpu;
 pub mod headless;
+pub mod io;
 pub mod lightfield;
 pub mod passes;
 pub mod refocus;
+pub mod scene;
 pub mod synth;
 
 pub use error::{Error, Result};

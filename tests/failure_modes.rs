@@ -1,5 +1,5 @@
-//! Degenerate and failing cases handled on purpose (DESIGN.md §2): each gives a clear error or
-//! a documented, finite result — never NaN, a panic or a hang.
+//! Degenerate and failing cases handled on purpose (docs/conventions.md §5): each gives a clear
+//! error or a documented, finite result — never NaN, a panic or a hang.
 
 mod common;
 
@@ -153,6 +153,7 @@ fn tiny_light_field(n: usize) -> LightField {
         views,
         depth: Vec::new(),
         rig: None,
+        disparity_range: None,
         source: Source::Generated {
             scene: "tiny".into(),
         },

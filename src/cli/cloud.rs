@@ -1,6 +1,7 @@
 //! `tiltfield cloud`: the point cloud of the view that carries the depth map, as binary PLY
 //! (positions, colours, normals, normal confidence), optionally with the refocus plane as a
-//! quad and the camera centres as points. See [`crate::lightfield::ply`] for the layout.
+//! quad and the camera centres as points. The geometry comes from [`crate::scene`]; this
+//! module parses, writes the PLY ([`crate::lightfield::ply`] for the layout) and reports.
 
 use std::path::PathBuf;
 use std::time::Instant;
@@ -9,20 +10,13 @@ use clap::Args;
 use glam::{DVec2, DVec3};
 use serde_json::json;
 
-use super::focus::{FocusArgs, FOCUS_OPTIONS};
+use super::focus::{focus_json, FocusArgs, FOCUS_OPTIONS};
 use super::{ensure_parent, load_light_field, parse_numbers, LightFieldArgs};
 use crate::error::{Error, Result};
-use crate::geometry::aperture::Aperture;
 use crate::geometry::depth::ViewDepth;
 use crate::geometry::normals::{estimate_normals, NormalParams};
-use crate::geometry::plane::Plane;
 use crate::lightfield::ply::{PlyMesh, PlyVertex};
-use crate::refocus::{self, RefocusRequest};
-
-/// Colour of the plane quad's corners (a light blue that stands out from most scenes).
-const PLANE_COLOUR: [u8; 3] = [0, 190, 255];
-/// Colour of the camera centres.
-const CAMERA_COLOUR: [u8; 3] = [255, 0, 255];
+use crate::scene::{PointCloud, SceneBuilder, PLANE_COLOUR};
 
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("focus_plane").args(FOCUS_OPTIONS)))]
@@ -93,32 +87,9 @@ pub fn run(args: &CloudArgs) -> Result<()> {
     let normals = estimate_normals(&depth, &params);
     let normals_ms = t0.elapsed().as_secs_f64() * 1e3;
 
-    let image = &lf.views[depth.view].image;
-    let mut mesh = PlyMesh::default();
-    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-    let mut with_normal = 0usize;
-    for y in (0..depth.height).step_by(args.stride as usize) {
-        for x in (0..depth.width).step_by(args.stride as usize) {
-            let Some(p) = depth.point(x, y) else { continue };
-            lo = lo.min(p);
-            hi = hi.max(p);
-            let c = image.get_pixel(x, y).0;
-            let (normal, quality) = match &normals[depth.index(x, y)] {
-                Ok(n) => {
-                    with_normal += 1;
-                    (f32x3(n.normal), n.planarity as f32)
-                }
-                Err(_) => ([0.0; 3], 0.0),
-            };
-            mesh.vertices.push(PlyVertex {
-                position: f32x3(p),
-                normal,
-                colour: [c[0], c[1], c[2]],
-                quality,
-            });
-        }
-    }
-    let points = mesh.vertices.len();
+    let cloud = PointCloud::from_depth(&depth, &lf.views[depth.view].image, &normals, args.stride)?;
+    let points = cloud.points.len();
+    let with_normal = cloud.with_normal();
     if points == 0 {
         return Err(Error::LightField(format!(
             "{}: depth map {} has no valid sample, so the cloud would be empty",
@@ -133,35 +104,50 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         }
         None => lf.grid.centre(),
     };
-    let mut plane_report = None;
-    if let Some((spec, report)) = args.focus.resolve(&lf, reference)? {
-        // The plan resolves every focus option to the same plane a render would use.
-        let req = RefocusRequest {
-            focus: spec,
-            aperture: Aperture::default(),
-            reference: Some(reference),
-        };
-        let plan = refocus::plan(&lf, &req, &[])?;
-        let plane = plan.plane.ok_or_else(|| {
-            Error::Invalid(format!(
+    let focus = args.focus.resolve(&lf, reference)?;
+    if let Some(f) = &focus {
+        if f.plane.is_none() {
+            return Err(Error::Invalid(format!(
                 "--disparity on '{}' is classic shift-and-sum (no camera rig), which has no \
                  plane to draw; give --plane, --focus or a click option",
                 lf.name
-            ))
-        })?;
-        let centre = report
-            .pick
-            .as_ref()
-            .and_then(|p| p.points.first().copied())
-            .map(|p| p - plane.normal * plane.signed_distance(p))
-            .unwrap_or(plane.point);
-        let half = args
-            .plane_size
-            .unwrap_or_else(|| 0.5 * (hi - lo).length().max(1e-6));
-        add_quad(&mut mesh, &plane, centre, half, &plan.reference_camera.r);
+            )));
+        }
+    }
+    let mut builder = SceneBuilder::new(&lf).reference(reference).cloud(cloud);
+    if let Some(f) = &focus {
+        builder = builder.focus(f);
+    }
+    if let Some(h) = args.plane_size {
+        builder = builder.plane_half_size(h);
+    }
+    let scene = builder.build()?;
+
+    let mut mesh = PlyMesh::default();
+    if let Some(cloud) = &scene.cloud {
+        mesh.vertices.extend(cloud.points.iter().map(|p| PlyVertex {
+            position: f32x3(p.position),
+            normal: p.normal.map_or([0.0; 3], f32x3),
+            colour: p.colour,
+            quality: p.planarity as f32,
+        }));
+    }
+    let mut plane_report = None;
+    if let (Some(quad), Some(focus)) = (&scene.plane, &focus) {
+        let plane = quad.plane;
+        let first = mesh.vertices.len() as u32;
+        mesh.vertices
+            .extend(quad.corners.iter().map(|&c| PlyVertex {
+                position: f32x3(c),
+                normal: f32x3(plane.normal),
+                colour: PLANE_COLOUR,
+                quality: 1.0,
+            }));
+        mesh.faces
+            .push(vec![first, first + 1, first + 2, first + 3]);
         mesh.comments.push(format!(
             "refocus plane ({}): point {} {} {} normal {} {} {} (vertices {}..{}, face 0)",
-            report.how,
+            focus.how,
             plane.point.x,
             plane.point.y,
             plane.point.z,
@@ -174,21 +160,19 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         plane_report = Some(json!({
             "plane": {"point": [plane.point.x, plane.point.y, plane.point.z],
                       "normal": [plane.normal.x, plane.normal.y, plane.normal.z]},
-            "focus": report.to_json(),
-            "half_size": half,
+            "focus": focus_json(focus),
+            "half_size": quad.half,
         }));
     }
     let first_camera = mesh.vertices.len();
     if args.cameras {
-        for v in &lf.views {
-            let axis = v.camera.r.transpose() * DVec3::Z;
-            mesh.vertices.push(PlyVertex {
-                position: f32x3(v.camera.centre()),
-                normal: f32x3(axis),
-                colour: CAMERA_COLOUR,
+        mesh.vertices
+            .extend(scene.cameras.iter().map(|c| PlyVertex {
+                position: f32x3(c.centre),
+                normal: f32x3(c.axis),
+                colour: c.colour(),
                 quality: 1.0,
-            });
-        }
+            }));
         mesh.comments.push(format!(
             "camera centres: vertices {}..{} (colour 255 0 255, normal = optical axis)",
             first_camera,
@@ -247,35 +231,4 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         );
     }
     Ok(())
-}
-
-/// Appends the square of half-side `half` centred at `centre` in `plane` as 4 vertices and one
-/// face. Its edges follow the reference camera's x axis projected into the plane (y when the
-/// plane is perpendicular to x), so the quad looks square from that camera.
-fn add_quad(
-    mesh: &mut PlyMesh,
-    plane: &Plane,
-    centre: DVec3,
-    half: f64,
-    reference_r: &glam::DMat3,
-) {
-    let n = plane.normal;
-    let rt = reference_r.transpose();
-    let along = |a: DVec3| (a - n * n.dot(a)).normalize_or_zero();
-    let mut u = along(rt * DVec3::X);
-    if u.length_squared() < 0.5 {
-        u = along(rt * DVec3::Y);
-    }
-    let v = n.cross(u);
-    let first = mesh.vertices.len() as u32;
-    for (a, b) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
-        mesh.vertices.push(PlyVertex {
-            position: f32x3(centre + (a * u + b * v) * half),
-            normal: f32x3(n),
-            colour: PLANE_COLOUR,
-            quality: 1.0,
-        });
-    }
-    mesh.faces
-        .push(vec![first, first + 1, first + 2, first + 3]);
 }

@@ -73,7 +73,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let centre_view = &lf.views[lf.grid.index(lf.grid.cols / 2, lf.grid.rows / 2)];
     let mut written = Vec::new();
     let view_path = dir.join("centre_view.png");
-    refocus::save_png(&centre_view.image, &view_path)?;
+    crate::io::save_png(&centre_view.image, &view_path)?;
     written
         .push(json!({"file": view_path, "what": "the centre view (a pinhole image, all sharp)"}));
 

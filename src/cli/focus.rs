@@ -1,6 +1,8 @@
 //! The focus options shared by `render` and `cloud`: the keyboard and plane definitions
 //! (`--disparity`, `--plane`, `--focus/--tilt/--swing`) and the scene-based ones (`--click`,
-//! `--points`, `--points-3d`) with keyboard fine adjustment (`--nudge-*`).
+//! `--points`, `--points-3d`) with keyboard fine adjustment (`--nudge-*`). This module only
+//! parses them into a [`FocusRequest`] and reports the result; the library resolves it
+//! ([`crate::refocus::focus`]).
 //!
 //! Pixels given to `--click` and `--points` are pixels of the view that carries the depth map
 //! (normally the centre view), also when `--view` renders from another viewpoint: the plane
@@ -12,14 +14,12 @@ use glam::{DVec2, DVec3};
 use serde_json::{json, Value};
 
 use super::parse_numbers;
-use crate::error::{Error, Result};
-use crate::geometry::depth::ViewDepth;
+use crate::error::Result;
 use crate::geometry::normals::NormalParams;
-use crate::geometry::picking::{self, Nudge, Pick, PickMethod};
+use crate::geometry::picking::Nudge;
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
-use crate::refocus::plan::reference_camera;
-use crate::refocus::FocusSpec;
+use crate::refocus::{resolve_focus, FocusRequest, FocusSpec, FocusTarget, ResolvedFocus};
 
 /// Ids of all focus options, for the parent command's mutually exclusive group.
 pub const FOCUS_OPTIONS: [&str; 6] = [
@@ -135,25 +135,6 @@ pub struct FocusArgs {
     pub normal_window: u32,
 }
 
-/// How the focus was set, for reports.
-#[derive(Debug, Clone)]
-pub struct FocusReport {
-    /// `disparity`, `plane`, `focus-tilt-swing`, `click`, `three-points` or `three-points-3d`.
-    pub how: &'static str,
-    /// The scene pick, for the click methods.
-    pub pick: Option<Pick>,
-    /// Where the depth of a pixel pick came from.
-    pub depth: Option<DepthInfo>,
-}
-
-/// The depth map a pixel pick used.
-#[derive(Debug, Clone)]
-pub struct DepthInfo {
-    pub source: String,
-    pub view: (usize, usize),
-    pub kind: crate::lightfield::DepthKind,
-}
-
 impl FocusArgs {
     /// True when any focus option is given.
     pub fn any(&self) -> bool {
@@ -178,78 +159,47 @@ impl FocusArgs {
         })
     }
 
-    /// The focus of these options on `lf` for the reference view `reference` (grid units), or
-    /// `None` when no focus option is given. Click methods resolve to [`FocusSpec::Plane`].
-    pub fn resolve(
-        &self,
-        lf: &LightField,
-        reference: DVec2,
-    ) -> Result<Option<(FocusSpec, FocusReport)>> {
-        if let Some((how, spec)) = self.keyboard.spec()? {
-            let report = FocusReport {
-                how,
-                pick: None,
-                depth: None,
-            };
-            return Ok(Some((spec, report)));
+    /// The focus request these options give (parsing only), or `None` when no focus option
+    /// is given.
+    pub fn request(&self) -> Result<Option<FocusRequest>> {
+        if let Some((_, spec)) = self.keyboard.spec()? {
+            return Ok(Some(spec.into()));
         }
-        let pixel_depth = || -> Result<ViewDepth> {
-            let d = ViewDepth::from_light_field(lf)?;
-            if d.valid_count() == 0 {
-                return Err(Error::LightField(format!(
-                    "{}: depth map {} has no valid sample",
-                    lf.name, d.source
-                )));
-            }
-            Ok(d)
-        };
-        let (pick, depth) = if let Some(text) = &self.click {
+        let target = if let Some(text) = &self.click {
             let v = parse_numbers(text, 2, "--click")?;
-            let params = NormalParams::default().with_window(self.normal_window);
-            let d = pixel_depth()?;
-            (picking::click(&d, v[0], v[1], &params)?, Some(d))
+            FocusTarget::Click {
+                pixel: DVec2::new(v[0], v[1]),
+                normals: NormalParams::default().with_window(self.normal_window),
+            }
         } else if let Some(text) = &self.points {
             let v = parse_numbers(text, 6, "--points")?;
-            let d = pixel_depth()?;
-            let px = [
+            FocusTarget::ThreeClicks([
                 DVec2::new(v[0], v[1]),
                 DVec2::new(v[2], v[3]),
                 DVec2::new(v[4], v[5]),
-            ];
-            (picking::three_clicks(&d, px)?, Some(d))
+            ])
         } else if let Some(text) = &self.points_3d {
             let v = parse_numbers(text, 9, "--points-3d")?;
-            let camera = reference_camera(lf, reference)?;
-            let pts = [
+            FocusTarget::ThreePoints([
                 DVec3::new(v[0], v[1], v[2]),
                 DVec3::new(v[3], v[4], v[5]),
                 DVec3::new(v[6], v[7], v[8]),
-            ];
-            (picking::three_points(pts, &camera)?, None)
+            ])
         } else {
             return Ok(None);
         };
-        let pick = match self.nudge() {
-            Some(n) => pick.nudged(&reference_camera(lf, reference)?, n)?,
-            None => pick,
-        };
-        if pick.method != PickMethod::Click && pick.confidence < 0.2 {
-            log::warn!(
-                "the three points are nearly collinear (smallest angle {:.2}°): the plane's \
-                 orientation is very sensitive to depth errors; spread the points wider",
-                pick.min_angle_deg.unwrap_or(0.0)
-            );
-        }
-        let report = FocusReport {
-            how: pick.method.name(),
-            depth: depth.map(|d| DepthInfo {
-                source: d.source.clone(),
-                view: d.grid_position,
-                kind: d.kind,
-            }),
-            pick: Some(pick.clone()),
-        };
-        Ok(Some((FocusSpec::Plane(pick.plane), report)))
+        Ok(Some(FocusRequest {
+            target,
+            nudge: self.nudge(),
+        }))
+    }
+
+    /// The focus of these options on `lf` for the reference view `reference` (grid units), or
+    /// `None` when no focus option is given.
+    pub fn resolve(&self, lf: &LightField, reference: DVec2) -> Result<Option<ResolvedFocus>> {
+        self.request()?
+            .map(|req| resolve_focus(lf, &req, reference))
+            .transpose()
     }
 }
 
@@ -261,92 +211,90 @@ fn plane_json(p: &Plane) -> Value {
     json!({"point": v3(p.point), "normal": v3(p.normal)})
 }
 
-impl FocusReport {
-    /// The JSON report: `how`, `nudged`, `confidence` and, for picks, the details.
-    pub fn to_json(&self) -> Value {
-        let Some(pick) = &self.pick else {
-            return json!({"how": self.how, "nudged": false, "confidence": null});
-        };
-        let mut v = json!({
-            "how": self.how,
-            "nudged": pick.nudge.is_some(),
-            "confidence": pick.confidence,
-            "plane_found": plane_json(&pick.found),
-            "plane": plane_json(&pick.plane),
-            "points": pick.points.iter().map(|p| v3(*p)).collect::<Vec<_>>(),
-        });
-        let obj = v.as_object_mut();
-        if let Some(obj) = obj {
-            if !pick.pixels.is_empty() {
-                obj.insert("pixels".into(), json!(pick.pixels));
-            }
-            if let Some(n) = &pick.normal {
-                obj.insert(
-                    "normal_estimate".into(),
-                    json!({
-                        "normal": v3(n.normal),
-                        "centroid": v3(n.centroid),
-                        "planarity": n.planarity,
-                        "curvature": n.curvature,
-                        "view_angle_deg": n.view_angle_deg,
-                        "neighbours": n.neighbours,
-                        "rejected": n.rejected,
-                    }),
-                );
-            }
-            if let Some(a) = pick.min_angle_deg {
-                obj.insert("min_angle_deg".into(), json!(a));
-            }
-            if let Some(n) = &pick.nudge {
-                obj.insert("nudge".into(), json!(n));
-            }
-            if let Some(d) = &self.depth {
-                obj.insert(
-                    "depth_map".into(),
-                    json!({"source": d.source, "view": [d.view.0, d.view.1], "kind": d.kind}),
-                );
-            }
+/// The JSON report of a focus: `how`, `nudged`, `confidence` and, for picks, the details.
+pub fn focus_json(focus: &ResolvedFocus) -> Value {
+    let Some(pick) = &focus.pick else {
+        return json!({"how": focus.how, "nudged": false, "confidence": null});
+    };
+    let mut v = json!({
+        "how": focus.how,
+        "nudged": pick.nudge.is_some(),
+        "confidence": pick.confidence,
+        "plane_found": plane_json(&pick.found),
+        "plane": plane_json(&pick.plane),
+        "points": pick.points.iter().map(|p| v3(*p)).collect::<Vec<_>>(),
+    });
+    let obj = v.as_object_mut();
+    if let Some(obj) = obj {
+        if !pick.pixels.is_empty() {
+            obj.insert("pixels".into(), json!(pick.pixels));
         }
-        v
-    }
-
-    /// One human-readable line about a pick (`None` for the plain options).
-    pub fn summary(&self) -> Option<String> {
-        let pick = self.pick.as_ref()?;
-        let p = pick.plane;
-        let mut s = format!(
-            "{}{} → plane through ({:.4}, {:.4}, {:.4}) with normal ({:.4}, {:.4}, {:.4}), \
-             confidence {:.3}",
-            self.how,
-            match pick.pixels.as_slice() {
-                [] => String::new(),
-                px => format!(
-                    " at {}",
-                    px.iter()
-                        .map(|(x, y)| format!("({x}, {y})"))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ),
-            },
-            p.point.x,
-            p.point.y,
-            p.point.z,
-            p.normal.x,
-            p.normal.y,
-            p.normal.z,
-            pick.confidence
-        );
+        if let Some(n) = &pick.normal {
+            obj.insert(
+                "normal_estimate".into(),
+                json!({
+                    "normal": v3(n.normal),
+                    "centroid": v3(n.centroid),
+                    "planarity": n.planarity,
+                    "curvature": n.curvature,
+                    "view_angle_deg": n.view_angle_deg,
+                    "neighbours": n.neighbours,
+                    "rejected": n.rejected,
+                }),
+            );
+        }
+        if let Some(a) = pick.min_angle_deg {
+            obj.insert("min_angle_deg".into(), json!(a));
+        }
         if let Some(n) = &pick.nudge {
-            s.push_str(&format!(
-                "; nudged from distance {:.4}, tilt {:.2}°, swing {:.2}° to {:.4}, {:.2}°, {:.2}°",
-                n.before.distance,
-                n.before.tilt_deg,
-                n.before.swing_deg,
-                n.after.distance,
-                n.after.tilt_deg,
-                n.after.swing_deg
-            ));
+            obj.insert("nudge".into(), json!(n));
         }
-        Some(s)
+        if let Some(d) = &focus.depth {
+            obj.insert(
+                "depth_map".into(),
+                json!({"source": d.source, "view": [d.view.0, d.view.1], "kind": d.kind}),
+            );
+        }
     }
+    v
+}
+
+/// One human-readable line about a pick (`None` for the plain options).
+pub fn focus_summary(focus: &ResolvedFocus) -> Option<String> {
+    let pick = focus.pick.as_ref()?;
+    let p = pick.plane;
+    let mut s = format!(
+        "{}{} → plane through ({:.4}, {:.4}, {:.4}) with normal ({:.4}, {:.4}, {:.4}), \
+         confidence {:.3}",
+        focus.how,
+        match pick.pixels.as_slice() {
+            [] => String::new(),
+            px => format!(
+                " at {}",
+                px.iter()
+                    .map(|(x, y)| format!("({x}, {y})"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        },
+        p.point.x,
+        p.point.y,
+        p.point.z,
+        p.normal.x,
+        p.normal.y,
+        p.normal.z,
+        pick.confidence
+    );
+    if let Some(n) = &pick.nudge {
+        s.push_str(&format!(
+            "; nudged from distance {:.4}, tilt {:.2}°, swing {:.2}° to {:.4}, {:.2}°, {:.2}°",
+            n.before.distance,
+            n.before.tilt_deg,
+            n.before.swing_deg,
+            n.after.distance,
+            n.after.tilt_deg,
+            n.after.swing_deg
+        ));
+    }
+    Some(s)
 }

@@ -19,7 +19,7 @@ pub struct InfoArgs {
 pub fn run(args: &InfoArgs) -> Result<()> {
     let lf = load_light_field(&args.lf)?;
     let centre = lf.grid.centre();
-    let ref_cam = crate::refocus::plan::reference_camera(&lf, centre)?;
+    let ref_cam = lf.camera_at(centre)?;
     let c0 = lf.views[0].camera.centre();
     let extent = lf
         .views

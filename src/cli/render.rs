@@ -7,16 +7,17 @@ use clap::Args;
 use glam::{DVec2, DVec3};
 use serde_json::json;
 
-use super::focus::{FocusArgs, FocusReport, FOCUS_OPTIONS};
+use super::focus::{focus_json, focus_summary, FocusArgs, FOCUS_OPTIONS};
 use super::{ensure_parent, load_light_field, parse_numbers, GpuArgs, LightFieldArgs};
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::headless::{GpuImage, HeadlessRenderer, RenderSettings};
+use crate::io::OutputKind;
 use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
 use crate::passes::refocus::{Filter, OutputFormat, Strategy};
 use crate::passes::texture::ViewStorage;
-use crate::refocus::{self, Averaging, OutputKind, RefocusPlan, RefocusRequest};
+use crate::refocus::{self, resolve_focus, Averaging, RefocusPlan, RefocusRequest, ResolvedFocus};
 
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("focus_plane").required(true).args(FOCUS_OPTIONS)))]
@@ -89,7 +90,7 @@ pub fn dark_views(lf: &LightField, include_dark: bool) -> Vec<bool> {
 }
 
 /// The plan for `args` on `lf`, and how its focus was set.
-pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, FocusReport)> {
+pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, ResolvedFocus)> {
     let reference = match &args.view {
         Some(text) => {
             let v = parse_numbers(text, 2, "--view")?;
@@ -97,25 +98,25 @@ pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, Foc
         }
         None => None,
     };
-    let (focus, report) = args
-        .focus
-        .resolve(lf, reference.unwrap_or_else(|| lf.grid.centre()))?
-        .ok_or_else(|| {
-            Error::Invalid(
-                "give one of --disparity, --plane, --focus, --click, --points or --points-3d"
-                    .into(),
-            )
-        })?;
+    let request = args.focus.request()?.ok_or_else(|| {
+        Error::Invalid(
+            "give one of --disparity, --plane, --focus, --click, --points or --points-3d".into(),
+        )
+    })?;
+    let aperture = Aperture {
+        shape: args.aperture,
+        radius: args.aperture_radius,
+    };
+    // Before the focus, so a bad aperture is reported first, as the plan would.
+    aperture.validate()?;
+    let focus = resolve_focus(lf, &request, reference.unwrap_or_else(|| lf.grid.centre()))?;
     let req = RefocusRequest {
-        focus,
-        aperture: Aperture {
-            shape: args.aperture,
-            radius: args.aperture_radius,
-        },
+        focus: focus.spec,
+        aperture,
         reference,
     };
     let plan = refocus::plan(lf, &req, &dark_views(lf, args.include_dark))?;
-    Ok((plan, report))
+    Ok((plan, focus))
 }
 
 /// The JSON description of a plan (shared by `render --json` and `demo`).
@@ -136,11 +137,11 @@ pub fn save(image: &GpuImage, path: &std::path::Path) -> Result<usize> {
     ensure_parent(path)?;
     match image {
         GpuImage::Srgb8(img) => {
-            refocus::save_png(img, path)?;
+            crate::io::save_png(img, path)?;
             Ok(img.pixels().filter(|p| p.0[3] == 0).count())
         }
         GpuImage::Float(img) => {
-            refocus::save_exr(img.width, img.height, &img.linear(), path)?;
+            crate::io::save_exr(img.width, img.height, &img.linear(), path)?;
             Ok(img.uncovered())
         }
     }
@@ -190,7 +191,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let t_load = t0.elapsed().as_secs_f64() * 1e3;
     let (plan, focus) = make_plan(&lf, args)?;
     if !args.json {
-        if let Some(line) = focus.summary() {
+        if let Some(line) = focus_summary(&focus) {
             eprintln!("{line}");
         }
     }
@@ -239,7 +240,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                 "grid": [lf.grid.cols, lf.grid.rows],
                 "size": [lf.width, lf.height],
             },
-            "focus": focus.to_json(),
+            "focus": focus_json(&focus),
             "output": args.output,
             "averaging": args.average,
             "strategy": settings.strategy.name(),

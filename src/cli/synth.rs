@@ -284,7 +284,7 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         .iter()
         .map(|n| [n[0], n[1], n[2], if n[0].is_nan() { 0.0 } else { 1.0 }])
         .collect();
-    refocus::save_exr(width, height, &normals, &normals_path)?;
+    crate::io::save_exr(width, height, &normals, &normals_path)?;
     written.push(normals_path);
 
     let mut gt_report = serde_json::Value::Null;
@@ -321,8 +321,8 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         )?;
         let png = out.join("optical_gt.png");
         let exr = out.join("optical_gt.exr");
-        refocus::save_png(&encode(&linear, width, height), &png)?;
-        refocus::save_exr(width, height, &linear, &exr)?;
+        crate::io::save_png(&encode(&linear, width, height), &png)?;
+        crate::io::save_exr(width, height, &linear, &exr)?;
         let v3 = |v: DVec3| [v.x, v.y, v.z];
         gt_report = json!({
             "plane": {"point": v3(plane.point), "normal": v3(plane.normal)},

@@ -1,5 +1,6 @@
 //! Depth of one view from its depth or disparity map, and back-projection of that view's
-//! pixels to a world-frame point cloud (DESIGN.md §2 "Depth and geometry").
+//! pixels to world-frame points (docs/conventions.md §8; the point cloud itself is
+//! [`crate::scene::cloud`]).
 //!
 //! Conventions:
 //! - depth z is the camera-frame z of the surface seen at a pixel centre (distance along the
@@ -14,10 +15,11 @@
 //!   of a rig without that declaration has no defined depth and is refused with a message.
 //!
 //! A sample is **valid** when it is finite, when (for disparity) it lies inside the dataset's
-//! disparity range (`[meta] disp_min … disp_max` of HCI folders, the documented range of
-//! built-in scenes) and in front of infinity (1/Z > 0), and when the resulting depth is finite
-//! and positive. Every other sample is invalid and carries a [`DepthProblem`] that says why,
-//! so that a click on it can be refused with a message instead of producing NaN.
+//! disparity range ([`LightField::disparity_range`]: `[meta] disp_min … disp_max` of HCI
+//! folders, the documented range of built-in scenes) and in front of infinity (1/Z > 0), and
+//! when the resulting depth is finite and positive. Every other sample is invalid and carries
+//! a [`DepthProblem`] that says why, so that a click on it can be refused with a message
+//! instead of producing NaN.
 //!
 //! The view with the map is normally the centre view. Pixels given to the picking functions
 //! ([`super::picking`]) are pixels of *this* view, whatever reference view a render uses;
@@ -26,11 +28,10 @@
 use std::fmt;
 
 use glam::{DMat3, DVec2, DVec3};
-use image::RgbaImage;
 
 use super::camera::Camera;
 use crate::error::{Error, Result};
-use crate::lightfield::{DepthKind, DepthMap, LightField, ParallelRig, Source};
+use crate::lightfield::{DepthKind, DepthMap, LightField, ParallelRig};
 
 /// Why a depth sample is unusable.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -131,7 +132,7 @@ impl ViewDepth {
                 lf.name, map.source
             ))
         })?;
-        let mut d = Self::new(view.camera, map, lf.rig, dataset_disparity_range(lf), index)?;
+        let mut d = Self::new(view.camera, map, lf.rig, lf.disparity_range, index)?;
         d.grid_position = (view.s, view.t);
         Ok(d)
     }
@@ -308,45 +309,6 @@ impl ViewDepth {
     pub fn index(&self, x: u32, y: u32) -> usize {
         y as usize * self.width as usize + x as usize
     }
-
-    /// Back-projects every valid pixel with its colour from `image` (the view's own image,
-    /// same size): world positions in row-major pixel order.
-    pub fn point_cloud(&self, image: &RgbaImage) -> Result<Vec<ColouredPoint>> {
-        if image.dimensions() != (self.width, self.height) {
-            return Err(Error::LightField(format!(
-                "the image for depth map {} is {}×{}, the map is {}×{}",
-                self.source,
-                image.width(),
-                image.height(),
-                self.width,
-                self.height
-            )));
-        }
-        let mut out = Vec::with_capacity(self.valid);
-        for y in 0..self.height {
-            for x in 0..self.width {
-                if let Some(p) = self.point(x, y) {
-                    let c = image.get_pixel(x, y).0;
-                    out.push(ColouredPoint {
-                        pixel: (x, y),
-                        position: p,
-                        colour: [c[0], c[1], c[2]],
-                    });
-                }
-            }
-        }
-        Ok(out)
-    }
-}
-
-/// A back-projected pixel with its sRGB colour.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ColouredPoint {
-    pub pixel: (u32, u32),
-    /// World frame.
-    pub position: DVec3,
-    /// sRGB-encoded colour of the pixel.
-    pub colour: [u8; 3],
 }
 
 /// Depth maps before disparity maps: no conversion, no rig needed.
@@ -354,22 +316,6 @@ fn kind_rank(k: DepthKind) -> u8 {
     match k {
         DepthKind::Depth => 0,
         DepthKind::Disparity => 1,
-    }
-}
-
-/// The dataset's valid disparity range: `[meta] disp_min`/`disp_max` of HCI folders, the
-/// documented range of built-in scenes; `None` otherwise or when unreadable.
-pub fn dataset_disparity_range(lf: &LightField) -> Option<(f64, f64)> {
-    match &lf.source {
-        Source::Hci(cfg) => {
-            let get = |k: &str| cfg.meta.get(k).and_then(|v| v.trim().parse::<f64>().ok());
-            match (get("disp_min"), get("disp_max")) {
-                (Some(a), Some(b)) if a.is_finite() && b.is_finite() && a <= b => Some((a, b)),
-                _ => None,
-            }
-        }
-        Source::Generated { scene } => crate::synth::builtin(scene).map(|b| b.disparity_range),
-        _ => None,
     }
 }
 

@@ -1,4 +1,5 @@
-//! Per-view refocus homographies (generalized shift-and-sum, Alain et al. 2019).
+//! Per-view refocus homographies (generalized shift-and-sum, Alain et al. 2019;
+//! docs/conventions.md §3–5).
 //!
 //! For a refocus plane Λ (world point p, unit normal n) and reference camera r, view i gets
 //!
@@ -90,7 +91,7 @@ fn reference_distance(reference: &Camera, plane: &Plane, min_distance: f64) -> R
     Ok(d_r)
 }
 
-/// The homography of DESIGN.md §2 in its direct form, for tests and reports.
+/// The homography of docs/conventions.md §3 in its direct form, for tests and reports.
 pub fn homography(
     view: &Camera,
     reference: &Camera,

@@ -155,6 +155,7 @@ pub fn load(dir: &Path, opts: &GridCameraOptions) -> Result<LightField> {
         views,
         depth: Vec::new(),
         rig: None,
+        disparity_range: None,
         source: Source::GridFolder {
             path: dir.to_path_buf(),
         },

@@ -407,8 +407,18 @@ pub fn load(dir: &Path) -> Result<LightField> {
         views,
         depth,
         rig: Some(rig),
+        disparity_range: meta_disparity_range(&cfg),
         source: Source::Hci(cfg),
     })
+}
+
+/// `[meta] disp_min`/`disp_max` when both parse as finite numbers with min ≤ max.
+fn meta_disparity_range(cfg: &HciConfig) -> Option<(f64, f64)> {
+    let get = |k: &str| cfg.meta.get(k).and_then(|v| v.trim().parse::<f64>().ok());
+    match (get("disp_min"), get("disp_max")) {
+        (Some(a), Some(b)) if a.is_finite() && b.is_finite() && a <= b => Some((a, b)),
+        _ => None,
+    }
 }
 
 /// The configuration that describes `lf` as an HCI scene taken by `rig` (world units metres)
@@ -692,6 +702,7 @@ depth_map_scale = 10.0
             views,
             depth: vec![(centre, disp), (centre, depth)],
             rig: Some(rig),
+            disparity_range: None,
             source: Source::Generated {
                 scene: "synthetic".into(),
             },

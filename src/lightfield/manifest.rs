@@ -403,6 +403,7 @@ pub fn load(path: &Path) -> Result<LightField> {
         views,
         depth,
         rig,
+        disparity_range: None,
         source: Source::Manifest {
             path: path.to_path_buf(),
         },

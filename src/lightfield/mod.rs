@@ -22,7 +22,7 @@ use glam::DVec2;
 use image::RgbaImage;
 
 use crate::error::{Error, Result};
-use crate::geometry::camera::Camera;
+use crate::geometry::camera::{interpolate_cameras, Camera};
 
 /// Grid dimensions: `cols` views horizontally (s), `rows` vertically (t).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -206,6 +206,10 @@ pub struct LightField {
     pub depth: Vec<(usize, DepthMap)>,
     /// Set for regular parallel rigs with sensor shift (HCI convention for `--disparity`).
     pub rig: Option<ParallelRig>,
+    /// The dataset's documented range of valid disparities (min ≤ max, both finite): `[meta]
+    /// disp_min`/`disp_max` of HCI folders, the range of built-in scenes; `None` when the data
+    /// states none. Disparity samples outside it are invalid ([`crate::geometry::depth`]).
+    pub disparity_range: Option<(f64, f64)>,
     pub source: Source,
 }
 
@@ -213,6 +217,35 @@ impl LightField {
     /// View (s, t).
     pub fn view(&self, s: usize, t: usize) -> &View {
         &self.views[self.grid.index(s, t)]
+    }
+
+    /// The camera at fractional grid position `st` = (s, t): bilinear between the four
+    /// neighbouring cameras ([`interpolate_cameras`]), exactly the real camera at integer
+    /// positions. This is how a virtual reference view between real views gets its camera.
+    /// An error when `st` is not finite or lies outside `[0, cols − 1] × [0, rows − 1]`.
+    pub fn camera_at(&self, st: DVec2) -> Result<Camera> {
+        let (cols, rows) = (self.grid.cols, self.grid.rows);
+        let max = DVec2::new(cols as f64 - 1.0, rows as f64 - 1.0);
+        if !st.is_finite() || st.x < 0.0 || st.y < 0.0 || st.x > max.x || st.y > max.y {
+            return Err(Error::Invalid(format!(
+                "reference view ({}, {}) lies outside the grid: s must be in [0, {}], t in [0, {}]",
+                st.x, st.y, max.x, max.y
+            )));
+        }
+        // A single row or column has no second neighbour: s1 = s0 (weights then irrelevant).
+        let s0 = (st.x.floor() as usize).min(cols.saturating_sub(2));
+        let t0 = (st.y.floor() as usize).min(rows.saturating_sub(2));
+        let s1 = (s0 + 1).min(cols - 1);
+        let t1 = (t0 + 1).min(rows - 1);
+        let cam = |s, t| &self.view(s, t).camera;
+        Ok(interpolate_cameras(
+            cam(s0, t0),
+            cam(s1, t0),
+            cam(s0, t1),
+            cam(s1, t1),
+            st.x - s0 as f64,
+            st.y - t0 as f64,
+        ))
     }
 
     /// Checks the invariants every consumer relies on: a complete grid in row-major order,

@@ -42,7 +42,7 @@ use crate::gpu::resources::{Buffer, Image, ImageDesc};
 use crate::gpu::shaders;
 use crate::gpu::upload::{upload_images, ImageRegion};
 use crate::gpu::GpuContext;
-use crate::synth::mesh::{MeshDraw, MeshScene, VERTEX_BYTES};
+use crate::scene::mesh::{MeshDraw, MeshScene, VERTEX_BYTES};
 
 /// Near plane distance (world units, metres for the synthetic scenes): surfaces nearer than
 /// this to a camera's image plane are clipped.

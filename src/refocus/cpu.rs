@@ -1,7 +1,7 @@
 //! The f64 CPU reference renderer: the same equations and masks as the GPU pass
 //! (`shaders/refocus.frag`), with exact bilinear sampling (no 8-bit snapping of sample
-//! positions) and clamp-to-edge addressing. Tests and the benchmark's accuracy figures compare
-//! the GPU against it.
+//! positions) and clamp-to-edge addressing (docs/conventions.md §4). The tests compare the GPU
+//! against it.
 
 use glam::DVec2;
 use rayon::prelude::*;

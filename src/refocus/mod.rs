@@ -1,17 +1,20 @@
-//! Refocus requests, their resolution into per-view warps ([`mod@plan`]), the f64 CPU reference
-//! renderer ([`cpu`]) and the refocus image type shared with the GPU pass.
+//! Refocus requests: the focus and its plane ([`focus`]), their resolution into per-view warps
+//! ([`mod@plan`]), the f64 CPU reference renderer ([`cpu`]) and the refocus image type shared
+//! with the GPU pass. Writing images to files is [`crate::io`]'s job.
 
 pub mod cpu;
+pub mod focus;
 pub mod plan;
-
-use std::path::Path;
 
 use image::RgbaImage;
 
 use crate::color;
 use crate::error::{Error, Result};
 
-pub use plan::{plan, FocusMethod, FocusSpec, PlannedView, RefocusPlan, RefocusRequest};
+pub use focus::{
+    resolve_focus, DepthInfo, FocusMethod, FocusRequest, FocusSpec, FocusTarget, ResolvedFocus,
+};
+pub use plan::{plan, PlannedView, RefocusPlan, RefocusRequest};
 
 /// In which space views are averaged.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -85,47 +88,5 @@ impl RefocusImage {
             dst.0 = [enc(p[0]), enc(p[1]), enc(p[2]), color::to_u8(p[3] as f64)];
         }
         out
-    }
-}
-
-/// Writes an 8-bit sRGB image as PNG.
-pub fn save_png(img: &RgbaImage, path: &Path) -> Result<()> {
-    img.save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| Error::bad_file(path, format!("cannot write PNG: {e}")))
-}
-
-/// Writes linear-light RGBA as a 32-bit float OpenEXR file.
-pub fn save_exr(width: u32, height: u32, linear: &[[f32; 4]], path: &Path) -> Result<()> {
-    let w = width as usize;
-    exr::prelude::write_rgba_file(path, w, height as usize, |x, y| {
-        let p = linear[y * w + x];
-        (p[0], p[1], p[2], p[3])
-    })
-    .map_err(|e| Error::bad_file(path, format!("cannot write EXR: {e}")))
-}
-
-/// Output file kind, from the extension.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OutputKind {
-    Png,
-    Exr,
-}
-
-impl OutputKind {
-    /// `.png` or `.exr` (case-insensitive); anything else is an error naming the path.
-    pub fn from_path(path: &Path) -> Result<Self> {
-        match path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(|e| e.to_ascii_lowercase())
-            .as_deref()
-        {
-            Some("png") => Ok(Self::Png),
-            Some("exr") => Ok(Self::Exr),
-            _ => Err(Error::Invalid(format!(
-                "{}: output must end in .png (8-bit sRGB) or .exr (linear float)",
-                path.display()
-            ))),
-        }
     }
 }

@@ -1,7 +1,8 @@
 //! Resolves a refocus request against a light field: the reference (possibly virtual) camera,
 //! the refocus plane, and for every view inside the aperture its weight and warp.
 //!
-//! `--disparity D` has two meanings, as DESIGN.md §2–3 prescribe:
+//! The plane comes from [`super::focus`] (one definition for renders, overlays and viewers).
+//! `--disparity D` has two meanings (docs/conventions.md §6):
 //! - on a regular parallel rig with sensor shift (HCI folders, built-in scenes; `lf.rig` set)
 //!   D is an HCI disparity: the frontoparallel plane at depth Z with 1/Z = D/(b·f) + 1/Z_focus,
 //!   refocused through the general homography path (a centre-view pixel x of disparity D is
@@ -11,27 +12,13 @@
 
 use glam::{DVec2, DVec3};
 
+use super::focus::{focus_plane, FocusMethod, FocusSpec};
 use crate::error::{Error, Result};
 use crate::geometry::aperture::Aperture;
-use crate::geometry::camera::{interpolate_cameras, Camera};
-use crate::geometry::homography::{plane_term, ViewWarp};
+use crate::geometry::camera::Camera;
+use crate::geometry::homography::ViewWarp;
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
-
-/// How the refocus surface is given.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum FocusSpec {
-    /// Disparity in pixels per grid step (see the module docs for its two meanings).
-    Disparity(f64),
-    /// A plane in the world frame.
-    Plane(Plane),
-    /// Point on the reference optical axis at `distance`, normal from tilt and swing (degrees).
-    FocusTiltSwing {
-        distance: f64,
-        tilt_deg: f64,
-        swing_deg: f64,
-    },
-}
 
 /// Everything a refocus needs besides the light field.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,16 +27,6 @@ pub struct RefocusRequest {
     pub aperture: Aperture,
     /// Reference view (s, t), fractional allowed; `None` = grid centre.
     pub reference: Option<DVec2>,
-}
-
-/// How the plane of a plan was obtained (reported by `--json`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FocusMethod {
-    ClassicShift,
-    HciDisparity,
-    Plane,
-    FocusTiltSwing,
 }
 
 /// One view inside the aperture.
@@ -79,94 +56,13 @@ pub struct RefocusPlan {
     pub height: u32,
 }
 
-/// The reference camera at fractional grid position `st`: bilinear between the four
-/// neighbouring cameras (exactly a real camera at integer positions).
-pub fn reference_camera(lf: &LightField, st: DVec2) -> Result<Camera> {
-    let (cols, rows) = (lf.grid.cols, lf.grid.rows);
-    let max = DVec2::new(cols as f64 - 1.0, rows as f64 - 1.0);
-    if !st.is_finite() || st.x < 0.0 || st.y < 0.0 || st.x > max.x || st.y > max.y {
-        return Err(Error::Invalid(format!(
-            "reference view ({}, {}) lies outside the grid: s must be in [0, {}], t in [0, {}]",
-            st.x, st.y, max.x, max.y
-        )));
-    }
-    let s0 = (st.x.floor() as usize).min(cols.saturating_sub(2));
-    let t0 = (st.y.floor() as usize).min(rows.saturating_sub(2));
-    let s1 = (s0 + 1).min(cols - 1);
-    let t1 = (t0 + 1).min(rows - 1);
-    let cam = |s, t| &lf.view(s, t).camera;
-    Ok(interpolate_cameras(
-        cam(s0, t0),
-        cam(s1, t0),
-        cam(s0, t1),
-        cam(s1, t1),
-        st.x - s0 as f64,
-        st.y - t0 as f64,
-    ))
-}
-
-/// Length scale of the rig: the largest distance of a camera centre from the first one
-/// (1 for a single camera). Degeneracy tolerances are relative to it.
-fn rig_scale(lf: &LightField) -> f64 {
-    let c0 = lf.views[0].camera.centre();
-    let s = lf
-        .views
-        .iter()
-        .map(|v| (v.camera.centre() - c0).length())
-        .fold(0.0, f64::max);
-    if s > 0.0 {
-        s
-    } else {
-        1.0
-    }
-}
-
 /// Resolves `req` for `lf`. `excluded[i]` (if given) removes view i from the aperture, e.g. a
 /// vignetted black corner view.
 pub fn plan(lf: &LightField, req: &RefocusRequest, excluded: &[bool]) -> Result<RefocusPlan> {
     req.aperture.validate()?;
     let reference = req.reference.unwrap_or_else(|| lf.grid.centre());
-    let reference_camera = reference_camera(lf, reference)?;
-    let min_distance = 1e-6 * rig_scale(lf);
-
-    let (method, plane) = match req.focus {
-        FocusSpec::Disparity(d) if !d.is_finite() => {
-            return Err(Error::Invalid(format!("disparity must be finite, got {d}")));
-        }
-        FocusSpec::Disparity(d) => match lf.rig {
-            Some(rig) => {
-                let z = rig.depth_of_disparity(d).ok_or_else(|| {
-                    Error::Geometry(format!(
-                        "disparity {d} px lies at or beyond infinity for this rig (the most \
-                         negative physical disparity is {:.4} px)",
-                        rig.disparity_at_infinity()
-                    ))
-                })?;
-                // World frame = centre camera frame: the plane z = Z.
-                let p = Plane::new(DVec3::new(0.0, 0.0, z), DVec3::Z)?;
-                (FocusMethod::HciDisparity, Some(p))
-            }
-            None => (FocusMethod::ClassicShift, None),
-        },
-        FocusSpec::Plane(p) => (FocusMethod::Plane, Some(Plane::new(p.point, p.normal)?)),
-        FocusSpec::FocusTiltSwing {
-            distance,
-            tilt_deg,
-            swing_deg,
-        } => (
-            FocusMethod::FocusTiltSwing,
-            Some(Plane::from_focus_tilt_swing(
-                &reference_camera,
-                distance,
-                tilt_deg,
-                swing_deg,
-            )?),
-        ),
-    };
-    let m = match &plane {
-        Some(p) => plane_term(&reference_camera, p, min_distance)?,
-        None => DVec3::ZERO,
-    };
+    let reference_camera = lf.camera_at(reference)?;
+    let (method, plane, m) = focus_plane(lf, &req.focus, &reference_camera)?;
 
     let mut views = Vec::new();
     for (index, v) in lf.views.iter().enumerate() {
@@ -227,4 +123,226 @@ pub fn plan(lf: &LightField, req: &RefocusRequest, excluded: &[bool]) -> Result<
         width: lf.width,
         height: lf.height,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::aperture::ApertureShape;
+    use crate::lightfield::{GridSize, ParallelRig, Source, View};
+    use glam::DMat3;
+
+    const RIG: ParallelRig = ParallelRig {
+        focal_px: 40.0,
+        baseline: 0.1,
+        focus_distance: 2.0,
+    };
+
+    /// A 5×3 grid of 32×24 blank views on `RIG`'s cameras; `rig` says whether the light field
+    /// declares the rig (HCI disparity) or not (classic shift-and-sum).
+    fn grid(rig: bool) -> LightField {
+        let grid = GridSize { cols: 5, rows: 3 };
+        let (w, h) = (32, 24);
+        let views = RIG
+            .cameras(grid, w, h)
+            .into_iter()
+            .enumerate()
+            .map(|(i, camera)| View {
+                s: i % grid.cols,
+                t: i / grid.cols,
+                camera,
+                image: image::RgbaImage::new(w, h),
+                source: format!("view {i}"),
+            })
+            .collect();
+        let lf = LightField {
+            name: "grid".into(),
+            grid,
+            width: w,
+            height: h,
+            views,
+            depth: Vec::new(),
+            rig: rig.then_some(RIG),
+            disparity_range: None,
+            source: Source::Generated {
+                scene: "grid".into(),
+            },
+        };
+        lf.validate().unwrap();
+        lf
+    }
+
+    fn request(focus: FocusSpec, aperture: Aperture, reference: Option<DVec2>) -> RefocusRequest {
+        RefocusRequest {
+            focus,
+            aperture,
+            reference,
+        }
+    }
+
+    fn disk(r: f64) -> Aperture {
+        Aperture {
+            shape: ApertureShape::Disk,
+            radius: Some(r),
+        }
+    }
+
+    #[test]
+    fn classic_shift_translates_each_view_by_its_grid_offset_times_the_disparity() {
+        let lf = grid(false);
+        let d = 1.5;
+        let p = plan(
+            &lf,
+            &request(FocusSpec::Disparity(d), Aperture::default(), None),
+            &[],
+        )
+        .unwrap();
+        assert_eq!(p.method, FocusMethod::ClassicShift);
+        assert!(p.plane.is_none());
+        assert_eq!(p.m, DVec3::ZERO);
+        assert_eq!(p.reference, DVec2::new(2.0, 1.0));
+        assert_eq!(p.views.len(), 15);
+        let x = DVec2::new(7.0, 5.0);
+        for v in &p.views {
+            let y = v.warp.apply(p.m, x);
+            let expect = x + DVec2::new(v.s as f64 - 2.0, v.t as f64 - 1.0) * d;
+            assert!(
+                (y.truncate() / y.z - expect).length() < 1e-12,
+                "view ({}, {})",
+                v.s,
+                v.t
+            );
+        }
+    }
+
+    #[test]
+    fn hci_disparity_moves_a_centre_pixel_by_minus_d_per_grid_step() {
+        let lf = grid(true);
+        let d = 0.75;
+        let p = plan(
+            &lf,
+            &request(FocusSpec::Disparity(d), Aperture::default(), None),
+            &[],
+        )
+        .unwrap();
+        assert_eq!(p.method, FocusMethod::HciDisparity);
+        let z = RIG.depth_of_disparity(d).unwrap();
+        assert!((p.plane.unwrap().point.z - z).abs() < 1e-12);
+        let x = DVec2::new(3.0, 17.0);
+        for v in &p.views {
+            let y = v.warp.apply(p.m, x);
+            let expect = x - DVec2::new(v.s as f64 - 2.0, v.t as f64 - 1.0) * d;
+            assert!(
+                (y.truncate() / y.z - expect).length() < 1e-9,
+                "view ({}, {})",
+                v.s,
+                v.t
+            );
+        }
+    }
+
+    #[test]
+    fn plane_term_is_inverse_transposed_intrinsics_times_normal_over_distance() {
+        let lf = grid(true);
+        let plane = Plane::new(DVec3::new(0.3, -0.1, 2.5), DVec3::new(0.2, -0.3, 1.0)).unwrap();
+        let reference = DVec2::new(1.0, 2.0);
+        let p = plan(
+            &lf,
+            &request(
+                FocusSpec::Plane(plane),
+                Aperture::default(),
+                Some(reference),
+            ),
+            &[],
+        )
+        .unwrap();
+        // At an integer grid position the reference camera is the real one.
+        let real = &lf.view(1, 2).camera;
+        let cam = &p.reference_camera;
+        assert!((cam.centre() - real.centre()).length() < 1e-12);
+        assert!((cam.k - real.k).abs_diff_eq(DMat3::ZERO, 1e-12));
+        let d_r = plane.normal.dot(plane.point - cam.centre());
+        let expect = cam.k.inverse().transpose() * (cam.r * plane.normal) / d_r;
+        assert!((p.m - expect).length() <= 1e-12 * expect.length());
+        // Every homography maps the reference image of a plane point onto its image in view i.
+        let q = plane.point + DVec3::new(0.1, 0.05, 0.0).cross(plane.normal);
+        let xr = cam.project(q).unwrap();
+        for v in &p.views {
+            let y = v.warp.homography(p.m) * xr.extend(1.0);
+            let expect = lf.views[v.index].camera.project(q).unwrap();
+            assert!((y.truncate() / y.z - expect).length() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn aperture_selects_views_around_a_fractional_reference_and_skips_excluded_ones() {
+        let lf = grid(true);
+        let focus = FocusSpec::Disparity(0.0);
+        // Disk of radius 1 around the centre: the centre and its 4 neighbours, weight 1.
+        let p = plan(&lf, &request(focus, disk(1.0), None), &[]).unwrap();
+        let mut st: Vec<_> = p.views.iter().map(|v| (v.s, v.t)).collect();
+        st.sort();
+        assert_eq!(st, [(1, 1), (2, 0), (2, 1), (2, 2), (3, 1)]);
+        assert!(p.views.iter().all(|v| v.weight == 1.0));
+        // Between views (1.5, 1): radius 0.5 reaches exactly the two neighbours.
+        let p = plan(
+            &lf,
+            &request(focus, disk(0.5), Some(DVec2::new(1.5, 1.0))),
+            &[],
+        )
+        .unwrap();
+        let st: Vec<_> = p.views.iter().map(|v| (v.s, v.t)).collect();
+        assert_eq!(st, [(1, 1), (2, 1)]);
+        // The virtual camera sits halfway between them.
+        let mid = 0.5 * (lf.view(1, 1).camera.centre() + lf.view(2, 1).camera.centre());
+        assert!((p.reference_camera.centre() - mid).length() < 1e-12);
+        // Excluding one leaves the other; excluding both is an error that says so.
+        let mut excluded = vec![false; lf.views.len()];
+        excluded[lf.grid.index(1, 1)] = true;
+        let req = request(focus, disk(0.5), Some(DVec2::new(1.5, 1.0)));
+        assert_eq!(plan(&lf, &req, &excluded).unwrap().views.len(), 1);
+        excluded[lf.grid.index(2, 1)] = true;
+        let e = plan(&lf, &req, &excluded).unwrap_err().to_string();
+        assert!(
+            e.contains("no usable view") && e.contains("2 dark views excluded"),
+            "{e}"
+        );
+        // Gaussian weights fall off with the distance from the reference.
+        let g = Aperture {
+            shape: ApertureShape::Gaussian,
+            radius: Some(1.0),
+        };
+        let p = plan(&lf, &request(focus, g, None), &[]).unwrap();
+        let w = |s, t| {
+            p.views
+                .iter()
+                .find(|v| (v.s, v.t) == (s, t))
+                .unwrap()
+                .weight
+        };
+        assert_eq!(w(2, 1), 1.0);
+        assert!((w(3, 1) - (-0.5f64).exp()).abs() < 1e-12);
+        assert!(w(4, 2) < w(3, 1));
+    }
+
+    #[test]
+    fn a_plane_through_the_reference_camera_and_a_reference_outside_the_grid_are_refused() {
+        let lf = grid(true);
+        let through = Plane::new(DVec3::ZERO, DVec3::new(1.0, 0.0, 1.0)).unwrap();
+        let e = plan(
+            &lf,
+            &request(FocusSpec::Plane(through), Aperture::default(), None),
+            &[],
+        );
+        assert!(e.is_err());
+        let outside = Some(DVec2::new(4.5, 0.0));
+        let e = plan(
+            &lf,
+            &request(FocusSpec::Disparity(0.0), Aperture::default(), outside),
+            &[],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("outside the grid"), "{e}");
+    }
 }

@@ -89,7 +89,7 @@ impl BuiltinScene {
 
     /// Renders the full light field with `samples_per_axis`² samples per pixel.
     pub fn light_field(&self, samples_per_axis: u32) -> LightField {
-        render_light_field(
+        let mut lf = render_light_field(
             &self.scene,
             self.name,
             self.grid,
@@ -97,7 +97,9 @@ impl BuiltinScene {
             self.height,
             &self.rig,
             samples_per_axis,
-        )
+        );
+        lf.disparity_range = Some(self.disparity_range);
+        lf
     }
 }
 

@@ -22,8 +22,8 @@ use std::path::Path;
 
 use glam::{DMat3, DMat4, DVec3};
 
-use super::mesh::{MeshScene, MeshTexture, MeshVertex};
 use crate::error::{Error, Result};
+use crate::scene::mesh::{MeshScene, MeshTexture, MeshVertex};
 
 /// A camera found in the file, converted to tiltfield's convention.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,143 +1,17 @@
-//! Triangle-mesh scenes for the Vulkan rasterizer ([`crate::passes::raster`]).
-//!
-//! Model (no more than the light fields need): albedo only, no lighting. A triangle's colour is
-//! `texture(uv) · vertex colour`, where the texture is an optional RGBA8 sRGB image (decoded to
-//! linear light by the sampler) and the vertex colour is linear RGBA that already includes the
-//! material's base colour factor. Alpha is ignored (every surface is opaque).
-//!
-//! Coordinates: vertices are stored in the scene's world frame, after node transforms. The
-//! synthetic light fields use the reference (centre) camera's frame as world frame: x right,
-//! y down, z forward, metres (see [`MeshScene::transform`]).
-//!
-//! Built-in quad scenes ([`super::scene::Scene`]) become meshes with [`MeshScene::from_quads`]:
-//! each quad is two triangles and its procedural texture is baked into an image, so the ray
-//! tracer and the rasterizer render the same scenes.
+//! Built-in quad scenes ([`super::scene::Scene`]) as triangle meshes for the rasterizer
+//! ([`MeshScene::from_quads`]): each quad is two triangles and its procedural texture is baked
+//! into an image, so the ray tracer and the rasterizer render the same scenes. The mesh types
+//! themselves live in [`crate::scene::mesh`].
 
-use glam::{DMat3, DVec2, DVec3};
+use glam::DVec2;
 use rayon::prelude::*;
 
 use super::scene::{Quad, Scene};
-use super::texture::{Rgb, Texture};
+use super::texture::Texture;
 use crate::color::encode_srgb8;
-
-/// One vertex as the GPU reads it (48 bytes, `mesh.vert` locations 0–3).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct MeshVertex {
-    pub position: [f32; 3],
-    /// Unit normal in the world frame (any orientation; the geometry pass faces it to the
-    /// camera).
-    pub normal: [f32; 3],
-    pub uv: [f32; 2],
-    /// Linear RGBA multiplied with the texture (base colour factor × COLOR_0).
-    pub color: [f32; 4],
-}
-
-/// Bytes per vertex in the vertex buffer.
-pub const VERTEX_BYTES: usize = 48;
-
-impl MeshVertex {
-    /// The vertex as the 12 native-endian f32 of the vertex buffer.
-    pub fn to_floats(&self) -> [f32; 12] {
-        let (p, n, t, c) = (self.position, self.normal, self.uv, self.color);
-        [
-            p[0], p[1], p[2], n[0], n[1], n[2], t[0], t[1], c[0], c[1], c[2], c[3],
-        ]
-    }
-}
-
-/// An RGBA8 sRGB-encoded texture, rows top to bottom (texture v grows downwards).
-#[derive(Debug, Clone, PartialEq)]
-pub struct MeshTexture {
-    pub width: u32,
-    pub height: u32,
-    pub rgba: Vec<u8>,
-    /// Repeat outside [0, 1] (glTF's default) instead of clamping to the edge.
-    pub repeat: bool,
-    /// For messages and Vulkan object names.
-    pub name: String,
-}
-
-/// A range of indices drawn with one texture (`None`: untextured, vertex colour only).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct MeshDraw {
-    pub first_index: u32,
-    pub index_count: u32,
-    pub texture: Option<usize>,
-}
-
-/// An indexed triangle list with textures.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MeshScene {
-    pub name: String,
-    pub vertices: Vec<MeshVertex>,
-    /// Triangle list, three indices per triangle.
-    pub indices: Vec<u32>,
-    pub draws: Vec<MeshDraw>,
-    pub textures: Vec<MeshTexture>,
-    /// Linear-light colour where no surface is hit.
-    pub background: Rgb,
-}
+use crate::scene::mesh::{MeshScene, MeshTexture, MeshVertex};
 
 impl MeshScene {
-    /// An empty scene.
-    pub fn new(name: &str, background: Rgb) -> Self {
-        MeshScene {
-            name: name.to_string(),
-            vertices: Vec::new(),
-            indices: Vec::new(),
-            draws: Vec::new(),
-            textures: Vec::new(),
-            background,
-        }
-    }
-
-    /// Number of triangles.
-    pub fn triangle_count(&self) -> usize {
-        self.indices.len() / 3
-    }
-
-    /// Appends a triangle list (indices relative to `vertices`) drawn with `texture`.
-    pub fn push(&mut self, vertices: &[MeshVertex], indices: &[u32], texture: Option<usize>) {
-        let base = self.vertices.len() as u32;
-        let first = self.indices.len() as u32;
-        self.vertices.extend_from_slice(vertices);
-        self.indices.extend(indices.iter().map(|i| base + i));
-        let count = self.indices.len() as u32 - first;
-        // Consecutive ranges with the same texture share one draw.
-        match self.draws.last_mut() {
-            Some(d) if d.texture == texture && d.first_index + d.index_count == first => {
-                d.index_count += count;
-            }
-            _ => self.draws.push(MeshDraw {
-                first_index: first,
-                index_count: count,
-                texture,
-            }),
-        }
-    }
-
-    /// Moves every vertex by `X' = r X + t` (normals by `r`), e.g. into a camera's frame.
-    pub fn transform(&mut self, r: DMat3, t: DVec3) {
-        self.vertices.par_iter_mut().for_each(|v| {
-            let p = r * DVec3::from(v.position.map(f64::from)) + t;
-            let n = (r * DVec3::from(v.normal.map(f64::from))).normalize_or_zero();
-            v.position = p.as_vec3().to_array();
-            v.normal = n.as_vec3().to_array();
-        });
-    }
-
-    /// Axis-aligned bounds (min, max) of the vertices that triangles use; `None` without
-    /// triangles.
-    pub fn bounds(&self) -> Option<(DVec3, DVec3)> {
-        let mut it = self
-            .indices
-            .iter()
-            .filter_map(|&i| self.vertices.get(i as usize))
-            .map(|v| DVec3::from(v.position.map(f64::from)));
-        let first = it.next()?;
-        Some(it.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
-    }
-
     /// The mesh of a quad scene: two triangles per quad (uv as [`Quad`] defines them), each
     /// non-solid texture baked into an sRGB image of [`bake_size`] texels per side (texel
     /// centres sampled, like the ray tracer's point sampling), solid colours as vertex colours.
@@ -210,6 +84,7 @@ fn quad_vertices(q: &Quad, color: [f32; 4]) -> [MeshVertex; 4] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::{DMat3, DVec3};
 
     #[test]
     fn quads_become_two_triangles_with_baked_textures() {

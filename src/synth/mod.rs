@@ -21,9 +21,10 @@
 //!
 //! Modules: [`texture`] (procedural textures), [`scene`] (quads, ray
 //! intersection, [`scene::plane_scene`]), [`raytrace`] (views and light fields), [`mod@builtin`]
-//! (the named scenes, their planes and disparity ranges); for the rasterizer [`mesh`] (triangle
-//! meshes, quad scenes baked into textured meshes), [`mod@gltf`] (glTF input), [`scenes`] (the
-//! built-in scenes of `synth`) and [`raster`] (views, rigs, light fields, optical ground truth);
+//! (the named scenes, their planes and disparity ranges); for the rasterizer [`mesh`] (quad
+//! scenes baked into textured meshes of [`crate::scene::mesh`]), [`mod@gltf`] (glTF input),
+//! [`scenes`] (the built-in scenes of `synth`) and [`raster`] (views, rigs, light fields,
+//! optical ground truth);
 //! for the geometry studies [`surfaces`] (analytic depth views with exact normals and seeded
 //! depth noise).
 
@@ -37,8 +38,8 @@ pub mod scenes;
 pub mod surfaces;
 pub mod texture;
 
+pub use crate::scene::mesh::MeshScene;
 pub use builtin::{builtin, builtin_names, BuiltinScene};
-pub use mesh::MeshScene;
 pub use raster::{Rasterizer, RigKind, SynthRig};
 pub use raytrace::{pixel_ray, render_light_field, render_view, trace_pixel};
 pub use scene::{plane_scene, Hit, Quad, Scene};

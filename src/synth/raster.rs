@@ -21,7 +21,6 @@ use glam::{DMat3, DVec2, DVec3};
 use image::RgbaImage;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::mesh::MeshScene;
 use crate::color::encode_srgb8;
 use crate::error::{Error, Result};
 use crate::geometry::camera::{intrinsics, Camera};
@@ -29,6 +28,7 @@ use crate::geometry::plane::Plane;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::{DepthKind, DepthMap, GridSize, LightField, ParallelRig, Source, View};
 use crate::passes::raster::{camera_from_world, projection_rows, Projection, RasterPass};
+use crate::scene::mesh::MeshScene;
 
 /// Linear RGBA pixels, row-major.
 type Pixels = Vec<[f32; 4]>;
@@ -446,6 +446,7 @@ pub fn render_light_field(
         views,
         depth,
         rig: rig.parallel(),
+        disparity_range: None,
         source: Source::Generated { scene: name },
     };
     light_field.validate()?;

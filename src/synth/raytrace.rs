@@ -185,6 +185,7 @@ pub fn render_light_field(
         views,
         depth,
         rig: Some(*rig),
+        disparity_range: None,
         source: Source::Generated { scene: name.into() },
     }
 }

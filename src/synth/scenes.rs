@@ -1,6 +1,6 @@
 //! Built-in scenes of `tiltfield synth` (`builtin:NAME`): quad scenes shared with the ray
-//! tracer, turned into meshes for the rasterizer ([`super::mesh::MeshScene::from_quads`]), each
-//! with a default camera rig (focal length relative to the image width, baseline, focus
+//! tracer, turned into meshes for the rasterizer
+//! ([`crate::scene::mesh::MeshScene::from_quads`]), each with a default camera rig (focal length relative to the image width, baseline, focus
 //! distance; the grid and size come from the command line).
 //!
 //! World frame = centre camera frame (x right, y down, z forward, metres).
@@ -16,9 +16,9 @@
 
 use glam::DVec3;
 
-use super::mesh::MeshScene;
 use super::scene::{Quad, Scene};
 use super::texture::{Rgb, Texture};
+use crate::scene::mesh::MeshScene;
 
 /// A built-in synth scene with its default rig.
 #[derive(Debug, Clone, PartialEq)]
