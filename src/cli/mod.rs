@@ -12,8 +12,10 @@ use std::path::{Path, PathBuf};
 use clap::{Args, Parser, Subcommand};
 
 use crate::error::{Error, Result};
-use crate::gpu::GpuOptions;
-use crate::lightfield::{self, GridCameraOptions, LightField};
+use crate::gpu::{GpuContext, GpuOptions};
+use crate::lightfield::{self, GridCameraOptions, LightField, LoadLimits};
+use crate::passes::texture::TextureLimits;
+use crate::refocus::FocusSpec;
 
 /// Light field tilt-shift refocus with generalized shift-and-sum (Vulkan).
 #[derive(Debug, Parser)]
@@ -82,6 +84,23 @@ impl GpuArgs {
 
 /// Loads a light field from a path or `builtin:NAME`.
 pub fn load_light_field(args: &LightFieldArgs) -> Result<LightField> {
+    load_light_field_within(args, &LoadLimits::default())
+}
+
+/// The limits of the device `ctx` for a light field texture, for checking a light field
+/// before its views are decoded.
+pub fn device_load_limits(ctx: &GpuContext) -> LoadLimits {
+    let t = TextureLimits::of(ctx);
+    LoadLimits::for_device(
+        t.max_layers,
+        t.max_dimension,
+        t.heap_bytes.min(t.max_allocation),
+        &ctx.info.name,
+    )
+}
+
+/// [`load_light_field`], refusing a light field beyond `limits` before decoding its views.
+pub fn load_light_field_within(args: &LightFieldArgs, limits: &LoadLimits) -> Result<LightField> {
     if let Some(name) = args.light_field.strip_prefix("builtin:") {
         return builtin_light_field(name);
     }
@@ -102,7 +121,7 @@ pub fn load_light_field(args: &LightFieldArgs) -> Result<LightField> {
         focal_px: args.focal_px,
         baseline: args.baseline,
     };
-    lightfield::open(Path::new(&args.light_field), &opts)
+    lightfield::open_within(Path::new(&args.light_field), &opts, limits)
 }
 
 /// Renders built-in scene `name` (2×2 supersampling).
@@ -155,6 +174,64 @@ pub(crate) fn ensure_parent(path: &Path) -> Result<()> {
         }
         _ => Ok(()),
     }
+}
+
+/// Checks before any work that `path` can be written as an output file: its folder exists or
+/// can be created, and it is not itself a folder. A file is created and removed again when it
+/// did not exist, so a read-only folder is reported now rather than after rendering.
+pub(crate) fn check_output(path: &Path) -> Result<()> {
+    ensure_parent(path)?;
+    if path.is_dir() {
+        return Err(Error::bad_file(
+            path,
+            "the output is a folder; give a file name",
+        ));
+    }
+    let existed = path.exists();
+    std::fs::OpenOptions::new()
+        .append(true)
+        .create(true)
+        .open(path)
+        .map_err(|e| Error::io(path, e))?;
+    if !existed {
+        std::fs::remove_file(path).map_err(|e| Error::io(path, e))?;
+    }
+    Ok(())
+}
+
+/// Refuses focus requests that put the plane practically on the cameras, naming the option
+/// (the plan would only say that the plane passes through the reference camera centre).
+pub(crate) fn explain_focus(lf: &LightField, focus: &FocusSpec) -> Result<()> {
+    let c0 = lf.views[0].camera.centre();
+    let spread = lf
+        .views
+        .iter()
+        .map(|v| v.camera.centre().distance(c0))
+        .fold(0.0, f64::max);
+    let near = 1e-6 * if spread > 0.0 { spread } else { 1.0 };
+    match *focus {
+        FocusSpec::Disparity(d) => {
+            if let Some(rig) = lf.rig {
+                if let Some(z) = rig.depth_of_disparity(d).filter(|z| *z < near) {
+                    return Err(Error::Invalid(format!(
+                        "--disparity {d} px is far too large for this rig: it puts the focus \
+                         plane at depth {z:.1e}, practically on the cameras (disparity 0 is the \
+                         focus distance {}, {:.4} px is infinity)",
+                        rig.focus_distance,
+                        rig.disparity_at_infinity()
+                    )));
+                }
+            }
+        }
+        FocusSpec::FocusTiltSwing { distance, .. } if distance.abs() < near => {
+            return Err(Error::Invalid(format!(
+                "--focus {distance:e} puts the focus plane practically on the reference camera \
+                 (the cameras span {spread:.3e}); give a larger distance"
+            )));
+        }
+        _ => {}
+    }
+    Ok(())
 }
 
 /// Default output folder of `demo`.

@@ -8,9 +8,13 @@ use glam::{DVec2, DVec3};
 use serde_json::json;
 
 use super::focus::{focus_json, focus_summary, FocusArgs, FOCUS_OPTIONS};
-use super::{ensure_parent, load_light_field, parse_numbers, GpuArgs, LightFieldArgs};
+use super::{
+    check_output, device_load_limits, ensure_parent, load_light_field_within, parse_numbers,
+    GpuArgs, LightFieldArgs,
+};
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::gpu::GpuContext;
 use crate::headless::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::io::OutputKind;
 use crate::lightfield::images::is_dark;
@@ -18,6 +22,9 @@ use crate::lightfield::LightField;
 use crate::passes::refocus::{Filter, OutputFormat, Strategy};
 use crate::passes::texture::ViewStorage;
 use crate::refocus::{self, resolve_focus, Averaging, RefocusPlan, RefocusRequest, ResolvedFocus};
+
+/// Most `--repeat` timing frames.
+const MAX_REPEAT: usize = 10_000;
 
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("focus_plane").required(true).args(FOCUS_OPTIONS)))]
@@ -115,6 +122,7 @@ pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, Res
         aperture,
         reference,
     };
+    super::explain_focus(lf, &req.focus)?;
     let plan = refocus::plan(lf, &req, &dark_views(lf, args.include_dark))?;
     Ok((plan, focus))
 }
@@ -187,7 +195,19 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
 pub fn run(args: &RenderArgs) -> Result<()> {
     let t0 = Instant::now();
     let kind = OutputKind::from_path(&args.output)?;
-    let lf = load_light_field(&args.lf)?;
+    // Bad options and an unwritable output fail before any loading or rendering.
+    if args.repeat > MAX_REPEAT {
+        return Err(Error::Invalid(format!(
+            "--repeat {} is more than {MAX_REPEAT} timing frames; the median of 20 to 100 is \
+             plenty",
+            args.repeat
+        )));
+    }
+    check_output(&args.output)?;
+    let settings = render_settings(args, kind)?;
+    // The device first, so a light field it cannot hold is refused before decoding its views.
+    let ctx = GpuContext::new(&args.gpu.options())?;
+    let lf = load_light_field_within(&args.lf, &device_load_limits(&ctx))?;
     let t_load = t0.elapsed().as_secs_f64() * 1e3;
     let (plan, focus) = make_plan(&lf, args)?;
     if !args.json {
@@ -195,21 +215,23 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             eprintln!("{line}");
         }
     }
-    let settings = render_settings(args, kind)?;
     let t1 = Instant::now();
     // Encoded averaging filters stored 8-bit texels directly (no per-texel re-encoding).
     let storage = args.storage.unwrap_or(match args.average {
         Averaging::Encoded => ViewStorage::Srgb8,
         Averaging::Linear => ViewStorage::default(),
     });
-    let ctx = std::sync::Arc::new(crate::gpu::GpuContext::new(&args.gpu.options())?);
-    let mut renderer = HeadlessRenderer::with_context(ctx, &lf, storage)?;
+    let mut renderer = HeadlessRenderer::with_context(std::sync::Arc::new(ctx), &lf, storage)?;
     let t_upload = t1.elapsed().as_secs_f64() * 1e3;
     let t2 = Instant::now();
     let (image, timings) = renderer.render(&plan, &settings)?;
     let t_render = t2.elapsed().as_secs_f64() * 1e3;
     let mut gpu_times: Vec<f64> = timings.iter().map(|t| t.refocus_ms).collect();
     if args.repeat > 0 {
+        // indicatif draws only on a terminal; say up front what a long run is doing.
+        if args.repeat >= 100 {
+            eprintln!("timing {} frames…", args.repeat);
+        }
         let bar = indicatif::ProgressBar::new(args.repeat as u64).with_message("timing frames");
         for _ in 0..args.repeat {
             if let Some(t) = renderer.render_timed(&plan, &settings)? {

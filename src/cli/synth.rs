@@ -14,7 +14,8 @@ use super::GpuArgs;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::lightfield::{hci, manifest, GridSize};
-use crate::refocus::{self, RefocusRequest};
+use crate::passes::texture::{check_fits, TextureLimits};
+use crate::refocus::{self, FocusSpec, RefocusRequest};
 use crate::synth::gltf::{self, gl_to_cv};
 use crate::synth::raster::{encode, render_light_field};
 use crate::synth::{synth_scene, synth_scene_names, MeshScene, Rasterizer, RigKind, SynthRig};
@@ -121,6 +122,116 @@ pub(super) fn parse_pair(text: &str, what: &str) -> Result<(u32, u32)> {
     Ok((a, b))
 }
 
+/// Most views a synthetic grid may have (a 64 × 64 camera array).
+const MAX_VIEWS: u64 = 4096;
+/// Most pixels of one view (8192²): the rasterizer holds several float copies of a view.
+const MAX_VIEW_PIXELS: u64 = 1 << 26;
+/// Most bytes of the rendered light field held in memory (RGBA8 views and depth maps).
+const MAX_LIGHT_FIELD_BYTES: u64 = 8 << 30;
+/// Most jittered renders per pixel side (`--samples`), i.e. 256 renders per view.
+const MAX_SAMPLES: u32 = 16;
+/// Most pinholes per side of the optical ground truth's aperture grid (`--gt-samples`).
+const MAX_GT_SAMPLES: u32 = 257;
+
+/// Checks every size and count before anything is loaded, rendered or written, so a request
+/// that cannot be served fails at once with the limit it exceeds (not by overflowing, running
+/// out of memory, or after half the files are written).
+fn check_request(args: &SynthArgs, cols: u32, rows: u32, width: u32, height: u32) -> Result<()> {
+    let views = cols as u64 * rows as u64;
+    if views > MAX_VIEWS {
+        return Err(Error::Invalid(format!(
+            "--grid {cols}x{rows} asks for {views} views; at most {MAX_VIEWS}"
+        )));
+    }
+    let pixels = width as u64 * height as u64;
+    if pixels > MAX_VIEW_PIXELS {
+        return Err(Error::Invalid(format!(
+            "--size {width}x{height} asks for {pixels} pixels per view; at most {MAX_VIEW_PIXELS} \
+             (8192x8192)"
+        )));
+    }
+    let per_pixel = if args.layout == Layout::Manifest {
+        8
+    } else {
+        4
+    };
+    let bytes = views * pixels * per_pixel;
+    if bytes > MAX_LIGHT_FIELD_BYTES {
+        return Err(Error::Invalid(format!(
+            "--grid {cols}x{rows} of --size {width}x{height} needs {:.1} GiB in memory; at most \
+             {} GiB",
+            bytes as f64 / (1u64 << 30) as f64,
+            MAX_LIGHT_FIELD_BYTES >> 30
+        )));
+    }
+    if !(1..=MAX_SAMPLES).contains(&args.samples) {
+        return Err(Error::Invalid(format!(
+            "--samples must be 1 to {MAX_SAMPLES} (renders per pixel side), got {}",
+            args.samples
+        )));
+    }
+    if !(1..=MAX_GT_SAMPLES).contains(&args.gt_samples) {
+        return Err(Error::Invalid(format!(
+            "--gt-samples must be 1 to {MAX_GT_SAMPLES} (pinholes per side), got {}",
+            args.gt_samples
+        )));
+    }
+    if let Some(r) = args.gt_aperture_radius {
+        if !(r.is_finite() && r >= 0.0) {
+            return Err(Error::Invalid(format!(
+                "--gt-aperture-radius must be a finite number ≥ 0, got {r}"
+            )));
+        }
+    }
+    for (what, v) in [
+        ("--baseline", args.baseline),
+        ("--focal-mm", args.focal_mm),
+        ("--focus-distance", args.focus_distance),
+        ("--converge-distance", args.converge_distance),
+    ] {
+        if let Some(v) = v {
+            positive(v, what)?;
+        }
+    }
+    Ok(())
+}
+
+/// The numbers of the ground truth's plane must be finite; checked before rendering because
+/// the plan that would otherwise refuse them needs the rendered light field.
+fn check_focus(focus: &Option<FocusSpec>) -> Result<()> {
+    let finite = match focus {
+        Some(FocusSpec::Disparity(d)) => d.is_finite(),
+        Some(FocusSpec::FocusTiltSwing {
+            distance,
+            tilt_deg,
+            swing_deg,
+        }) => distance.is_finite() && tilt_deg.is_finite() && swing_deg.is_finite(),
+        Some(FocusSpec::Plane(p)) => p.point.is_finite() && p.normal.is_finite(),
+        None => true,
+    };
+    if finite {
+        Ok(())
+    } else {
+        Err(Error::Invalid(format!(
+            "the plane of the optical ground truth must be given by finite numbers, got {focus:?}"
+        )))
+    }
+}
+
+/// Refuses an output folder that cannot be created or written, before rendering.
+fn check_out_dir(out: &Path) -> Result<()> {
+    if out.exists() && !out.is_dir() {
+        return Err(Error::bad_file(
+            out,
+            "--out must be a folder, but this is a file",
+        ));
+    }
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let probe = out.join(".tiltfield-write-test");
+    std::fs::write(&probe, b"").map_err(|e| Error::io(out, e))?;
+    std::fs::remove_file(&probe).map_err(|e| Error::io(&probe, e))
+}
+
 fn positive(v: f64, what: &str) -> Result<f64> {
     if v.is_finite() && v > 0.0 {
         Ok(v)
@@ -211,6 +322,7 @@ pub fn run(args: &SynthArgs) -> Result<()> {
     let t0 = Instant::now();
     let (cols, rows) = parse_pair(&args.grid, "--grid")?;
     let (width, height) = parse_pair(&args.size, "--size")?;
+    check_request(args, cols, rows, width, height)?;
     let sensor = positive(args.sensor_mm, "--sensor-mm")?;
     let kind = match args.rig {
         RigArg::Parallel => RigKind::Parallel,
@@ -255,8 +367,21 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         kind,
     };
     let focus = args.plane_opts.spec()?.map(|(_, spec)| spec);
+    check_focus(&focus)?;
+    check_out_dir(out)?;
     let mut r = Rasterizer::new(&placed.mesh, &args.gpu.options())?;
     let device = r.context().info.name.clone();
+    // The views are render targets: check the device's image limit before the rasterizer
+    // allocates them (RGBA32F colour and geometry, 16 bytes per pixel each).
+    let limits = TextureLimits::of(r.context());
+    check_fits(
+        1,
+        width,
+        height,
+        width as u64 * height as u64 * 16,
+        &limits,
+        &device,
+    )?;
     let t_render = Instant::now();
     let synth = render_light_field(&mut r, &rig, args.samples, args.layout == Layout::Manifest)?;
     let render_s = t_render.elapsed().as_secs_f64();

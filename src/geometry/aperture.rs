@@ -91,7 +91,10 @@ impl Aperture {
                 if d.length() > 3.0 * sigma + RIM {
                     0.0
                 } else {
-                    (-d.length_squared() / (2.0 * sigma * sigma)).exp()
+                    // (|d| / σ)² rather than |d|² / σ²: σ² underflows to 0 for tiny radii,
+                    // and 0/0 would give the centre view a NaN weight instead of 1.
+                    let x = d.length() / sigma;
+                    (-0.5 * x * x).exp()
                 }
             }
         }

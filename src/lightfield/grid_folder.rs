@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 
 use glam::{DMat3, DVec3};
 
-use super::images::decode_views;
+use super::images::{decode_views_within, LoadLimits};
 use super::{GridCameraOptions, GridSize, LightField, Source};
 use crate::error::{Error, Result};
 use crate::geometry::camera::{intrinsics, Camera};
@@ -52,6 +52,15 @@ pub fn row_col(stem: &str) -> Option<(usize, usize)> {
 
 /// Loads a grid folder (see the module docs).
 pub fn load(dir: &Path, opts: &GridCameraOptions) -> Result<LightField> {
+    load_within(dir, opts, &LoadLimits::default())
+}
+
+/// [`load`], refusing before decoding a light field beyond `limits`.
+pub fn load_within(
+    dir: &Path,
+    opts: &GridCameraOptions,
+    limits: &LoadLimits,
+) -> Result<LightField> {
     let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
     // (row, col, path), in file-name order so messages do not depend on the file system.
     let mut found: Vec<(usize, usize, PathBuf)> = Vec::new();
@@ -61,6 +70,7 @@ pub fn load(dir: &Path, opts: &GridCameraOptions) -> Result<LightField> {
         files.push(entry.path());
     }
     files.sort();
+    let mut ignored: Vec<PathBuf> = Vec::new();
     for path in files {
         let is_image = path
             .extension()
@@ -75,19 +85,36 @@ pub fn load(dir: &Path, opts: &GridCameraOptions) -> Result<LightField> {
             .unwrap_or_default();
         match row_col(&stem) {
             Some((row, col)) => found.push((row, col, path)),
-            None => log::warn!(
-                "{}: ignored: its name does not contain a row and a column number",
-                path.display()
-            ),
+            None => ignored.push(path),
         }
     }
     if found.is_empty() {
+        // One message for the folder, not one warning per file: most likely this is an HCI
+        // folder without its parameters.cfg, or not a light field at all.
+        let seen = match ignored.first() {
+            Some(first) => format!(
+                "; {} image files have no row and column in their names, e.g. {}",
+                ignored.len(),
+                first.file_name().unwrap_or_default().to_string_lossy()
+            ),
+            None => String::new(),
+        };
         return Err(Error::bad_file(
             dir,
-            "no views found: expected image files (.png, .jpg, .jpeg, .bmp) whose names hold \
-             the row and the column as their first two numbers, e.g. 03_07.png, \
-             row_3_col_7.png, Sub_03_07.jpg or out_03_07_-859.7_1022.8_.png",
+            format!(
+                "no views found: the folder has no parameters.cfg (HCI), no tiltfield.json \
+                 (manifest) and no views named by row and column{seen}; grid folders need image \
+                 files (.png, .jpg, .jpeg, .bmp) whose names hold the row and the column as \
+                 their first two numbers, e.g. 03_07.png, row_3_col_7.png, Sub_03_07.jpg or \
+                 out_03_07_-859.7_1022.8_.png"
+            ),
         ));
+    }
+    for path in &ignored {
+        log::warn!(
+            "{}: ignored: its name does not contain a row and a column number",
+            path.display()
+        );
     }
 
     let row0 = found.iter().map(|f| f.0).min().unwrap_or(0);
@@ -143,7 +170,7 @@ pub fn load(dir: &Path, opts: &GridCameraOptions) -> Result<LightField> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| super::path_string(dir));
     let paths: Vec<PathBuf> = found.into_iter().map(|f| f.2).collect();
-    let images = decode_views(&paths, &name)?;
+    let images = decode_views_within(&paths, &name, limits)?;
     let (width, height) = images[0].dimensions();
     let cameras = cameras(grid, width, height, opts)?;
     let views = super::grid_views(grid, images, cameras, &paths);

@@ -57,7 +57,7 @@ use image::buffer::ConvertBuffer;
 use image::RgbImage;
 use rayon::prelude::*;
 
-use super::images::decode_views;
+use super::images::{check_regular_file, decode_views_within, LoadLimits};
 use super::pfm::{read_pfm_depth, write_pfm};
 use super::{DepthKind, GridSize, LightField, ParallelRig, Source};
 use crate::error::{Error, Result};
@@ -135,7 +135,10 @@ fn parse_ini(text: &str, path: &Path) -> Result<Ini> {
             let name = rest.strip_suffix(']').ok_or_else(|| {
                 Error::bad_file(
                     path,
-                    format!("line {line_no}: section header `{line}` lacks its closing `]`"),
+                    format!(
+                        "line {line_no}: section header `{}` lacks its closing `]`",
+                        shown(line)
+                    ),
                 )
             })?;
             let name = name.trim().to_string();
@@ -148,7 +151,8 @@ fn parse_ini(text: &str, path: &Path) -> Result<Ini> {
                 path,
                 format!(
                     "line {line_no}: expected `key = value`, `[section]` or a comment, found \
-                     `{line}`"
+                     `{}`",
+                    shown(line)
                 ),
             ));
         };
@@ -184,6 +188,21 @@ fn parse_ini(text: &str, path: &Path) -> Result<Ini> {
         );
     }
     Ok(ini)
+}
+
+/// A line quoted in a message: control characters escaped and at most 60 characters, so a
+/// file that is not a parameters.cfg at all is not echoed into the terminal.
+fn shown(line: &str) -> String {
+    let mut s: String = line
+        .chars()
+        .take(60)
+        .collect::<String>()
+        .escape_debug()
+        .collect();
+    if line.chars().count() > 60 {
+        s.push('…');
+    }
+    s
 }
 
 /// Typed access to the required keys, with errors naming the file, section and key.
@@ -327,6 +346,11 @@ pub fn view_file_name(index: usize, count: usize) -> String {
 
 /// Loads an HCI scene folder (see the module docs).
 pub fn load(dir: &Path) -> Result<LightField> {
+    load_within(dir, &LoadLimits::default())
+}
+
+/// [`load`], refusing before decoding a light field beyond `limits`.
+pub fn load_within(dir: &Path, limits: &LoadLimits) -> Result<LightField> {
     let cfg_path = dir.join(CONFIG_NAME);
     let text = std::fs::read_to_string(&cfg_path).map_err(|e| Error::io(&cfg_path, e))?;
     let cfg = parse_config(&text, &cfg_path)?;
@@ -336,7 +360,7 @@ pub fn load(dir: &Path) -> Result<LightField> {
         .map(|i| dir.join(view_file_name(i, count)))
         .collect();
     // Check presence before decoding anything, so a missing view is reported at once.
-    if let Some(missing) = paths.iter().find(|p| !p.is_file()) {
+    if let Some(missing) = paths.iter().find(|p| std::fs::symlink_metadata(p).is_err()) {
         return Err(Error::io(
             missing,
             std::io::Error::new(
@@ -359,7 +383,12 @@ pub fn load(dir: &Path) -> Result<LightField> {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| super::path_string(dir)),
     };
-    let images = decode_views(&paths, &name)?;
+    // A folder, device or symlink loop in a view's place gets its own message, not "missing".
+    for p in &paths {
+        check_regular_file(p)?;
+    }
+    warn_extra_views(dir, count);
+    let images = decode_views_within(&paths, &name, limits)?;
     let (width, height) = images[0].dimensions();
     if (width, height) != (cfg.image_resolution_x_px, cfg.image_resolution_y_px) {
         return Err(Error::bad_file(
@@ -419,6 +448,36 @@ fn meta_disparity_range(cfg: &HciConfig) -> Option<(f64, f64)> {
         (Some(a), Some(b)) if a.is_finite() && b.is_finite() && a <= b => Some((a, b)),
         _ => None,
     }
+}
+
+/// Warns about `input_Cam*` files beyond the `count` views `parameters.cfg` declares: a
+/// num_cams typo would otherwise render a subset of the views without a word.
+fn warn_extra_views(dir: &Path, count: usize) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut extra: Vec<String> = entries
+        .filter_map(|e| e.ok())
+        .filter_map(|e| e.file_name().to_str().map(str::to_string))
+        .filter(|n| {
+            n.strip_prefix("input_Cam")
+                .and_then(|r| r.strip_suffix(".png"))
+                .and_then(|d| d.parse::<usize>().ok())
+                .is_some_and(|i| i >= count || *n != view_file_name(i, count))
+        })
+        .collect();
+    if extra.is_empty() {
+        return;
+    }
+    extra.sort();
+    let shown = extra.iter().take(8).cloned().collect::<Vec<_>>().join(", ");
+    let more = if extra.len() > 8 { ", …" } else { "" };
+    log::warn!(
+        "{}: {} view files beyond the {count} that {CONFIG_NAME} declares are ignored: \
+         {shown}{more}",
+        dir.display(),
+        extra.len()
+    );
 }
 
 /// The configuration that describes `lf` as an HCI scene taken by `rig` (world units metres)

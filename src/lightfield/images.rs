@@ -28,6 +28,16 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
+/// [`check_views`] against `limits`, then [`decode_views`].
+pub fn decode_views_within(
+    paths: &[PathBuf],
+    what: &str,
+    limits: &LoadLimits,
+) -> Result<Vec<RgbaImage>> {
+    check_views(paths, what, limits)?;
+    decode_views(paths, what)
+}
+
 /// Decodes `paths` in parallel into sRGB-encoded, opaque RGBA8 images, in the order given.
 ///
 /// `what` names the light field for the progress message ("decoding 81 views of backgammon")
@@ -77,12 +87,180 @@ pub fn decode_views(paths: &[PathBuf], what: &str) -> Result<Vec<RgbaImage>> {
 
 /// Decodes one image file into opaque sRGB-encoded RGBA8 (see the module docs).
 pub fn decode_view(path: &Path) -> Result<RgbaImage> {
+    let (width, height) = probe_view(path)?;
     let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
     let reader = reader
         .with_guessed_format()
         .map_err(|e| Error::io(path, e))?;
-    let img = reader.decode().map_err(|e| decode_error(path, e))?;
+    let img = reader.decode().map_err(|e| match e {
+        // The decoder only says "Memory limit exceeded"; the declared size is the cause.
+        ImageError::Limits(_) => too_large(path, width, height),
+        e => decode_error(path, e),
+    })?;
     Ok(to_opaque_rgba8(img))
+}
+
+/// Most bytes one decoded view may take (RGBA8): the image crate's own default decoding
+/// limit, stated here so the refusal can name it.
+pub const MAX_VIEW_BYTES: u64 = 512 * 1024 * 1024;
+
+fn too_large(path: &Path, width: u32, height: u32) -> Error {
+    let mib = width as f64 * height as f64 * 4.0 / (1024.0 * 1024.0);
+    Error::bad_file(
+        path,
+        format!(
+            "the image declares {width}×{height} pixels ({mib:.0} MiB decoded), more than the \
+             {} MiB one view may take",
+            MAX_VIEW_BYTES / (1024 * 1024)
+        ),
+    )
+}
+
+/// Checks that `path` is a regular file (not a folder, a device such as /dev/zero, a FIFO or a
+/// dangling or looping symlink), so each gets its own message rather than "missing".
+pub fn check_regular_file(path: &Path) -> Result<()> {
+    let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+    if meta.is_dir() {
+        return Err(Error::bad_file(path, "is a folder, not an image file"));
+    }
+    if !meta.is_file() {
+        return Err(Error::bad_file(
+            path,
+            "is not a regular file (a device, pipe or socket)",
+        ));
+    }
+    Ok(())
+}
+
+/// The size an image file declares in its header, without decoding its pixels. Refuses views
+/// that could not be decoded within [`MAX_VIEW_BYTES`], naming the declared size.
+pub fn probe_view(path: &Path) -> Result<(u32, u32)> {
+    check_regular_file(path)?;
+    let reader = image::ImageReader::open(path).map_err(|e| Error::io(path, e))?;
+    let reader = reader
+        .with_guessed_format()
+        .map_err(|e| Error::io(path, e))?;
+    let (width, height) = reader
+        .into_dimensions()
+        .map_err(|e| decode_error(path, e))?;
+    if width == 0 || height == 0 {
+        return Err(Error::bad_file(
+            path,
+            format!("the image declares {width}×{height} pixels"),
+        ));
+    }
+    if width as u64 * height as u64 * 4 > MAX_VIEW_BYTES {
+        return Err(too_large(path, width, height));
+    }
+    Ok((width, height))
+}
+
+/// Checks the views' count and declared sizes against `limits` before anything is decoded:
+/// every header is read (cheap), so a light field that cannot fit is refused without holding
+/// its pixels, and a view of another size is named without decoding the others.
+pub fn check_views(paths: &[PathBuf], what: &str, limits: &LoadLimits) -> Result<()> {
+    if paths.len() > limits.max_views {
+        return Err(limits.refuse(format!(
+            "{what} has {} views, more than {} ({})",
+            paths.len(),
+            limits.max_views,
+            limits.views_why
+        )));
+    }
+    let Some(first) = paths.first() else {
+        return Ok(());
+    };
+    let (w, h) = probe_view(first)?;
+    if w.max(h) > limits.max_dimension {
+        return Err(limits.refuse(format!(
+            "{what}: {} is {w}×{h}, larger than {} px ({})",
+            first.display(),
+            limits.max_dimension,
+            limits.dimension_why
+        )));
+    }
+    let bytes = paths.len() as u64 * w as u64 * h as u64 * 4;
+    if bytes > limits.max_bytes {
+        let mib = |b: u64| b as f64 / (1024.0 * 1024.0);
+        return Err(limits.refuse(format!(
+            "{what}: {} views of {w}×{h} need {:.1} MiB, more than {:.1} MiB ({})",
+            paths.len(),
+            mib(bytes),
+            mib(limits.max_bytes),
+            limits.bytes_why
+        )));
+    }
+    for p in &paths[1..] {
+        let (pw, ph) = probe_view(p)?;
+        if (pw, ph) != (w, h) {
+            return Err(Error::LightField(format!(
+                "{what}: {} is {pw}×{ph}, expected {w}×{h} like {}",
+                p.display(),
+                first.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// How many views of what size a loader may decode. The defaults only guard against input
+/// that no machine could hold; a GPU command passes its device's limits
+/// ([`LoadLimits::for_device`]) so a light field the device cannot hold is refused before any
+/// view is decoded.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadLimits {
+    pub max_views: usize,
+    pub max_dimension: u32,
+    /// Decoded RGBA8 bytes of all views together.
+    pub max_bytes: u64,
+    /// Why each limit is what it is, for the message.
+    pub views_why: String,
+    pub dimension_why: String,
+    pub bytes_why: String,
+    /// Refusals are device-limit errors when the limits are a device's.
+    pub device: bool,
+}
+
+impl Default for LoadLimits {
+    fn default() -> Self {
+        LoadLimits {
+            max_views: 100_000,
+            max_dimension: 65_536,
+            max_bytes: 64 << 30,
+            views_why: "tiltfield's limit on views".into(),
+            dimension_why: "tiltfield's limit on view size".into(),
+            bytes_why: "tiltfield's limit on a light field's decoded size".into(),
+            device: false,
+        }
+    }
+}
+
+impl LoadLimits {
+    /// The limits of a device holding all views in one RGBA8 array texture.
+    pub fn for_device(
+        max_layers: u32,
+        max_dimension: u32,
+        max_texture_bytes: u64,
+        device: &str,
+    ) -> Self {
+        LoadLimits {
+            max_views: max_layers as usize,
+            max_dimension,
+            max_bytes: max_texture_bytes,
+            views_why: format!("{device} holds at most {max_layers} layers in one array texture"),
+            dimension_why: format!("{device}'s maximum image size"),
+            bytes_why: format!("what {device} can allocate for the light field texture"),
+            device: true,
+        }
+    }
+
+    fn refuse(&self, message: String) -> Error {
+        if self.device {
+            Error::DeviceLimit(message)
+        } else {
+            Error::LightField(message)
+        }
+    }
 }
 
 fn decode_error(path: &Path, e: ImageError) -> Error {

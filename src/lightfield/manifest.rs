@@ -97,7 +97,7 @@ use glam::{DMat3, DVec3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::images::decode_views;
+use super::images::{decode_views_within, LoadLimits};
 use super::pfm::{read_pfm_depth, write_pfm};
 use super::{relative_to, DepthKind, DepthMap, GridSize, LightField, ParallelRig, Source, View};
 use crate::error::{Error, Result};
@@ -111,6 +111,13 @@ pub const VERSION: u32 = 1;
 
 /// Largest grid coordinate accepted; guards against typos like `"s": 1000000`.
 const MAX_GRID: usize = 10_000;
+
+/// Largest magnitude of an entry of K, in pixels (a focal length of 10⁸ px is a 1000 m lens on
+/// a 10 µm pixel).
+const MAX_INTRINSIC: f64 = 1e8;
+
+/// Largest magnitude of a camera coordinate, in world units.
+const MAX_COORDINATE: f64 = 1e12;
 
 /// Tolerance for ‖RᵀR − I‖ (Frobenius).
 const ROTATION_TOLERANCE: f64 = 1e-6;
@@ -197,6 +204,23 @@ fn view_camera(v: &ViewEntry) -> std::result::Result<Camera, String> {
         return Err("R has a non-finite entry".into());
     }
     let k = v.k;
+    // Beyond these magnitudes no real camera exists and the homographies lose all precision
+    // (1e300 squared is infinite): refuse rather than render nonsense.
+    if let Some(x) = v.k.iter().flatten().find(|x| x.abs() > MAX_INTRINSIC) {
+        return Err(format!(
+            "K has the entry {x:e}, beyond ±{MAX_INTRINSIC:e} px: not a camera"
+        ));
+    }
+    if let Some(x) =
+        v.t.iter()
+            .chain(&v.centre)
+            .flatten()
+            .find(|x| x.abs() > MAX_COORDINATE)
+    {
+        return Err(format!(
+            "the camera position has the coordinate {x:e}, beyond ±{MAX_COORDINATE:e}"
+        ));
+    }
     if !(k[0][0] > 0.0 && k[1][1] > 0.0) {
         return Err(format!(
             "K must have positive focal lengths, found fx = {}, fy = {}",
@@ -242,18 +266,34 @@ fn view_camera(v: &ViewEntry) -> std::result::Result<Camera, String> {
 
 /// Loads a manifest (see the module docs).
 pub fn load(path: &Path) -> Result<LightField> {
+    load_within(path, &LoadLimits::default())
+}
+
+/// [`load`], refusing before decoding a light field beyond `limits`.
+pub fn load_within(path: &Path, limits: &LoadLimits) -> Result<LightField> {
     let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    // Editors on Windows write a UTF-8 byte-order mark; parameters.cfg accepts one too.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
     let bad = |m: String| Error::bad_file(path, m);
 
     // Check the version before the strict parse, so a newer manifest gets a version message
     // rather than complaints about fields this version does not know.
-    #[derive(Deserialize)]
-    struct Probe {
-        version: Option<serde_json::Value>,
-    }
-    let probe: Probe =
-        serde_json::from_str(&text).map_err(|e| bad(format!("not a valid manifest: {e}")))?;
-    match probe.version {
+    let probe: serde_json::Value = serde_json::from_str(text)
+        .map_err(|e| bad(format!("not a valid manifest (invalid JSON): {e}")))?;
+    let Some(top) = probe.as_object() else {
+        let found = match probe {
+            serde_json::Value::Array(_) => "an array",
+            serde_json::Value::String(_) => "a string",
+            serde_json::Value::Number(_) => "a number",
+            serde_json::Value::Bool(_) => "a boolean",
+            _ => "null",
+        };
+        return Err(bad(format!(
+            "not a manifest: the top level must be a JSON object with `version` and `views`, \
+             found {found}"
+        )));
+    };
+    match top.get("version") {
         None => return Err(bad("missing `version` (expected \"version\": 1)".into())),
         Some(v) if v.as_u64() == Some(VERSION as u64) => {}
         Some(v) => {
@@ -263,7 +303,7 @@ pub fn load(path: &Path) -> Result<LightField> {
         }
     }
     let file: ManifestFile =
-        serde_json::from_str(&text).map_err(|e| bad(format!("not a valid manifest: {e}")))?;
+        serde_json::from_str(text).map_err(|e| bad(format!("not a valid manifest: {e}")))?;
     if file.views.is_empty() {
         return Err(bad("`views` is empty".into()));
     }
@@ -327,7 +367,7 @@ pub fn load(path: &Path) -> Result<LightField> {
         .iter()
         .map(|&i| relative_to(path, &file.views[i].image))
         .collect();
-    let images = decode_views(&paths, &name)?;
+    let images = decode_views_within(&paths, &name, limits)?;
     let (width, height) = images[0].dimensions();
 
     let mut views = Vec::with_capacity(order.len());

@@ -16,6 +16,8 @@ pub mod manifest;
 pub mod pfm;
 pub mod ply;
 
+pub use images::LoadLimits;
+
 use std::path::{Path, PathBuf};
 
 use glam::DVec2;
@@ -300,6 +302,7 @@ impl LightField {
                 )));
             }
         }
+        self.check_calibration()?;
         for (i, d) in &self.depth {
             if *i >= self.views.len() {
                 return Err(Error::LightField(format!(
@@ -317,6 +320,57 @@ impl LightField {
         Ok(())
     }
 }
+
+impl LightField {
+    /// Refuses calibrations that cannot describe a camera array: centres so far out that the
+    /// homographies overflow, views whose centres all coincide (a 1e-300 baseline), or a rig
+    /// whose disparities cannot be told from zero. Without this, such input reaches the
+    /// refocus maths and fails there with a message about the plane instead of the cause.
+    fn check_calibration(&self) -> Result<()> {
+        let centres: Vec<glam::DVec3> = self.views.iter().map(|v| v.camera.centre()).collect();
+        if let Some((v, c)) = self
+            .views
+            .iter()
+            .zip(&centres)
+            .find(|(_, c)| !(c.is_finite() && c.abs().max_element() <= MAX_COORDINATE))
+        {
+            return Err(Error::LightField(format!(
+                "{}: degenerate calibration: the camera of {} sits at ({:.3e}, {:.3e}, {:.3e}), beyond \
+                 ±{MAX_COORDINATE:e} world units",
+                self.name, v.source, c.x, c.y, c.z
+            )));
+        }
+        if centres.len() > 1 {
+            let scale = centres.iter().map(|c| c.length()).fold(1e-300, f64::max);
+            let spread = centres
+                .iter()
+                .map(|c| c.distance(centres[0]))
+                .fold(0.0, f64::max);
+            if spread <= 1e-12 * scale || spread < 1e-200 {
+                return Err(Error::LightField(format!(
+                    "{}: degenerate calibration: all {} camera centres coincide (they are at most \
+                     {spread:.1e} apart); a light field needs a baseline",
+                    self.name,
+                    centres.len()
+                )));
+            }
+        }
+        if let Some(rig) = &self.rig {
+            let at_infinity = -rig.disparity_at_infinity();
+            if !(at_infinity.is_finite() && (1e-9..=1e9).contains(&at_infinity)) {
+                return Err(Error::LightField(format!(
+                    "{}: degenerate calibration: focal length {:e} px, baseline {:e} and focus \
+                     distance {:e} give a disparity at infinity of {:.1e} px per view",
+                    self.name, rig.focal_px, rig.baseline, rig.focus_distance, -at_infinity
+                )));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Largest magnitude of a camera centre coordinate, world units.
+pub const MAX_COORDINATE: f64 = 1e12;
 
 /// Options for loaders that cannot read camera parameters from the data itself.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -340,27 +394,51 @@ impl Default for GridCameraOptions {
 /// a `.json` file → manifest; a folder with `parameters.cfg` → HCI; a folder with
 /// `tiltfield.json` → manifest; any other folder → grid of views named by row and column.
 pub fn open(path: &Path, grid_opts: &GridCameraOptions) -> Result<LightField> {
+    open_within(path, grid_opts, &LoadLimits::default())
+}
+
+/// [`open`], refusing a light field beyond `limits` (views, view size, decoded bytes) after
+/// reading the image headers and before decoding any view.
+pub fn open_within(
+    path: &Path,
+    grid_opts: &GridCameraOptions,
+    limits: &LoadLimits,
+) -> Result<LightField> {
     if !path.exists() {
         return Err(Error::io(
             path,
             std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
         ));
     }
+    let manifest_in_folder = path.join(manifest::DEFAULT_NAME);
     let lf = if path.is_file() {
         if path.extension().and_then(|e| e.to_str()) == Some("json") {
-            manifest::load(path)?
+            manifest::load_within(path, limits)?
         } else {
             return Err(Error::bad_file(
                 path,
                 "not a light field: expected a folder (HCI or grid of views) or a .json manifest",
             ));
         }
-    } else if path.join("parameters.cfg").is_file() {
-        hci::load(path)?
-    } else if path.join(manifest::DEFAULT_NAME).is_file() {
-        manifest::load(&path.join(manifest::DEFAULT_NAME))?
+    } else if path.join(hci::CONFIG_NAME).is_file() {
+        hci::load_within(path, limits)?
+    } else if std::fs::symlink_metadata(&manifest_in_folder).is_ok() {
+        // A tiltfield.json that exists but is a folder, a dangling or looping link or
+        // unreadable is an error, not a reason to read the folder as a grid of views.
+        if !manifest_in_folder.is_file() {
+            let why = match std::fs::metadata(&manifest_in_folder) {
+                Err(e) => e.to_string(),
+                Ok(m) if m.is_dir() => "it is a folder, not a file".to_string(),
+                Ok(_) => "it is not a regular file".to_string(),
+            };
+            return Err(Error::bad_file(
+                &manifest_in_folder,
+                format!("the manifest cannot be read: {why}"),
+            ));
+        }
+        manifest::load_within(&manifest_in_folder, limits)?
     } else {
-        grid_folder::load(path, grid_opts)?
+        grid_folder::load_within(path, grid_opts, limits)?
     };
     lf.validate()?;
     Ok(lf)

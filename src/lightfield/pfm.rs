@@ -102,11 +102,18 @@ fn parse_pfm(
         Some([b'P', b'F', ws]) if ws.is_ascii_whitespace() => 3,
         Some([b'P', b'f', ws]) if ws.is_ascii_whitespace() => 1,
         _ => {
-            let head: String = bytes.iter().take(8).map(|&b| b as char).collect();
+            // Name the format when it is a common one, but never echo the bytes of a file
+            // that is not what it should be.
+            let what = match bytes {
+                [0x89, b'P', b'N', b'G', ..] => " (it is a PNG image)",
+                [0x76, 0x2f, 0x31, 0x01, ..] => " (it is an OpenEXR image)",
+                [0xff, 0xd8, ..] => " (it is a JPEG image)",
+                [] => " (it is empty)",
+                _ => "",
+            };
             return Err(format!(
-                "not a PFM file: it starts with `{}`, expected the magic `Pf` (1 channel) or \
-                 `PF` (3 channels)",
-                head.escape_default()
+                "not a PFM file{what}: expected the magic `Pf` (1 channel) or `PF` (3 channels) \
+                 at its start"
             ));
         }
     };
@@ -315,7 +322,11 @@ mod tests {
     fn header_errors_are_specific() {
         let dir = tempfile::tempdir().unwrap();
         let cases: [(&str, &[u8], &str); 7] = [
-            ("magic.pfm", b"P6\n2 2\n255\n........", "starts with `P6"),
+            (
+                "magic.pfm",
+                b"P6\n2 2\n255\n........",
+                "expected the magic `Pf`",
+            ),
             ("width.pfm", b"Pf\nabc 2\n-1\n........", "width `abc`"),
             ("neg.pfm", b"Pf\n2 -2\n-1\n........", "height `-2`"),
             ("zero.pfm", b"Pf\n0 2\n-1\n", "width is 0"),
@@ -332,6 +343,10 @@ mod tests {
         let p = write_raw(dir.path(), "text.pfm", b"hello world, this is text");
         let msg = read_pfm(&p).unwrap_err().to_string();
         assert!(msg.contains("not a PFM file"), "{msg}");
+        assert!(
+            !msg.contains("hello"),
+            "the file's bytes are not echoed: {msg}"
+        );
     }
 
     #[test]

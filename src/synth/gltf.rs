@@ -68,7 +68,16 @@ pub fn load(path: &Path) -> Result<GltfScene> {
         ));
     }
     let bad = |m: String| Error::bad_file(path, m);
+    check_glb_header(path)?;
     let gltf = gltf::Gltf::open(path).map_err(|e| bad(format!("not a readable glTF file: {e}")))?;
+    // glTF requires count ≥ 1; the gltf crate's readers compute `count − 1` unchecked (found
+    // by the fuzz harness).
+    if let Some(a) = gltf.accessors().find(|a| a.count() == 0) {
+        return Err(bad(format!(
+            "accessor {} has a count of 0 (glTF requires at least 1)",
+            a.index()
+        )));
+    }
     // Check external resources first, so a missing file is named.
     let base = path.parent().unwrap_or(Path::new("."));
     for b in gltf.buffers() {
@@ -97,8 +106,19 @@ pub fn load(path: &Path) -> Result<GltfScene> {
     };
     let mut stack: Vec<(gltf::Node, DMat4)> = scene.nodes().map(|n| (n, DMat4::IDENTITY)).collect();
     stack.reverse();
+    // glTF node hierarchies are disjoint trees (spec §3.5.3): a node reached twice is a cycle
+    // (e.g. a node listing itself as its child) or a shared child, and a cycle would otherwise
+    // be traversed until memory runs out.
+    let mut visited = vec![false; doc.nodes().len()];
     while let Some((node, parent)) = stack.pop() {
-        let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+        if std::mem::replace(&mut visited[node.index()], true) {
+            return Err(bad(format!(
+                "node {} is reached twice: the node hierarchy has a cycle or a node with two \
+                 parents, but glTF nodes must form trees",
+                node.index()
+            )));
+        }
+        let local = node_matrix(path, &node)?;
         let world = parent * local;
         if let (Some(cam), None) = (node.camera(), camera.as_ref()) {
             camera = Some(convert_camera(path, &cam, world)?);
@@ -132,6 +152,73 @@ pub fn load(path: &Path) -> Result<GltfScene> {
         ));
     }
     Ok(GltfScene { mesh, camera })
+}
+
+/// Largest magnitude of a vertex coordinate after the node transforms: beyond it f32 depth and
+/// the automatic camera placement lose all precision, so such a mesh describes nothing.
+const MAX_COORDINATE: f64 = 1e9;
+
+/// A node's local transform, refusing what is not a transform: non-finite numbers, a rotation
+/// quaternion that is not of unit length (a zero quaternion collapses the subtree to a point).
+fn node_matrix(path: &Path, node: &gltf::Node) -> Result<DMat4> {
+    if let gltf::scene::Transform::Decomposed { rotation, .. } = node.transform() {
+        let norm = rotation
+            .iter()
+            .map(|&q| q as f64 * q as f64)
+            .sum::<f64>()
+            .sqrt();
+        let unit = (norm - 1.0).abs() < 1e-2;
+        if !unit {
+            return Err(Error::bad_file(
+                path,
+                format!(
+                    "node {}: the rotation quaternion {rotation:?} has length {norm:.3e}, not 1",
+                    node.index()
+                ),
+            ));
+        }
+    }
+    let m = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
+    if !m.is_finite() || DMat3::from_mat4(m).determinant().abs() < 1e-30 {
+        return Err(Error::bad_file(
+            path,
+            format!(
+                "node {}: its transform is not finite or collapses the geometry (zero scale)",
+                node.index()
+            ),
+        ));
+    }
+    Ok(m)
+}
+
+/// A binary glTF's header must declare a length that covers at least the header and fits the
+/// file: the gltf crate subtracts the header size from it unchecked (found by the fuzz
+/// harness: a declared length of 0 overflows).
+fn check_glb_header(path: &Path) -> Result<()> {
+    use std::io::Read;
+    let mut head = [0u8; 12];
+    let file = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let n = file
+        .take(12)
+        .read(&mut head)
+        .map_err(|e| Error::io(path, e))?;
+    if n < 12 || &head[..4] != b"glTF" {
+        return Ok(());
+    }
+    let declared = u32::from_le_bytes([head[8], head[9], head[10], head[11]]) as u64;
+    let size = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
+    if !(12..=size).contains(&declared) {
+        return Err(Error::bad_file(
+            path,
+            format!(
+                "not a readable glTF file: its binary header declares {declared} bytes, but the \
+                 file has {size} (a header alone is 12)"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 /// A non-data URI must name a readable file next to the glTF file.
@@ -202,18 +289,58 @@ fn add_primitive(
         )));
     }
     let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+    let Some(position_accessor) = prim.get(&gltf::Semantic::Positions) else {
+        return Err(bad("no POSITION attribute".into()));
+    };
+    // The reader yields nothing (or stops early) when an accessor does not fit its buffer, so
+    // counts are compared with what the accessors declare: nothing is dropped silently.
     let positions: Vec<[f32; 3]> = reader
         .read_positions()
-        .ok_or_else(|| bad("no POSITION attribute".into()))?
+        .ok_or_else(|| {
+            bad(format!(
+                "the POSITION accessor {} lies outside its buffer or has no buffer view",
+                position_accessor.index()
+            ))
+        })?
         .collect();
-    let indices: Vec<u32> = match reader.read_indices() {
-        Some(i) => i.into_u32().collect(),
-        None => (0..positions.len() as u32).collect(),
+    if positions.len() != position_accessor.count() {
+        return Err(bad(format!(
+            "the POSITION accessor {} declares {} vertices but its buffer holds {}",
+            position_accessor.index(),
+            position_accessor.count(),
+            positions.len()
+        )));
+    }
+    let indices: Vec<u32> = match (prim.indices(), reader.read_indices()) {
+        (Some(a), Some(i)) => {
+            let i: Vec<u32> = i.into_u32().collect();
+            if i.len() != a.count() {
+                return Err(bad(format!(
+                    "the index accessor {} declares {} indices but its buffer holds {}",
+                    a.index(),
+                    a.count(),
+                    i.len()
+                )));
+            }
+            i
+        }
+        (Some(a), None) => {
+            return Err(bad(format!(
+                "the index accessor {} lies outside its buffer or has no buffer view",
+                a.index()
+            )))
+        }
+        _ => (0..positions.len() as u32).collect(),
     };
     if indices.iter().any(|&i| i as usize >= positions.len()) {
         return Err(bad("an index points past the vertex data".into()));
     }
-    let indices: Vec<u32> = indices[..indices.len() / 3 * 3].to_vec();
+    if indices.len() % 3 != 0 {
+        return Err(bad(format!(
+            "{} indices (or vertices) is not a multiple of three: not a list of triangles",
+            indices.len()
+        )));
+    }
     let material = prim.material();
     let pbr = material.pbr_metallic_roughness();
     let factor = pbr.base_color_factor();
@@ -264,6 +391,16 @@ fn add_primitive(
         .iter()
         .map(|p| world.transform_point3(DVec3::from(p.map(f64::from))))
         .collect();
+    if let Some(p) = world_pos
+        .iter()
+        .find(|p| !(p.is_finite() && p.abs().max_element() <= MAX_COORDINATE))
+    {
+        return Err(bad(format!(
+            "a vertex lies at ({:.3e}, {:.3e}, {:.3e}), beyond ±{MAX_COORDINATE:e}: not a \
+             usable mesh",
+            p.x, p.y, p.z
+        )));
+    }
     let world_normals: Vec<DVec3> = match &normals {
         Some(n) if n.len() == positions.len() => n
             .iter()

@@ -1,0 +1,647 @@
+//! Hostile input (issue 13): malformed files, absurd numbers and odd paths end in one clear
+//! error naming the cause, or a warning where the input is legitimate — never a panic, a hang,
+//! NaN pixels, a silent subset, or an allocation the input does not justify. Sizes and counts
+//! are checked before anything is allocated, decoded, rendered or written, so none of these
+//! tests allocates much: the refusals come first.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::{fails_with, stderr, tiltfield};
+use glam::DVec2;
+use serde_json::{json, Value};
+use tiltfield::geometry::aperture::{Aperture, ApertureShape};
+use tiltfield::lightfield::{self, LoadLimits};
+
+// ---------------------------------------------------------------------------------------------
+// Small inputs written from scratch: 8×8 views, a few views per grid.
+
+const W: u32 = 8;
+
+fn png(path: &Path, shade: u8) {
+    let img = image::RgbImage::from_fn(W, W, |x, y| {
+        image::Rgb([shade, (x * 30) as u8, (y * 30) as u8])
+    });
+    img.save(path).unwrap();
+}
+
+/// An HCI folder of `cols × rows` 8×8 views; `views` files `input_Cam*.png` are written (at
+/// least `cols · rows`).
+fn hci_folder(dir: &Path, cols: usize, rows: usize, views: usize, baseline_mm: &str) {
+    let count = cols * rows;
+    for i in 0..views {
+        png(
+            &dir.join(lightfield::hci::view_file_name(i, count)),
+            40 + i as u8,
+        );
+    }
+    std::fs::write(
+        dir.join("parameters.cfg"),
+        format!(
+            "[intrinsics]\nfocal_length_mm = 50\nimage_resolution_x_px = {W}\n\
+             image_resolution_y_px = {W}\nsensor_size_mm = 36\n\n[extrinsics]\n\
+             num_cams_x = {cols}\nnum_cams_y = {rows}\nbaseline_mm = {baseline_mm}\n\
+             focus_distance_m = 3\n"
+        ),
+    )
+    .unwrap();
+}
+
+fn identity() -> Value {
+    json!([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+}
+
+/// A manifest value for a `cols × rows` grid whose views all use the image `image`.
+fn manifest_value(cols: usize, rows: usize, image: &str) -> Value {
+    let views: Vec<Value> = (0..rows)
+        .flat_map(|t| (0..cols).map(move |s| (s, t)))
+        .map(|(s, t)| {
+            json!({
+                "image": image,
+                "grid": {"s": s, "t": t},
+                "K": [[10.0, 0.0, 3.5], [0.0, 10.0, 3.5], [0.0, 0.0, 1.0]],
+                "R": identity(),
+                "centre": [s as f64 * 0.1, t as f64 * 0.1, 0.0],
+            })
+        })
+        .collect();
+    json!({"version": 1, "views": views})
+}
+
+fn write_json(path: &Path, v: &Value) {
+    std::fs::write(path, serde_json::to_string_pretty(v).unwrap()).unwrap();
+}
+
+/// A 3×3 manifest folder with one real 8×8 image; returns the manifest path.
+fn manifest_folder(dir: &Path) -> PathBuf {
+    png(&dir.join("v.png"), 100);
+    let path = dir.join("tiltfield.json");
+    write_json(&path, &manifest_value(3, 3, "v.png"));
+    path
+}
+
+fn open_err(path: &Path) -> String {
+    match lightfield::open(path, &Default::default()) {
+        Ok(_) => panic!("{} should be refused", path.display()),
+        Err(e) => e.to_string(),
+    }
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Bytes of a PNG whose header declares `w × h` but holds no image data (a valid signature
+/// and IHDR chunk with a correct CRC).
+fn png_header_only(w: u32, h: u32) -> Vec<u8> {
+    fn crc32(bytes: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in bytes {
+            c ^= b as u32;
+            for _ in 0..8 {
+                c = if c & 1 != 0 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+    let mut out = vec![0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a];
+    let mut ihdr = w.to_be_bytes().to_vec();
+    ihdr.extend_from_slice(&h.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 6, 0, 0, 0]);
+    // The decoder reads the header up to the first IDAT; this one holds no valid data.
+    for (kind, data) in [(b"IHDR", ihdr), (b"IDAT", vec![0; 4]), (b"IEND", vec![])] {
+        let mut chunk = kind.to_vec();
+        chunk.extend_from_slice(&data);
+        out.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        out.extend_from_slice(&chunk);
+        out.extend_from_slice(&crc32(&chunk).to_be_bytes());
+    }
+    out
+}
+
+// ---------------------------------------------------------------------------------------------
+// glTF built from JSON with an embedded buffer.
+
+/// A one-mesh glTF: `positions`, u16 `indices` stored in the buffer, and an index accessor
+/// declaring `index_count`; `node` is merged into node 0; `position_offset` is the POSITION
+/// accessor's byte offset.
+fn gltf_file(
+    dir: &Path,
+    positions: &[[f32; 3]],
+    indices: &[u16],
+    index_count: usize,
+    node: Value,
+    position_offset: usize,
+) -> PathBuf {
+    let mut bytes: Vec<u8> = positions
+        .iter()
+        .flatten()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let pos_len = bytes.len();
+    bytes.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    while bytes.len() % 4 != 0 {
+        bytes.push(0);
+    }
+    let lo: Vec<f32> = (0..3)
+        .map(|k| positions.iter().map(|p| p[k]).fold(f32::INFINITY, f32::min))
+        .collect();
+    let hi: Vec<f32> = (0..3)
+        .map(|k| {
+            positions
+                .iter()
+                .map(|p| p[k])
+                .fold(f32::NEG_INFINITY, f32::max)
+        })
+        .collect();
+    let mut node0 = json!({"mesh": 0});
+    if let (Some(n), Some(extra)) = (node0.as_object_mut(), node.as_object()) {
+        n.extend(extra.clone());
+    }
+    let doc = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [node0],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "buffers": [{
+            "byteLength": bytes.len(),
+            "uri": format!("data:application/octet-stream;base64,{}", common::base64(&bytes)),
+        }],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": pos_len},
+            {"buffer": 0, "byteOffset": pos_len, "byteLength": indices.len() * 2},
+        ],
+        "accessors": [
+            {"bufferView": 0, "byteOffset": position_offset, "componentType": 5126,
+             "count": positions.len(), "type": "VEC3", "min": lo, "max": hi},
+            {"bufferView": 1, "componentType": 5123, "count": index_count, "type": "SCALAR"},
+        ],
+    });
+    let path = dir.join("scene.gltf");
+    write_json(&path, &doc);
+    path
+}
+
+/// Two triangles of a unit quad at z = 0, scaled by `scale`.
+fn quad(scale: f32) -> Vec<[f32; 3]> {
+    [
+        [-1.0, -1.0, 0.0],
+        [1.0, -1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [-1.0, 1.0, 0.0],
+    ]
+    .map(|p: [f32; 3]| p.map(|v| v * scale))
+    .to_vec()
+}
+
+const QUAD_INDICES: [u16; 6] = [0, 1, 2, 0, 2, 3];
+
+fn gltf_err(path: &Path) -> String {
+    match tiltfield::synth::gltf::load(path) {
+        Ok(_) => panic!("{} should be refused", path.display()),
+        Err(e) => e.to_string(),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Crashes and hangs.
+
+#[test]
+fn synth_sizes_and_counts_are_checked_before_allocating() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out");
+    let o = s(&out);
+    let synth = |extra: &[&str], needles: &[&str]| {
+        let mut args = vec!["synth", "builtin:planes", "--out", o];
+        args.extend_from_slice(extra);
+        fails_with(&args, needles);
+    };
+    // Used to overflow (a panic) or abort on allocation failure.
+    synth(
+        &["--size", "100000x100000"],
+        &["--size 100000x100000", "at most"],
+    );
+    synth(
+        &["--size", "20000x20000"],
+        &["--size 20000x20000", "at most"],
+    );
+    synth(
+        &["--grid", "100000x100000"],
+        &["--grid 100000x100000", "at most"],
+    );
+    synth(&["--samples", "100000"], &["--samples", "got 100000"]);
+    // Used to render 1×1 samples silently.
+    synth(&["--samples", "0"], &["--samples", "got 0"]);
+    // Used to write 13 files first.
+    synth(
+        &["--disparity", "0.5", "--gt-samples", "100000"],
+        &["--gt-samples", "got 100000"],
+    );
+    // Used to write the whole light field, then fail.
+    synth(&["--disparity", "nan"], &["finite"]);
+    assert!(
+        !out.exists(),
+        "nothing may be written before the options are checked"
+    );
+}
+
+#[test]
+fn gltf_node_that_is_its_own_child_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let p = gltf_file(
+        tmp.path(),
+        &quad(1.0),
+        &QUAD_INDICES,
+        6,
+        json!({"children": [0]}),
+        0,
+    );
+    let msg = gltf_err(&p);
+    assert!(
+        msg.contains("node 0 is reached twice") && msg.contains("cycle"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn render_repeat_is_bounded_before_any_work() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("r.png");
+    // The light field does not exist: the bound must be checked before loading anything.
+    fails_with(
+        &[
+            "render",
+            "no-such-folder",
+            "--disparity",
+            "0",
+            "-o",
+            s(&out),
+            "--repeat",
+            "1000000",
+        ],
+        &["--repeat 1000000", "10000"],
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Nonsense accepted silently.
+
+#[test]
+fn tiny_gaussian_aperture_gives_the_centre_view_weight_one_not_nan() {
+    let a = Aperture {
+        shape: ApertureShape::Gaussian,
+        radius: Some(1e-300),
+    };
+    let c = DVec2::new(2.0, 2.0);
+    assert_eq!(a.weight(c, c, 5, 5), 1.0);
+    assert_eq!(a.weight(DVec2::new(3.0, 2.0), c, 5, 5), 0.0);
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("g.png");
+    let o = tiltfield(&[
+        "render",
+        "builtin:planes",
+        "--disparity",
+        "0",
+        "--aperture",
+        "gaussian",
+        "--aperture-radius",
+        "1e-300",
+        "-o",
+        s(&out),
+        "--json",
+    ]);
+    let report = common::json_of(&o);
+    assert_eq!(report["views_used"], 1, "{report}");
+    assert_eq!(report["uncovered_pixels"], 0, "{report}");
+    let img = image::open(&out).unwrap().to_rgba8();
+    assert!(img.pixels().all(|p| p.0[3] == 255), "transparent pixels");
+}
+
+#[test]
+fn hci_folder_with_more_views_than_declared_warns_naming_the_extra_files() {
+    for (cols, rows, expected) in [(2, 3, "input_Cam006.png"), (1, 1, "input_Cam001.png")] {
+        let tmp = tempfile::tempdir().unwrap();
+        hci_folder(tmp.path(), cols, rows, 9, "10");
+        let o = tiltfield(&["info", s(tmp.path())]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let err = stderr(&o);
+        assert!(
+            err.contains("ignored") && err.contains(expected) && err.contains("input_Cam008.png"),
+            "{cols}×{rows}: {err}"
+        );
+    }
+}
+
+#[test]
+fn manifest_that_exists_but_cannot_be_read_is_an_error_not_a_grid_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Grid-named views that a grid folder would happily load.
+    for (s_, t) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+        png(&tmp.path().join(format!("view_{s_}_{t}.png")), 90);
+    }
+    std::fs::create_dir(tmp.path().join("tiltfield.json")).unwrap();
+    let msg = open_err(tmp.path());
+    assert!(
+        msg.contains("tiltfield.json") && msg.contains("folder"),
+        "{msg}"
+    );
+
+    std::fs::remove_dir(tmp.path().join("tiltfield.json")).unwrap();
+    std::os::unix::fs::symlink("tiltfield.json", tmp.path().join("tiltfield.json")).unwrap();
+    let msg = open_err(tmp.path());
+    assert!(
+        msg.contains("tiltfield.json") && msg.contains("cannot be read"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn manifest_numbers_that_describe_no_camera_are_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = manifest_folder(tmp.path());
+    let mut m = manifest_value(3, 3, "v.png");
+    m["views"][4]["K"][0][0] = json!(1e300);
+    write_json(&path, &m);
+    let msg = open_err(&path);
+    assert!(msg.contains("view 4") && msg.contains("1e300"), "{msg}");
+
+    let mut m = manifest_value(3, 3, "v.png");
+    m["views"][2]["centre"] = json!([0.0, 1e300, 0.0]);
+    write_json(&path, &m);
+    let msg = open_err(&path);
+    assert!(msg.contains("view 2") && msg.contains("1e300"), "{msg}");
+}
+
+#[test]
+fn gltf_geometry_that_describes_no_mesh_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    // Quads at ±1e30.
+    let p = gltf_file(d, &quad(1e30), &QUAD_INDICES, 6, json!({}), 0);
+    let msg = gltf_err(&p);
+    assert!(msg.contains("beyond"), "{msg}");
+    // An index accessor longer than its buffer view (the second triangle was dropped).
+    let p = gltf_file(d, &quad(1.0), &QUAD_INDICES[..4], 6, json!({}), 0);
+    let msg = gltf_err(&p);
+    assert!(msg.contains("index accessor 1"), "{msg}");
+    // Not a multiple of three.
+    let p = gltf_file(d, &quad(1.0), &QUAD_INDICES[..4], 4, json!({}), 0);
+    let msg = gltf_err(&p);
+    assert!(msg.contains("not a multiple of three"), "{msg}");
+    // A zero rotation quaternion collapses the mesh to a point.
+    let p = gltf_file(
+        d,
+        &quad(1.0),
+        &QUAD_INDICES,
+        6,
+        json!({"rotation": [0, 0, 0, 0]}),
+        0,
+    );
+    let msg = gltf_err(&p);
+    assert!(
+        msg.contains("node 0") && msg.contains("quaternion"),
+        "{msg}"
+    );
+    // Two inputs that panicked inside the gltf crate (found by tests/parser_fuzz.rs): an
+    // accessor of count 0, and a binary glTF whose header declares a length of 0.
+    let p = gltf_file(d, &quad(1.0), &QUAD_INDICES, 0, json!({}), 0);
+    let msg = gltf_err(&p);
+    assert!(msg.contains("accessor 1 has a count of 0"), "{msg}");
+    let glb = d.join("empty.glb");
+    std::fs::write(&glb, b"glTF\x02\0\0\0\0\0\0\0").unwrap();
+    let msg = gltf_err(&glb);
+    assert!(msg.contains("declares 0 bytes"), "{msg}");
+    // A POSITION accessor that lies outside its buffer view.
+    let p = gltf_file(d, &quad(1.0), &QUAD_INDICES, 6, json!({}), 64);
+    let msg = gltf_err(&p);
+    assert!(
+        msg.contains("POSITION accessor 0") && !msg.contains("no POSITION"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn too_many_views_for_the_device_are_refused_before_decoding() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Every view is a valid header with no pixel data: decoding any of them would fail, so
+    // the device-limit error proves the check comes first.
+    std::fs::write(tmp.path().join("v.png"), png_header_only(W, W)).unwrap();
+    let path = tmp.path().join("tiltfield.json");
+    write_json(&path, &manifest_value(5, 5, "v.png"));
+    let limits = LoadLimits::for_device(16, 4096, 1 << 30, "a small GPU");
+    let err = lightfield::open_within(&path, &Default::default(), &limits).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.starts_with("device limit") && msg.contains("25 views") && msg.contains("16 layers"),
+        "{msg}"
+    );
+    // The same through `render`, against the real device's layer limit (2048 on lavapipe).
+    let ctx = tiltfield::gpu::GpuContext::new(&common::gpu_options()).unwrap();
+    let layers = tiltfield::passes::texture::TextureLimits::of(&ctx).max_layers as usize;
+    drop(ctx);
+    let cols = layers / 8 + 1;
+    write_json(&path, &manifest_value(cols, 8, "v.png"));
+    let out = tmp.path().join("r.png");
+    fails_with(
+        &["render", s(&path), "--disparity", "0", "-o", s(&out)],
+        &["device limit", "layers"],
+    );
+}
+
+// ---------------------------------------------------------------------------------------------
+// Messages that mislead.
+
+#[test]
+fn degenerate_focus_and_calibration_name_the_actual_cause() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("r.png");
+    fails_with(
+        &[
+            "render",
+            "builtin:planes",
+            "--disparity",
+            "1e30",
+            "-o",
+            s(&out),
+        ],
+        &["--disparity 1000000000000000000000000000000 px is far too large"],
+    );
+    fails_with(
+        &[
+            "render",
+            "builtin:planes",
+            "--focus",
+            "1e-42",
+            "-o",
+            s(&out),
+        ],
+        &["--focus 1e-42", "practically on the reference camera"],
+    );
+    let hci = tmp.path().join("hci");
+    std::fs::create_dir(&hci).unwrap();
+    hci_folder(&hci, 3, 3, 9, "1e-300");
+    fails_with(
+        &["render", s(&hci), "--disparity", "1", "-o", s(&out)],
+        &["degenerate calibration"],
+    );
+}
+
+#[test]
+fn folder_without_parameters_cfg_says_so_once() {
+    let tmp = tempfile::tempdir().unwrap();
+    hci_folder(tmp.path(), 3, 3, 9, "10");
+    std::fs::remove_file(tmp.path().join("parameters.cfg")).unwrap();
+    let o = tiltfield(&["info", s(tmp.path())]);
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert!(
+        err.contains("no parameters.cfg") && err.contains("input_Cam000.png"),
+        "{err}"
+    );
+    assert!(
+        !err.contains("ignored:"),
+        "one message, not one per file: {err}"
+    );
+}
+
+#[test]
+fn a_view_that_is_not_a_file_is_not_called_missing() {
+    let tmp = tempfile::tempdir().unwrap();
+    hci_folder(tmp.path(), 3, 3, 9, "10");
+    let view = tmp.path().join("input_Cam004.png");
+    let check = |needle: &str| {
+        let msg = open_err(tmp.path());
+        assert!(
+            msg.contains("input_Cam004.png") && msg.contains(needle) && !msg.contains("missing"),
+            "{needle}: {msg}"
+        );
+    };
+    std::fs::remove_file(&view).unwrap();
+    std::fs::create_dir(&view).unwrap();
+    check("is a folder");
+    std::fs::remove_dir(&view).unwrap();
+    std::os::unix::fs::symlink("input_Cam004.png", &view).unwrap();
+    check("symbolic links");
+    std::fs::remove_file(&view).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", &view).unwrap();
+    check("not a regular file");
+}
+
+#[test]
+fn a_png_declaring_a_huge_size_is_refused_naming_the_size() {
+    let tmp = tempfile::tempdir().unwrap();
+    hci_folder(tmp.path(), 3, 3, 9, "10");
+    std::fs::write(
+        tmp.path().join("input_Cam002.png"),
+        png_header_only(60000, 60000),
+    )
+    .unwrap();
+    let msg = open_err(tmp.path());
+    assert!(
+        msg.contains("input_Cam002.png") && msg.contains("60000×60000"),
+        "{msg}"
+    );
+    assert!(!msg.contains("Memory limit"), "{msg}");
+}
+
+#[test]
+fn an_unwritable_output_is_refused_before_loading() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("file");
+    std::fs::write(&file, b"x").unwrap();
+    let out = file.join("out.png");
+    // The light field does not exist: the output must be checked first.
+    fails_with(
+        &[
+            "render",
+            "no-such-folder",
+            "--disparity",
+            "0",
+            "-o",
+            s(&out),
+        ],
+        &["file"],
+    );
+    let o = tiltfield(&[
+        "render",
+        "no-such-folder",
+        "--disparity",
+        "0",
+        "-o",
+        s(&out),
+    ]);
+    assert!(!stderr(&o).contains("no-such-folder"), "{}", stderr(&o));
+    let dir = tmp.path().join("d.png");
+    std::fs::create_dir(&dir).unwrap();
+    let o = tiltfield(&[
+        "render",
+        "no-such-folder",
+        "--disparity",
+        "0",
+        "-o",
+        s(&dir),
+    ]);
+    assert!(
+        stderr(&o).contains("folder; give a file name"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+#[test]
+fn manifest_top_level_and_byte_order_mark() {
+    let tmp = tempfile::tempdir().unwrap();
+    let path = manifest_folder(tmp.path());
+    std::fs::write(&path, "[1, 2, 3]").unwrap();
+    let msg = open_err(&path);
+    assert!(
+        msg.contains("top level must be a JSON object") && msg.contains("an array"),
+        "{msg}"
+    );
+    assert!(!msg.contains("Probe"), "{msg}");
+    let text = serde_json::to_string(&manifest_value(3, 3, "v.png")).unwrap();
+    std::fs::write(&path, format!("\u{feff}{text}")).unwrap();
+    let lf = lightfield::open(&path, &Default::default()).expect("a BOM is accepted");
+    assert_eq!(lf.views.len(), 9);
+}
+
+#[test]
+fn a_file_that_is_not_what_it_should_be_is_not_echoed() {
+    let tmp = tempfile::tempdir().unwrap();
+    hci_folder(tmp.path(), 3, 3, 9, "10");
+    // A PNG in the place of the disparity map.
+    std::fs::copy(
+        tmp.path().join("input_Cam000.png"),
+        tmp.path().join("gt_disp_lowres.pfm"),
+    )
+    .unwrap();
+    let msg = open_err(tmp.path());
+    assert!(msg.contains("not a PFM file (it is a PNG image)"), "{msg}");
+    assert!(!msg.contains("PNG\\r") && !msg.contains("\\u{89}"), "{msg}");
+}
+
+#[test]
+fn usage_errors_exit_2_other_errors_exit_1_as_documented() {
+    let o = tiltfield(&["render", "--no-such-option"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    let o = tiltfield(&["info", "no-such-folder"]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let readme = include_str!("../README.md")
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(
+        readme.contains("exit with status 2") && readme.contains("exits with status 1"),
+        "the README's errors paragraph documents both exit codes"
+    );
+    assert!(
+        readme.contains("`../`"),
+        "the README documents the paths policy"
+    );
+}
