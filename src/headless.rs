@@ -12,7 +12,9 @@ use ash::vk;
 use image::RgbaImage;
 
 use crate::error::{Error, Result};
-use crate::gpu::commands::{color_copy, image_barrier, stage, ImageTransition, Submission};
+use crate::gpu::commands::{
+    color_copy, host_read_barrier, image_barrier, stage, ImageTransition, Submission,
+};
 use crate::gpu::resources::Buffer;
 use crate::gpu::timing::Timestamps;
 use crate::gpu::{GpuContext, GpuOptions};
@@ -233,11 +235,6 @@ impl HeadlessRenderer {
                         to: stage::TRANSFER_SRC,
                     },
                 );
-                let to_host = [vk::MemoryBarrier2::default()
-                    .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                    .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                    .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                    .dst_access_mask(vk::AccessFlags2::HOST_READ)];
                 // SAFETY: recording; the readback buffer holds w·h·16 bytes.
                 unsafe {
                     d.cmd_copy_image_to_buffer(
@@ -247,11 +244,8 @@ impl HeadlessRenderer {
                         readback_buffer.buffer,
                         &[color_copy(0, w, h, 1)],
                     );
-                    d.cmd_pipeline_barrier2(
-                        cmd,
-                        &vk::DependencyInfo::default().memory_barriers(&to_host),
-                    );
                 }
+                host_read_barrier(d, cmd);
             }
         })?;
         recorded?;

@@ -15,8 +15,10 @@
 //! - [`scene`]: scene geometry as CPU data — the point cloud, the plane quad, camera markers,
 //!   axis and normal lines — and the triangle meshes the rasterizer draws;
 //! - [`io`]: writing PNG and EXR images;
-//! - [`gpu`]: hand-written Vulkan (context, resources, commands, timing, validation);
-//! - [`passes`]: the light field texture, the refocus pass and the mesh rasterizer;
+//! - [`gpu`]: hand-written Vulkan (context, resources, upload, commands, pipelines, frames in
+//!   flight, swapchain, timing, validation);
+//! - [`passes`]: the light field texture, the refocus pass (fragment, batched and compute
+//!   strategies recording into caller-owned targets) and the mesh rasterizer;
 //! - [`headless`]: offscreen rendering for the CLI and the tests;
 //! - [`synth`]: synthetic scenes with exact ground truth: a CPU ray tracer of textured quads,
 //!   triangle meshes from glTF or the built-in scenes rendered by the Vulkan rasterizer

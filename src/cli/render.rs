@@ -21,7 +21,9 @@ use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
 use crate::passes::refocus::{Filter, OutputFormat, Strategy};
 use crate::passes::texture::ViewStorage;
-use crate::refocus::{self, resolve_focus, Averaging, RefocusPlan, RefocusRequest, ResolvedFocus};
+use crate::refocus::{
+    self, resolve_focus, Averaging, FocusTarget, RefocusPlan, RefocusRequest, ResolvedFocus,
+};
 
 /// Most `--repeat` timing frames.
 const MAX_REPEAT: usize = 10_000;
@@ -116,13 +118,16 @@ pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, Res
     };
     // Before the focus, so a bad aperture is reported first, as the plan would.
     aperture.validate()?;
+    // Before resolving: the resolver would only say that the plane passes through the camera.
+    if let FocusTarget::Spec(spec) = &request.target {
+        super::explain_focus(lf, spec)?;
+    }
     let focus = resolve_focus(lf, &request, reference.unwrap_or_else(|| lf.grid.centre()))?;
     let req = RefocusRequest {
         focus: focus.spec,
         aperture,
         reference,
     };
-    super::explain_focus(lf, &req.focus)?;
     let plan = refocus::plan(lf, &req, &dark_views(lf, args.include_dark))?;
     Ok((plan, focus))
 }

@@ -147,9 +147,23 @@ pub fn begin_rendering(
     color_load: vk::AttachmentLoadOp,
     depth: Option<(vk::ImageView, f32)>,
 ) {
+    let layout = vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL;
+    begin_rendering_in(d, cmd, extent, (color, layout), color_load, depth);
+}
+
+/// [`begin_rendering`] with the colour attachment in `layout` (e.g. `GENERAL` for an image
+/// that is also a storage image).
+pub fn begin_rendering_in(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    extent: vk::Extent2D,
+    (color, layout): (vk::ImageView, vk::ImageLayout),
+    color_load: vk::AttachmentLoadOp,
+    depth: Option<(vk::ImageView, f32)>,
+) {
     let attachment = [vk::RenderingAttachmentInfo::default()
         .image_view(color)
-        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+        .image_layout(layout)
         .load_op(color_load)
         .store_op(vk::AttachmentStoreOp::STORE)
         .clear_value(vk::ClearValue {
@@ -265,4 +279,20 @@ pub mod stage {
         S::COLOR_ATTACHMENT_OUTPUT,
         A::from_raw(A::COLOR_ATTACHMENT_WRITE.as_raw() | A::COLOR_ATTACHMENT_READ.as_raw()),
     );
+}
+
+/// Makes transfer writes (readback copies) visible to the host after the submission's fence.
+pub fn host_read_barrier(d: &ash::Device, cmd: vk::CommandBuffer) {
+    let to_host = [vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::COPY)
+        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+        .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+    // SAFETY: recording outside a rendering instance.
+    unsafe {
+        d.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default().memory_barriers(&to_host),
+        )
+    };
 }

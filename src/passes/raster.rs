@@ -35,7 +35,8 @@ use glam::{DMat3, DMat4, DVec2, DVec3, DVec4};
 use crate::error::{Error, Result};
 use crate::geometry::camera::Camera;
 use crate::gpu::commands::{
-    begin_rendering, color_copy, format_barrier, image_barrier, stage, ImageTransition, Submission,
+    begin_rendering, color_copy, format_barrier, host_read_barrier, image_barrier, stage,
+    ImageTransition, Submission,
 };
 use crate::gpu::pipeline::{graphics_pipeline, Blend, DepthTest, PipelineDesc};
 use crate::gpu::resources::{Buffer, Image, ImageDesc};
@@ -396,18 +397,7 @@ impl RasterPass {
                 copy(geom.image, pixels * 16);
             }
             copy(accum.image, 0);
-            let to_host = [vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                .dst_access_mask(vk::AccessFlags2::HOST_READ)];
-            // SAFETY: recording outside a rendering instance.
-            unsafe {
-                d.cmd_pipeline_barrier2(
-                    cmd,
-                    &vk::DependencyInfo::default().memory_barriers(&to_host),
-                )
-            };
+            host_read_barrier(d, cmd);
         })?;
         let bytes = t.readback.bytes_mut();
         let read = |offset: usize, scale: f32| -> Vec<[f32; 4]> {

@@ -37,7 +37,9 @@ pub use target::{OutputFormat, RefocusTarget};
 
 use super::texture::{LightFieldTexture, ViewStorage, VIEW_SRGB, VIEW_STORED};
 use crate::error::{Error, Result};
-use crate::gpu::commands::{begin_rendering, image_barrier, stage, ImageTransition};
+use crate::gpu::commands::{
+    begin_rendering, begin_rendering_in, image_barrier, stage, ImageTransition,
+};
 use crate::gpu::pipeline::{compute_pipeline, graphics_pipeline, Blend, PipelineDesc};
 use crate::gpu::resources::Buffer;
 use crate::gpu::shaders;
@@ -512,7 +514,8 @@ impl RefocusPass {
         } else {
             vk::AttachmentLoadOp::LOAD
         };
-        begin_rendering_general(d, cmd, extent, target.accum.views[0], load);
+        let accum = (target.accum.views[0], vk::ImageLayout::GENERAL);
+        begin_rendering_in(d, cmd, extent, accum, load, None);
         let layout = self.objects.accum_layout;
         // SAFETY: recording inside a dynamic rendering instance with matching formats.
         unsafe {
@@ -731,46 +734,6 @@ fn fullscreen(
         ctx.device.destroy_shader_module(frag, None);
     }
     p
-}
-
-/// Begins rendering into the accumulation image, which stays in `GENERAL` layout.
-fn begin_rendering_general(
-    d: &ash::Device,
-    cmd: vk::CommandBuffer,
-    extent: vk::Extent2D,
-    view: vk::ImageView,
-    load: vk::AttachmentLoadOp,
-) {
-    let attachment = [vk::RenderingAttachmentInfo::default()
-        .image_view(view)
-        .image_layout(vk::ImageLayout::GENERAL)
-        .load_op(load)
-        .store_op(vk::AttachmentStoreOp::STORE)
-        .clear_value(vk::ClearValue {
-            color: vk::ClearColorValue { float32: [0.0; 4] },
-        })];
-    let area = vk::Rect2D {
-        offset: vk::Offset2D { x: 0, y: 0 },
-        extent,
-    };
-    let info = vk::RenderingInfo::default()
-        .render_area(area)
-        .layer_count(1)
-        .color_attachments(&attachment);
-    let viewport = [vk::Viewport {
-        x: 0.0,
-        y: 0.0,
-        width: extent.width as f32,
-        height: extent.height as f32,
-        min_depth: 0.0,
-        max_depth: 1.0,
-    }];
-    // SAFETY: recording outside a rendering instance; the image is in GENERAL layout.
-    unsafe {
-        d.cmd_begin_rendering(cmd, &info);
-        d.cmd_set_viewport(cmd, 0, &viewport);
-        d.cmd_set_scissor(cmd, 0, &[area]);
-    }
 }
 
 /// The Vulkan objects of the pass that are plain handles (null until created). Destroying it
