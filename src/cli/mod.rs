@@ -15,7 +15,6 @@ use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::{self, GridCameraOptions, LightField, LoadLimits};
 use crate::passes::texture::TextureLimits;
-use crate::refocus::FocusSpec;
 
 /// Light field tilt-shift refocus with generalized shift-and-sum (Vulkan).
 #[derive(Debug, Parser)]
@@ -195,41 +194,6 @@ pub(crate) fn check_output(path: &Path) -> Result<()> {
         .map_err(|e| Error::io(path, e))?;
     if !existed {
         std::fs::remove_file(path).map_err(|e| Error::io(path, e))?;
-    }
-    Ok(())
-}
-
-/// Refuses focus requests that put the plane practically on the cameras, naming the option
-/// (the plan would only say that the plane passes through the reference camera centre).
-pub(crate) fn explain_focus(lf: &LightField, focus: &FocusSpec) -> Result<()> {
-    let c0 = lf.views[0].camera.centre();
-    let spread = lf
-        .views
-        .iter()
-        .map(|v| v.camera.centre().distance(c0))
-        .fold(0.0, f64::max);
-    let near = 1e-6 * if spread > 0.0 { spread } else { 1.0 };
-    match *focus {
-        FocusSpec::Disparity(d) => {
-            if let Some(rig) = lf.rig {
-                if let Some(z) = rig.depth_of_disparity(d).filter(|z| *z < near) {
-                    return Err(Error::Invalid(format!(
-                        "--disparity {d} px is far too large for this rig: it puts the focus \
-                         plane at depth {z:.1e}, practically on the cameras (disparity 0 is the \
-                         focus distance {}, {:.4} px is infinity)",
-                        rig.focus_distance,
-                        rig.disparity_at_infinity()
-                    )));
-                }
-            }
-        }
-        FocusSpec::FocusTiltSwing { distance, .. } if distance.abs() < near => {
-            return Err(Error::Invalid(format!(
-                "--focus {distance:e} puts the focus plane practically on the reference camera \
-                 (the cameras span {spread:.3e}); give a larger distance"
-            )));
-        }
-        _ => {}
     }
     Ok(())
 }

@@ -21,9 +21,7 @@ use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
 use crate::passes::refocus::{Filter, OutputFormat, Strategy};
 use crate::passes::texture::ViewStorage;
-use crate::refocus::{
-    self, resolve_focus, Averaging, FocusTarget, RefocusPlan, RefocusRequest, ResolvedFocus,
-};
+use crate::refocus::{self, resolve_focus, Averaging, RefocusPlan, RefocusRequest, ResolvedFocus};
 
 /// Most `--repeat` timing frames.
 const MAX_REPEAT: usize = 10_000;
@@ -118,10 +116,6 @@ pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, Res
     };
     // Before the focus, so a bad aperture is reported first, as the plan would.
     aperture.validate()?;
-    // Before resolving: the resolver would only say that the plane passes through the camera.
-    if let FocusTarget::Spec(spec) = &request.target {
-        super::explain_focus(lf, spec)?;
-    }
     let focus = resolve_focus(lf, &request, reference.unwrap_or_else(|| lf.grid.centre()))?;
     let req = RefocusRequest {
         focus: focus.spec,
@@ -221,11 +215,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         }
     }
     let t1 = Instant::now();
-    // Encoded averaging filters stored 8-bit texels directly (no per-texel re-encoding).
-    let storage = args.storage.unwrap_or(match args.average {
-        Averaging::Encoded => ViewStorage::Srgb8,
-        Averaging::Linear => ViewStorage::default(),
-    });
+    let storage = args
+        .storage
+        .unwrap_or_else(|| ViewStorage::for_averaging(args.average));
     let mut renderer = HeadlessRenderer::with_context(std::sync::Arc::new(ctx), &lf, storage)?;
     let t_upload = t1.elapsed().as_secs_f64() * 1e3;
     let t2 = Instant::now();

@@ -36,6 +36,16 @@ pub enum ViewStorage {
 }
 
 impl ViewStorage {
+    /// The storage to use for `averaging` when none is asked for: exact linear light for
+    /// linear averaging; for encoded averaging the texels as loaded, which the hardware can
+    /// filter directly (linear storage would need a per-texel re-encode in the shader).
+    pub fn for_averaging(averaging: crate::refocus::Averaging) -> Self {
+        match averaging {
+            crate::refocus::Averaging::Linear => ViewStorage::Linear16,
+            crate::refocus::Averaging::Encoded => ViewStorage::Srgb8,
+        }
+    }
+
     fn format(self) -> vk::Format {
         match self {
             ViewStorage::Srgb8 => vk::Format::R8G8B8A8_UNORM,

@@ -217,6 +217,9 @@ pub(crate) fn focus_plane(
     spec: &FocusSpec,
     camera: &Camera,
 ) -> Result<(FocusMethod, Option<Plane>, DVec3)> {
+    // Planes closer than this to the cameras are degenerate; saying which option put them
+    // there beats plane_term's generic "passes through the reference camera centre".
+    let near = 1e-6 * rig_scale(lf);
     let (method, plane) = match *spec {
         FocusSpec::Disparity(d) if !d.is_finite() => {
             return Err(Error::Invalid(format!("disparity must be finite, got {d}")));
@@ -230,6 +233,15 @@ pub(crate) fn focus_plane(
                         rig.disparity_at_infinity()
                     ))
                 })?;
+                if z < near {
+                    return Err(Error::Invalid(format!(
+                        "--disparity {d} px is far too large for this rig: it puts the focus \
+                         plane at depth {z:.1e}, practically on the cameras (disparity 0 is the \
+                         focus distance {}, {:.4} px is infinity)",
+                        rig.focus_distance,
+                        rig.disparity_at_infinity()
+                    )));
+                }
                 // World frame = centre camera frame: the plane z = Z.
                 let p = Plane::new(DVec3::new(0.0, 0.0, z), DVec3::Z)?;
                 (FocusMethod::HciDisparity, Some(p))
@@ -237,6 +249,13 @@ pub(crate) fn focus_plane(
             None => (FocusMethod::ClassicShift, None),
         },
         FocusSpec::Plane(p) => (FocusMethod::Plane, Some(Plane::new(p.point, p.normal)?)),
+        FocusSpec::FocusTiltSwing { distance, .. } if distance.abs() < near => {
+            return Err(Error::Invalid(format!(
+                "--focus {distance:e} puts the focus plane practically on the reference camera \
+                 (the cameras span {:.3e}); give a larger distance",
+                near / 1e-6
+            )));
+        }
         FocusSpec::FocusTiltSwing {
             distance,
             tilt_deg,
@@ -249,7 +268,7 @@ pub(crate) fn focus_plane(
         ),
     };
     let m = match &plane {
-        Some(p) => plane_term(camera, p, 1e-6 * rig_scale(lf))?,
+        Some(p) => plane_term(camera, p, near)?,
         None => DVec3::ZERO,
     };
     Ok((method, plane, m))
@@ -277,6 +296,33 @@ mod tests {
 
     fn planes() -> LightField {
         crate::synth::builtin("planes").unwrap().light_field(1)
+    }
+
+    #[test]
+    fn planes_practically_on_the_cameras_name_the_option_that_put_them_there() {
+        let lf = planes();
+        let plan = |focus| {
+            let req = super::super::RefocusRequest {
+                focus,
+                aperture: Default::default(),
+                reference: None,
+            };
+            super::super::plan(&lf, &req, &[]).unwrap_err().to_string()
+        };
+        let e = plan(FocusSpec::Disparity(1e30));
+        assert!(
+            e.contains("far too large") && e.contains("--disparity"),
+            "{e}"
+        );
+        let e = plan(FocusSpec::FocusTiltSwing {
+            distance: 1e-42,
+            tilt_deg: 0.0,
+            swing_deg: 0.0,
+        });
+        assert!(
+            e.contains("--focus 1e-42") && e.contains("practically on"),
+            "{e}"
+        );
     }
 
     #[test]
