@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 use crate::gpu::commands::{
     color_copy, host_read_barrier, image_barrier, stage, ImageTransition, Submission,
 };
-use crate::gpu::resources::Buffer;
+use crate::gpu::resources::{rgba_f32, Buffer};
 use crate::gpu::timing::Timestamps;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
@@ -274,13 +274,7 @@ impl HeadlessRenderer {
                 )
             }
             OutputFormat::Float => {
-                let pixels = bytes[..(w * h * 16) as usize]
-                    .chunks_exact(16)
-                    .map(|c| {
-                        let f = |i: usize| f32::from_ne_bytes([c[i], c[i + 1], c[i + 2], c[i + 3]]);
-                        [f(0), f(4), f(8), f(12)]
-                    })
-                    .collect();
+                let pixels = rgba_f32(&bytes[..(w * h * 16) as usize], 1.0);
                 GpuImage::Float(RefocusImage {
                     width: w,
                     height: h,

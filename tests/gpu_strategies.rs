@@ -337,7 +337,7 @@ fn frames_in_flight_release_their_resources_only_after_completion() {
     use std::rc::Rc;
     use tiltfield::gpu::commands::{color_copy, image_barrier, stage, ImageTransition};
     use tiltfield::gpu::frames::Frames;
-    use tiltfield::gpu::resources::Buffer;
+    use tiltfield::gpu::resources::{rgba_f32, Buffer};
     use tiltfield::passes::refocus::Accumulate;
 
     let lf = builtin("planes");
@@ -416,12 +416,7 @@ fn frames_in_flight_release_their_resources_only_after_completion() {
     for (k, plan) in plans.iter().enumerate().skip(disparities.len() - 2) {
         let buffer = &mut readbacks[k % 2];
         buffer.invalidate(&ctx).unwrap();
-        let pixels = buffer.bytes_mut()[..(w * h * 16) as usize]
-            .chunks_exact(16)
-            .map(|c| {
-                std::array::from_fn(|i| f32::from_ne_bytes(c[4 * i..4 * i + 4].try_into().unwrap()))
-            })
-            .collect();
+        let pixels = rgba_f32(&buffer.bytes_mut()[..(w * h * 16) as usize], 1.0);
         let gpu = RefocusImage {
             width: w,
             height: h,

@@ -174,6 +174,19 @@ impl Buffer {
     }
 }
 
+/// RGBA32F texels read back into host memory (native byte order, tightly packed), each
+/// channel multiplied by `scale`. Trailing bytes short of a texel are ignored.
+pub fn rgba_f32(bytes: &[u8], scale: f32) -> Vec<[f32; 4]> {
+    bytes
+        .chunks_exact(16)
+        .map(|c| {
+            std::array::from_fn(|k| {
+                f32::from_ne_bytes([c[4 * k], c[4 * k + 1], c[4 * k + 2], c[4 * k + 3]]) * scale
+            })
+        })
+        .collect()
+}
+
 /// Description of a 2D (array) image.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ImageDesc {

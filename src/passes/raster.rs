@@ -39,7 +39,7 @@ use crate::gpu::commands::{
     ImageTransition, Submission,
 };
 use crate::gpu::pipeline::{graphics_pipeline, Blend, DepthTest, PipelineDesc};
-use crate::gpu::resources::{Buffer, Image, ImageDesc};
+use crate::gpu::resources::{rgba_f32, Buffer, Image, ImageDesc};
 use crate::gpu::shaders;
 use crate::gpu::upload::{upload_images, ImageRegion};
 use crate::gpu::GpuContext;
@@ -400,17 +400,8 @@ impl RasterPass {
             host_read_barrier(d, cmd);
         })?;
         let bytes = t.readback.bytes_mut();
-        let read = |offset: usize, scale: f32| -> Vec<[f32; 4]> {
-            bytes[offset..offset + pixels as usize * 16]
-                .chunks_exact(16)
-                .map(|c| {
-                    std::array::from_fn(|k| {
-                        let mut w = [0u8; 4];
-                        w.copy_from_slice(&c[4 * k..4 * k + 4]);
-                        f32::from_ne_bytes(w) * scale
-                    })
-                })
-                .collect()
+        let read = |offset: usize, scale: f32| {
+            rgba_f32(&bytes[offset..offset + pixels as usize * 16], scale)
         };
         let color = read(0, 1.0 / samples.len() as f32);
         let geometry = geometry.map(|_| read(pixels as usize * 16, 1.0));
