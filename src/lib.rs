@@ -18,15 +18,18 @@
 //! - [`gpu`]: hand-written Vulkan (context, resources, upload, commands, pipelines, frames in
 //!   flight, swapchain, timing, validation);
 //! - [`passes`]: the light field texture, the refocus pass (fragment, batched and compute
-//!   strategies recording into caller-owned targets) and the mesh rasterizer;
+//!   strategies recording into caller-owned targets), the scene pass (point cloud, cameras and
+//!   the plane as a transparent quad), the window compositor and the mesh rasterizer;
 //! - [`headless`]: offscreen rendering for the CLI and the tests;
+//! - [`viewer`]: the interactive window (`tiltfield view`): UI state, input, progressive
+//!   refinement, the scene panel camera, and the window loop;
 //! - [`synth`]: synthetic scenes with exact ground truth: a CPU ray tracer of textured quads,
 //!   triangle meshes from glTF or the built-in scenes rendered by the Vulkan rasterizer
 //!   (`tiltfield synth`), and the optical ground truth of a tilt-shift lens;
 //! - [`cli`]: the `tiltfield` command line; it parses options into library requests and
 //!   reports the results.
 //!
-//! Everything renders offscreen; there is no window yet. Conventions and equations (camera
+//! `tiltfield view` opens a window; every other command renders offscreen. Conventions and equations (camera
 //! model, homographies, masks, disparity, colour) are stated in `docs/conventions.md`; the
 //! code cites its sections as `docs/conventions.md §N`.
 
@@ -42,5 +45,6 @@ pub mod passes;
 pub mod refocus;
 pub mod scene;
 pub mod synth;
+pub mod viewer;
 
 pub use error::{Error, Result};

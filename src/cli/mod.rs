@@ -6,6 +6,7 @@ mod focus;
 mod info;
 mod render;
 mod synth;
+mod view;
 
 use std::path::{Path, PathBuf};
 
@@ -39,6 +40,8 @@ pub enum Command {
     /// Write the point cloud of the depth map's view as binary PLY (positions, colours,
     /// normals), optionally with the refocus plane and the camera centres.
     Cloud(Box<cloud::CloudArgs>),
+    /// Interactive tilt-shift refocus in a window: refocus image and 3-D scene with the plane.
+    View(Box<view::ViewArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -71,7 +74,7 @@ pub struct GpuArgs {
 }
 
 impl GpuArgs {
-    fn options(&self) -> GpuOptions {
+    pub(crate) fn options(&self) -> GpuOptions {
         let env = GpuOptions::from_env();
         GpuOptions {
             device: self.device.clone().or(env.device),
@@ -160,6 +163,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render(a) => render::run(&a),
         Command::Synth(a) => synth::run(&a),
         Command::Cloud(a) => cloud::run(&a),
+        Command::View(a) => view::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use glam::{DVec2, DVec3};
+use glam::DVec2;
 use serde_json::json;
 
 use super::focus::{focus_json, focus_summary, FocusArgs, FOCUS_OPTIONS};
@@ -126,18 +126,7 @@ pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, Res
     Ok((plan, focus))
 }
 
-/// The JSON description of a plan (shared by `render --json` and `demo`).
-pub fn plan_json(plan: &RefocusPlan) -> serde_json::Value {
-    let v3 = |v: DVec3| [v.x, v.y, v.z];
-    json!({
-        "method": plan.method,
-        "plane": plan.plane.map(|p| json!({"point": v3(p.point), "normal": v3(p.normal)})),
-        "reference_view": [plan.reference.x, plan.reference.y],
-        "reference_centre": v3(plan.reference_camera.centre()),
-        "views_used": plan.views.len(),
-        "views": plan.views.iter().map(|v| json!({"s": v.s, "t": v.t, "weight": v.weight})).collect::<Vec<_>>(),
-    })
-}
+pub use crate::refocus::plan_json;
 
 /// Writes a GPU result to `path` (PNG or EXR by extension). Returns the uncovered pixel count.
 pub fn save(image: &GpuImage, path: &std::path::Path) -> Result<usize> {
