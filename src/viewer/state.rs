@@ -466,3 +466,162 @@ fn modify(
         _ => Ok(()),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::plane::tilt_swing_normal;
+
+    fn lf(name: &str) -> LightField {
+        crate::synth::builtin(name).unwrap().light_field(1)
+    }
+
+    fn state(lf: &LightField, focus: FocusSpec) -> ViewerState {
+        ViewerState::new(
+            lf,
+            focus.into(),
+            Aperture::default(),
+            None,
+            Averaging::Linear,
+            Vec::new(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn keys_tilt_swing_and_move_the_plane_as_the_nudge_options_do() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        let camera = s.plan.reference_camera;
+        let before = KeyboardPlane::of(&s.resolved.plane.unwrap(), &camera).unwrap();
+        assert_eq!(s.apply(&lf, Action::Tilt(1.0)), Effect::Changed);
+        assert_eq!(s.apply(&lf, Action::Swing(-2.0)), Effect::Changed);
+        assert_eq!(s.apply(&lf, Action::Distance(0.01)), Effect::Changed);
+        assert_eq!(s.version, 3);
+        let after = KeyboardPlane::of(&s.plan.plane.unwrap(), &camera).unwrap();
+        assert!((after.tilt_deg - 1.0).abs() < 1e-9, "{after:?}");
+        assert!((after.swing_deg + 2.0).abs() < 1e-9, "{after:?}");
+        assert!((after.distance / before.distance - 1.01).abs() < 1e-9);
+        let n = camera.r * s.plan.plane.unwrap().normal;
+        assert!((n - tilt_swing_normal(1.0, -2.0)).length() < 1e-9);
+        // Reset brings back the initial plan.
+        assert_eq!(s.apply(&lf, Action::Reset), Effect::Changed);
+        assert_eq!(s.resolved.spec, FocusSpec::Disparity(0.0));
+    }
+
+    #[test]
+    fn moving_the_viewpoint_keeps_the_plane_fixed_in_the_world() {
+        let lf = lf("planes");
+        let mut s = state(
+            &lf,
+            FocusSpec::FocusTiltSwing {
+                distance: 3.0,
+                tilt_deg: 20.0,
+                swing_deg: 0.0,
+            },
+        );
+        let plane = s.plan.plane.unwrap();
+        assert_eq!(
+            s.apply(&lf, Action::MoveView(DVec2::new(0.75, -0.5))),
+            Effect::Changed
+        );
+        assert_eq!(s.reference(), DVec2::new(2.75, 1.5));
+        let moved = s.plan.plane.unwrap();
+        assert!((moved.normal - plane.normal).length() < 1e-12);
+        assert!(moved.signed_distance(plane.point).abs() < 1e-12);
+        // The viewpoint is clamped to the grid and the aperture follows it.
+        s.apply(&lf, Action::MoveView(DVec2::new(10.0, 10.0)));
+        assert_eq!(s.reference(), DVec2::new(4.0, 4.0));
+        assert_eq!(s.apply(&lf, Action::Recentre), Effect::Changed);
+        assert_eq!(s.reference(), lf.grid.centre());
+    }
+
+    #[test]
+    fn refused_actions_keep_the_state_and_say_why() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        // Three collinear clicks.
+        for x in [10.0, 20.0] {
+            assert_eq!(
+                s.apply(&lf, Action::ThreeClick(DVec2::new(x, 30.0))),
+                Effect::Marked
+            );
+            assert!(s.message.as_deref().unwrap().contains("of 3"));
+        }
+        let e = s.apply(&lf, Action::ThreeClick(DVec2::new(30.0, 30.0)));
+        assert!(matches!(e, Effect::Refused(_)), "{e:?}");
+        assert_eq!(s.version, 0);
+        assert!(s.pending_clicks.is_empty());
+        // A click outside the view.
+        let e = s.apply(&lf, Action::Click(DVec2::new(500.0, 3.0)));
+        assert!(matches!(e, Effect::Refused(ref m) if m.contains("outside")), "{e:?}");
+        // An aperture of radius 0 around a viewpoint between views holds no view.
+        s.apply(&lf, Action::MoveView(DVec2::new(0.5, 0.0)));
+        let v = s.version;
+        for _ in 0..10 {
+            s.apply(&lf, Action::ApertureRadius(-0.5));
+        }
+        assert!(s.message.as_deref().unwrap().contains("no usable view"), "{:?}", s.message);
+        assert!(!s.plan.views.is_empty());
+        assert!(s.version > v, "the radius shrank as far as it could");
+        // Classic shift-and-sum has no plane to tilt.
+        let mut classic_lf = lf.clone();
+        classic_lf.rig = None;
+        let mut c = state(&classic_lf, FocusSpec::Disparity(0.5));
+        let e = c.apply(&classic_lf, Action::Tilt(1.0));
+        assert!(matches!(e, Effect::Refused(ref m) if m.contains("no plane")), "{e:?}");
+        assert_eq!(c.resolved.spec, FocusSpec::Disparity(0.5));
+        // But scrolling changes its disparity.
+        assert_eq!(c.apply(&classic_lf, Action::DisparitySteps(2.0)), Effect::Changed);
+        match c.resolved.spec {
+            FocusSpec::Disparity(d) => {
+                assert!((d - 0.5 - 2.0 * disparity_step(&classic_lf)).abs() < 1e-12)
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn clicks_and_scene_picks_set_the_plane_through_the_library() {
+        let lf = lf("tilted");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        assert_eq!(
+            s.apply(&lf, Action::Click(DVec2::new(32.0, 40.0))),
+            Effect::Changed
+        );
+        assert_eq!(s.resolved.how, "click");
+        let expected = resolve_focus(
+            &lf,
+            &FocusRequest {
+                target: FocusTarget::Click {
+                    pixel: DVec2::new(32.0, 40.0),
+                    normals: NormalParams::default(),
+                },
+                nudge: None,
+            },
+            lf.grid.centre(),
+        )
+        .unwrap();
+        assert_eq!(s.resolved.plane, expected.plane);
+        assert_eq!(s.anchor(), expected.pick.unwrap().points.first().copied());
+        // Three scene picks give the plane through them.
+        let pts = [
+            DVec3::new(0.0, 0.0, 3.0),
+            DVec3::new(1.0, 0.0, 3.0),
+            DVec3::new(0.0, 1.0, 4.0),
+        ];
+        for p in pts {
+            s.apply(&lf, Action::ScenePick(p));
+        }
+        assert_eq!(s.resolved.how, "three-points-3d");
+        let plane = s.resolved.plane.unwrap();
+        for p in pts {
+            assert!(plane.signed_distance(p).abs() < 1e-9);
+        }
+        // Aperture shape cycles and averaging toggles.
+        s.apply(&lf, Action::CycleAperture);
+        assert_eq!(s.aperture().shape, ApertureShape::Square);
+        s.apply(&lf, Action::ToggleAveraging);
+        assert_eq!(s.averaging(), Averaging::Encoded);
+    }
+}
