@@ -219,6 +219,44 @@ fn scripted_session_matches_render_and_has_no_validation_errors() {
 }
 
 #[test]
+fn an_idle_viewer_renders_nothing_and_present_modes_fall_back_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let script = d.join("idle.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "wait-converged\nscreenshot {d}/a\nwait 1.0\nscreenshot {d}/b\nquit\n",
+            d = d.display()
+        ),
+    )
+    .unwrap();
+    for mode in ["immediate", "mailbox"] {
+        let o = view_in_xvfb(&[
+            "builtin:planes",
+            "--present",
+            mode,
+            "--script",
+            script.to_str().unwrap(),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{mode}: {}", stderr(&o));
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(report["validation_errors"], 0);
+        let used = report["present_mode"].as_str().unwrap();
+        assert!(used == mode || used == "fifo", "{mode} → {used}");
+        // A second of idling between the screenshots: only the second screenshot's own frame.
+        let a = json_file(&d.join("a.json"))["frames_presented"]
+            .as_u64()
+            .unwrap();
+        let b = json_file(&d.join("b.json"))["frames_presented"]
+            .as_u64()
+            .unwrap();
+        assert_eq!(b, a + 1, "{mode}: frames while idle");
+    }
+}
+
+#[test]
 fn bad_scripts_are_refused_with_the_line_before_any_window_opens() {
     let dir = tempfile::tempdir().unwrap();
     let s = dir.path().join("bad.txt");

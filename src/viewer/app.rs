@@ -1083,7 +1083,12 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
             if let Some(w) = &result.window {
                 save_png(w, &with_suffix(&prefix, "_window.png"))?;
             }
-            let json = screenshot_json(&s.state);
+            let mut json = screenshot_json(&s.state);
+            if let Some(obj) = json.as_object_mut() {
+                // Frames presented so far (this one included): scripts can check that an idle
+                // viewer renders nothing.
+                obj.insert("frames_presented".into(), s.frames.into());
+            }
             let path = with_suffix(&prefix, ".json");
             std::fs::write(&path, format!("{json:#}\n")).map_err(|e| Error::io(&path, e))?;
             log::info!("screenshot {}", prefix.display());

@@ -554,14 +554,21 @@ mod tests {
         assert!(s.pending_clicks.is_empty());
         // A click outside the view.
         let e = s.apply(&lf, Action::Click(DVec2::new(500.0, 3.0)));
-        assert!(matches!(e, Effect::Refused(ref m) if m.contains("outside")), "{e:?}");
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("outside")),
+            "{e:?}"
+        );
         // An aperture of radius 0 around a viewpoint between views holds no view.
         s.apply(&lf, Action::MoveView(DVec2::new(0.5, 0.0)));
         let v = s.version;
         for _ in 0..10 {
             s.apply(&lf, Action::ApertureRadius(-0.5));
         }
-        assert!(s.message.as_deref().unwrap().contains("no usable view"), "{:?}", s.message);
+        assert!(
+            s.message.as_deref().unwrap().contains("no usable view"),
+            "{:?}",
+            s.message
+        );
         assert!(!s.plan.views.is_empty());
         assert!(s.version > v, "the radius shrank as far as it could");
         // Classic shift-and-sum has no plane to tilt.
@@ -569,10 +576,16 @@ mod tests {
         classic_lf.rig = None;
         let mut c = state(&classic_lf, FocusSpec::Disparity(0.5));
         let e = c.apply(&classic_lf, Action::Tilt(1.0));
-        assert!(matches!(e, Effect::Refused(ref m) if m.contains("no plane")), "{e:?}");
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("no plane")),
+            "{e:?}"
+        );
         assert_eq!(c.resolved.spec, FocusSpec::Disparity(0.5));
         // But scrolling changes its disparity.
-        assert_eq!(c.apply(&classic_lf, Action::DisparitySteps(2.0)), Effect::Changed);
+        assert_eq!(
+            c.apply(&classic_lf, Action::DisparitySteps(2.0)),
+            Effect::Changed
+        );
         match c.resolved.spec {
             FocusSpec::Disparity(d) => {
                 assert!((d - 0.5 - 2.0 * disparity_step(&classic_lf)).abs() < 1e-12)
