@@ -214,10 +214,30 @@ impl Compositor {
         bounds: vk::Extent2D,
         mode: PanelMode,
     ) {
-        let x0 = rect.x.max(0.0);
-        let y0 = rect.y.max(0.0);
-        let x1 = (rect.x + rect.width).min(bounds.width as f32);
-        let y1 = (rect.y + rect.height).min(bounds.height as f32);
+        self.draw_part(ctx, cmd, set, rect, rect, bounds, mode);
+    }
+
+    /// [`Compositor::draw`] restricted to the part `clip` of `rect`: only those pixels are
+    /// shaded (a sparse overlay costs what it covers, not the whole window).
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw_part(
+        &self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        set: vk::DescriptorSet,
+        rect: Rect,
+        clip: Rect,
+        bounds: vk::Extent2D,
+        mode: PanelMode,
+    ) {
+        let x0 = rect.x.max(clip.x).max(0.0);
+        let y0 = rect.y.max(clip.y).max(0.0);
+        let x1 = (rect.x + rect.width)
+            .min(clip.x + clip.width)
+            .min(bounds.width as f32);
+        let y1 = (rect.y + rect.height)
+            .min(clip.y + clip.height)
+            .min(bounds.height as f32);
         if x1 - x0 < 1.0 || y1 - y0 < 1.0 {
             return;
         }

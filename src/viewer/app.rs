@@ -28,6 +28,7 @@ use crate::geometry::picking::KeyboardPlane;
 use crate::gpu::swapchain::PresentMode;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
+use crate::passes::panel::Rect;
 use crate::passes::scene::{SceneOverlay, SceneView};
 use crate::passes::texture::ViewStorage;
 use crate::refocus::{Averaging, FocusRequest, FocusSpec, RefocusPlan};
@@ -189,6 +190,8 @@ struct Session<'a> {
     full_wall_ms: Vec<f64>,
     last_gpu_ms: Option<f64>,
     fps: f64,
+    /// Where the text canvas has content (what the compositor draws of it).
+    overlay_parts: Vec<Rect>,
 }
 
 impl Session<'_> {
@@ -254,6 +257,7 @@ impl Session<'_> {
         let (w, h) = self.layout.window;
         if self.canvas.width != w || self.canvas.height != h {
             self.canvas = Canvas::new(w, h);
+            self.overlay_parts.clear();
         }
         let (l1, l2) = self.status_lines();
         let s = self.layout.status;
@@ -278,6 +282,8 @@ impl Session<'_> {
             let text: String = msg.chars().take(chars).collect();
             self.canvas
                 .fill(area.x as i64, y - 4, area.width as i64, 20, PANEL_BG);
+            self.overlay_parts
+                .push(Rect::new(area.x, (y - 4) as f32, area.width, 20.0));
             self.canvas.text(area.x as i64 + 8, y, 1, &text, WARN);
         }
         // Marks of the three-click plane in progress.
@@ -285,6 +291,8 @@ impl Session<'_> {
         for p in &self.state.pending_clicks {
             let at = self.layout.refocus_to_window(*p, size);
             self.canvas.cross(at.x, at.y, 6, [255, 60, 40, 255]);
+            self.overlay_parts
+                .push(Rect::new(at.x as f32 - 8.0, at.y as f32 - 8.0, 17.0, 17.0));
         }
         if self.state.show_help {
             let sc = self.layout.scene;
@@ -294,6 +302,12 @@ impl Session<'_> {
             let what_w = CONTROLS.iter().map(|(_, w)| w.len()).max().unwrap_or(0) as i64 * 8;
             self.canvas
                 .fill(x0, y0, key_w + what_w + 16, rows * 18 + 12, PANEL_BG);
+            self.overlay_parts.push(Rect::new(
+                x0 as f32,
+                y0 as f32,
+                (key_w + what_w + 16) as f32,
+                (rows * 18 + 12) as f32,
+            ));
             self.canvas
                 .text(x0 + 8, y0 + 6, 1, "controls (H hides)", WARN);
             for (i, (key, what)) in CONTROLS.iter().enumerate() {
@@ -677,6 +691,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         full_wall_ms: Vec::new(),
         last_gpu_ms: None,
         fps: 0.0,
+        overlay_parts: Vec::new(),
     };
 
     let mut script: VecDeque<Line> = opts.script.iter().cloned().collect();
@@ -1010,6 +1025,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
             layout: &s.layout,
             capture_window: screenshot.is_some(),
             tag: (s.refinement, interactive),
+            overlay_parts: &s.overlay_parts,
         })?;
         if overlay.is_some() {
             s.cloud_dirty = false;
@@ -1055,6 +1071,13 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
             timings.extend(gpu.drain_timings()?);
         }
         for t in timings {
+            log::debug!(
+                "frame: {} views at 1/{}: accumulate {:.1} ms, frame {:.1} ms (GPU)",
+                t.views,
+                t.divisor,
+                t.accumulate_ms,
+                t.frame_ms
+            );
             s.refiner
                 .measured(t.views, t.divisor, t.accumulate_ms, t.frame_ms);
             s.last_gpu_ms = Some(t.frame_ms);

@@ -59,6 +59,8 @@ pub struct FrameRequest<'a> {
     pub capture_window: bool,
     /// Returned with this frame's timings (the caller's refinement id, interactive or not).
     pub tag: (u32, bool),
+    /// The parts of the window the text overlay has content in (only these are composited).
+    pub overlay_parts: &'a [Rect],
 }
 
 /// GPU times of a completed frame.
@@ -607,7 +609,17 @@ impl ViewerGpu {
                 overlay.image.desc.width as f32,
                 overlay.image.desc.height as f32,
             );
-            compositor.draw(&ctx, cmd, overlay.set, full, extent, PanelMode::Overlay);
+            for part in req.overlay_parts {
+                compositor.draw_part(
+                    &ctx,
+                    cmd,
+                    overlay.set,
+                    full,
+                    *part,
+                    extent,
+                    PanelMode::Overlay,
+                );
+            }
         }
         // SAFETY: inside the rendering instance begun above.
         unsafe { d.cmd_end_rendering(cmd) };
