@@ -576,6 +576,21 @@ fn frame_options_are_checked_before_any_work() {
         ],
         &["not a video"],
     );
+    // --frame and --frames together are a usage error (exit status 2).
+    let o = tiltfield(&[
+        "render",
+        s(d),
+        "--frame",
+        "1",
+        "--frames",
+        "1..2",
+        "-o",
+        s(&pat),
+        "--disparity",
+        "0",
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("cannot be used with"), "{}", stderr(&o));
     fails_with(&["info", s(d), "--frame", "12"], &["no frame 12", "1–3"]);
     fails_with(
         &["cloud", s(d), "--frame", "12", "-o", s(&d.join("c.ply"))],
