@@ -117,8 +117,7 @@ pub struct BatchReport {
 }
 
 impl BatchReport {
-    /// Mean of one timing over the frames (the first frame's set-up left out of uploads when
-    /// there are others).
+    /// Mean of one timing over the frames (`None` when no frame has it).
     pub fn mean(&self, f: impl Fn(&FrameTimes) -> Option<f64>) -> Option<f64> {
         let v: Vec<f64> = self.frames.iter().filter_map(f).collect();
         (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)

@@ -116,6 +116,11 @@ fn lytro_names_with_a_constant_scene_number() {
     let v = json_of(&tiltfield(&["info", s(tmp.path()), "--json"]));
     assert_eq!(v["source"]["format"], "grid_folder");
     assert_eq!(v["source"]["naming"]["fields"][1]["kind"], "row");
+    // A grid folder is one light field, not a video.
+    fails_with(
+        &["info", s(tmp.path()), "--frame", "1"],
+        &["frame 1", "single light field, not a video"],
+    );
     let out = tmp.path().join("out/refocus.png");
     let o = tiltfield(&["render", s(tmp.path()), "--disparity", "0.5", "-o", s(&out)]);
     assert!(o.status.success(), "{}", stderr(&o));
