@@ -8,8 +8,8 @@
 //! Layout:
 //! - [`geometry`]: cameras, planes, homographies, apertures, depth → points, normals,
 //!   plane picking — pure f64 maths, no GPU;
-//! - [`lightfield`]: the data model and the loaders (HCI, manifest, grid folders, PFM), PLY
-//!   output;
+//! - [`lightfield`]: the data model and the loaders (HCI, manifest, grid folders, PFM,
+//!   Technicolor-layout camera-array video and its frame sequence), PLY output;
 //! - [`refocus`]: focus requests → the refocus plane (focus), → per-view warps (plan), the f64
 //!   CPU reference renderer;
 //! - [`scene`]: scene geometry as CPU data — the point cloud, the plane quad, camera markers,
@@ -23,6 +23,8 @@
 //! - [`headless`]: offscreen rendering for the CLI and the tests;
 //! - [`viewer`]: the interactive window (`tiltfield view`): UI state, input, progressive
 //!   refinement, the scene panel camera, and the window loop;
+//! - [`batch`]: a frame range of a camera-array video with one GPU set-up (decode, refocus and
+//!   encode overlapped on three threads);
 //! - [`synth`]: synthetic scenes with exact ground truth: a CPU ray tracer of textured quads,
 //!   triangle meshes from glTF or the built-in scenes rendered by the Vulkan rasterizer
 //!   (`tiltfield synth`), and the optical ground truth of a tilt-shift lens;
@@ -33,6 +35,7 @@
 //! model, homographies, masks, disparity, colour) are stated in `docs/conventions.md`; the
 //! code cites its sections as `docs/conventions.md §N`.
 
+pub mod batch;
 pub mod cli;
 pub mod color;
 pub mod error;

@@ -4,6 +4,7 @@
 //! validation errors. A machine without xvfb fails these tests (tools/setup.sh installs it).
 
 mod common;
+mod realworld_rig;
 
 use std::path::Path;
 use std::process::{Command, Output};
@@ -254,6 +255,58 @@ fn an_idle_viewer_renders_nothing_and_present_modes_fall_back_cleanly() {
             .unwrap();
         assert_eq!(b, a + 1, "{mode}: frames while idle");
     }
+}
+
+#[test]
+fn video_frames_step_with_comma_and_period_and_match_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let video = d.join("video");
+    std::fs::create_dir_all(&video).unwrap();
+    let rig = realworld_rig::rig(tiltfield::lightfield::GridSize { cols: 4, rows: 4 }, 64, 48);
+    realworld_rig::write_video(&video, &rig, "Birthday", &[1, 2, 3]);
+    let (p, n) = rig.wall_plane();
+    let plane: Vec<String> = [p.x, p.y, p.z, n.x, n.y, n.z]
+        .iter()
+        .map(|v| format!("{v:?}"))
+        .collect();
+    let plane = format!("--plane={}", plane.join(","));
+    let script = d.join("frames.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "wait-converged\nscreenshot {d}/f1\nkey PERIOD\nwait-converged\nscreenshot {d}/f2\n\
+             key PERIOD 2\nwait-converged\nscreenshot {d}/f3\nkey COMMA\nwait-converged\n\
+             screenshot {d}/g2\nquit\n",
+            d = d.display()
+        ),
+    )
+    .unwrap();
+    let v = video.to_str().unwrap();
+    let o = view_in_xvfb(&[v, &plane, "--script", script.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0);
+    // Each screenshot shows the frame it names, exactly as render --frame draws it; the
+    // period at the last frame stays there.
+    for (shot, frame) in [("f1", 1), ("f2", 2), ("f3", 3), ("g2", 2)] {
+        let state = json_file(&d.join(format!("{shot}.json")));
+        assert_eq!(state["frame"], frame, "{shot}");
+        let out = d.join(format!("r{shot}.png"));
+        let frame_arg = format!("--frame={frame}");
+        let o = tiltfield(&["render", v, &plane, &frame_arg, "-o", out.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(
+            std::fs::read(d.join(format!("{shot}_refocus.png"))).unwrap(),
+            std::fs::read(&out).unwrap(),
+            "{shot}: viewer ≠ render --frame {frame}"
+        );
+    }
+    assert_ne!(
+        std::fs::read(d.join("f1_refocus.png")).unwrap(),
+        std::fs::read(d.join("f2_refocus.png")).unwrap(),
+        "frames differ"
+    );
 }
 
 #[test]

@@ -3,6 +3,7 @@
 mod cloud;
 mod demo;
 mod focus;
+mod frames;
 mod info;
 mod render;
 mod synth;
@@ -60,6 +61,10 @@ pub struct LightFieldArgs {
     /// Grid folders only: distance between neighbouring views in world units.
     #[arg(long, value_name = "B", default_value_t = 1.0)]
     pub baseline: f64,
+    /// Camera-array videos only: the frame, by its number in the file names (default: the
+    /// first frame).
+    #[arg(long, value_name = "N")]
+    pub frame: Option<u64>,
 }
 
 /// Vulkan device options.
@@ -104,6 +109,11 @@ pub fn device_load_limits(ctx: &GpuContext) -> LoadLimits {
 /// [`load_light_field`], refusing a light field beyond `limits` before decoding its views.
 pub fn load_light_field_within(args: &LightFieldArgs, limits: &LoadLimits) -> Result<LightField> {
     if let Some(name) = args.light_field.strip_prefix("builtin:") {
+        if let Some(n) = args.frame {
+            return Err(Error::Invalid(format!(
+                "--frame {n}: builtin:{name} is a single light field, not a video"
+            )));
+        }
         return builtin_light_field(name);
     }
     if args.baseline.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
@@ -123,7 +133,7 @@ pub fn load_light_field_within(args: &LightFieldArgs, limits: &LoadLimits) -> Re
         focal_px: args.focal_px,
         baseline: args.baseline,
     };
-    lightfield::open_within(Path::new(&args.light_field), &opts, limits)
+    lightfield::open_frame_within(Path::new(&args.light_field), &opts, limits, args.frame)
 }
 
 /// Renders built-in scene `name` (2×2 supersampling).

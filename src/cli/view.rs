@@ -14,6 +14,7 @@ use super::{load_light_field, parse_numbers, GpuArgs, LightFieldArgs};
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::gpu::swapchain::PresentMode;
+use crate::lightfield::video::FrameSequence;
 use crate::passes::texture::ViewStorage;
 use crate::refocus::Averaging;
 use crate::viewer::{self, script, ViewerOptions};
@@ -31,6 +32,10 @@ pub struct ViewArgs {
     /// Grid folders only: distance between neighbouring views in world units.
     #[arg(long, value_name = "B", default_value_t = 1.0)]
     pub baseline: f64,
+    /// Camera-array videos only: the frame to start on (default: the first); , and . step
+    /// through frames, Space plays.
+    #[arg(long, value_name = "N")]
+    pub frame: Option<u64>,
     #[command(flatten)]
     pub focus: FocusArgs,
     /// Aperture shape: disk, square or gaussian.
@@ -106,7 +111,16 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             .unwrap_or_else(|| DEFAULT_SCENE.to_string()),
         focal_px: args.focal_px,
         baseline: args.baseline,
+        frame: args.frame,
     })?;
+    let video = match &args.light_field {
+        Some(path) if FrameSequence::is_video(std::path::Path::new(path)) => {
+            let sequence = FrameSequence::open(std::path::Path::new(path))?;
+            let frame = args.frame.unwrap_or_else(|| sequence.first());
+            Some((sequence, frame))
+        }
+        _ => None,
+    };
     let opts = ViewerOptions {
         focus,
         aperture,
@@ -120,6 +134,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         gpu: args.gpu.options(),
         storage: ViewStorage::default(),
         screenshot_prefix: args.screenshot_prefix.clone(),
+        video,
     };
     let report = viewer::run(&lf, opts)?;
     let state = &report.state;

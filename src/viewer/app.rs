@@ -27,7 +27,8 @@ use crate::geometry::depth::ViewDepth;
 use crate::geometry::picking::KeyboardPlane;
 use crate::gpu::swapchain::PresentMode;
 use crate::gpu::{GpuContext, GpuOptions};
-use crate::lightfield::LightField;
+use crate::lightfield::video::{FrameLoader, FrameSequence};
+use crate::lightfield::{LightField, LoadLimits};
 use crate::passes::panel::Rect;
 use crate::passes::scene::{SceneOverlay, SceneView};
 use crate::passes::texture::ViewStorage;
@@ -74,6 +75,8 @@ pub struct ViewerOptions {
     pub storage: ViewStorage,
     /// Where `P` writes screenshots (prefix; a counter is appended).
     pub screenshot_prefix: PathBuf,
+    /// The video `lf` is a frame of, and that frame's number: `,` `.` step, Space plays.
+    pub video: Option<(FrameSequence, u64)>,
 }
 
 /// Frame statistics of a session.
@@ -192,6 +195,33 @@ struct Session<'a> {
     fps: f64,
     /// Where the text canvas has content (what the compositor draws of it).
     overlay_parts: Vec<Rect>,
+    /// The video frame shown, for videos.
+    frame: Option<u64>,
+}
+
+/// Video playback: the frames, the background decoder, what is shown and wanted.
+struct Video {
+    sequence: FrameSequence,
+    loader: FrameLoader,
+    shown: u64,
+    wanted: u64,
+    playing: bool,
+}
+
+impl Video {
+    /// Asks for the next few frames after the one shown (wrapping to the first at the end).
+    fn request_ahead(&mut self) {
+        let mut f = self.shown;
+        let mut next = Vec::new();
+        for _ in 0..2 {
+            f = self
+                .sequence
+                .next(f)
+                .unwrap_or_else(|| self.sequence.first());
+            next.push(f);
+        }
+        self.loader.replace_requests(next);
+    }
 }
 
 impl Session<'_> {
@@ -219,7 +249,11 @@ impl Session<'_> {
                 _ => "no plane".into(),
             },
         };
-        let line1 = format!("{plane}  [{}]", self.state.resolved.how);
+        let line1 = format!(
+            "{plane}  [{}]{}",
+            self.state.resolved.how,
+            self.frame.map_or(String::new(), |f| format!("  frame {f}"))
+        );
         let a = self.state.aperture();
         let (done, total) = self.refiner.progress();
         let line2 = format!(
@@ -692,7 +726,16 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         last_gpu_ms: None,
         fps: 0.0,
         overlay_parts: Vec::new(),
+        frame: opts.video.as_ref().map(|(_, f)| *f),
     };
+    // Frames are decoded on a background thread, two ahead while playing.
+    let mut video = opts.video.clone().map(|(sequence, frame)| Video {
+        loader: FrameLoader::new(sequence.clone(), LoadLimits::default(), 2),
+        sequence,
+        shown: frame,
+        wanted: frame,
+        playing: false,
+    });
 
     let mut script: VecDeque<Line> = opts.script.iter().cloned().collect();
     let mut pending: VecDeque<Pending> = VecDeque::new();
@@ -719,7 +762,11 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
                 wait_until = None;
             }
             if wait_converged {
-                if s.refiner.converged() && s.state.version == s.last_version {
+                // A video frame asked for and not yet shown is not converged either.
+                let settled = video.as_ref().map_or(true, |v| {
+                    v.playing || (v.shown == v.wanted && v.loader.outstanding() == 0)
+                });
+                if settled && s.refiner.converged() && s.state.version == s.last_version {
                     wait_converged = false;
                 } else {
                     break;
@@ -809,6 +856,13 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
             let mut timeout: Option<f64> = None;
             if let Some(t) = wait_until {
                 timeout = Some(t.saturating_duration_since(Instant::now()).as_secs_f64());
+            }
+            if video
+                .as_ref()
+                .is_some_and(|v| v.playing || v.loader.outstanding() > 0)
+            {
+                // A frame is being decoded: look for it every 10 ms.
+                timeout = Some(timeout.map_or(0.01, |t: f64| t.min(0.01)));
             }
             if s.refiner.divisor() > 1 {
                 let left = INTERACTION.saturating_sub(s.last_input.elapsed());
@@ -912,7 +966,32 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         }
         // One key press per frame, so a held key (or a script's COUNT) is a run of frames.
         if let Some(Pending::Key(key, sh)) = pending.pop_front() {
-            if let Some(action) = action_for_key(key, sh) {
+            if matches!(key, Key::Comma | Key::Period | Key::Space) {
+                match video.as_mut() {
+                    Some(v) => {
+                        let step = match key {
+                            Key::Comma => v.sequence.previous(v.wanted),
+                            Key::Period => v.sequence.next(v.wanted),
+                            _ => {
+                                v.playing = !v.playing;
+                                None
+                            }
+                        };
+                        if let Some(f) = step {
+                            v.playing = false;
+                            v.wanted = f;
+                            v.loader.replace_requests([f]);
+                        } else if v.playing {
+                            v.request_ahead();
+                        }
+                        s.text_dirty = true;
+                    }
+                    None => s.refuse(format!(
+                        "'{}' is not a video: , . and Space step and play camera-array videos",
+                        lf.name
+                    )),
+                }
+            } else if let Some(action) = action_for_key(key, sh) {
                 if !matches!(
                     action,
                     Action::Screenshot | Action::Quit | Action::ToggleHelp
@@ -937,6 +1016,37 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         }
         if minimised {
             continue;
+        }
+
+        // Video: show the newest decoded frame that is still wanted; keep playing.
+        if let Some(v) = video.as_mut() {
+            while let Some(decoded) = v.loader.try_recv() {
+                let keep = if v.playing {
+                    decoded.frame > v.shown
+                } else {
+                    decoded.frame == v.wanted
+                };
+                if !keep {
+                    continue;
+                }
+                match decoded.light_field {
+                    Ok(frame_lf) => {
+                        gpu.replace_views(&frame_lf)?;
+                        v.shown = decoded.frame;
+                        v.wanted = decoded.frame;
+                        s.frame = Some(decoded.frame);
+                        s.state.version += 1;
+                        s.text_dirty = true;
+                    }
+                    Err(e) => {
+                        v.playing = false;
+                        s.refuse(format!("frame {}: {e}", decoded.frame));
+                    }
+                }
+            }
+            if v.playing && v.loader.outstanding() == 0 {
+                v.request_ahead();
+            }
         }
 
         // Window size.
@@ -1108,6 +1218,9 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
             }
             let mut json = screenshot_json(&s.state);
             if let Some(obj) = json.as_object_mut() {
+                if let Some(f) = s.frame {
+                    obj.insert("frame".into(), f.into());
+                }
                 // Frames presented so far (this one included): scripts can check that an idle
                 // viewer renders nothing.
                 obj.insert("frames_presented".into(), s.frames.into());

@@ -40,6 +40,8 @@ pub const CONTROLS: &[(&str, &str)] = &[
     ("A", "aperture disk/square/gaussian"),
     ("I/J/K/L", "move viewpoint up/left/down/right"),
     ("C", "recentre viewpoint"),
+    (", / .", "previous/next video frame"),
+    ("Space", "play/pause video"),
     ("E", "linear/encoded averaging"),
     ("R", "reset"),
     ("P", "screenshot"),

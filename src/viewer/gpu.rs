@@ -11,7 +11,7 @@
 //!
 //! Destruction order: wait idle → frames (run deferred releases) → readback → overlay staging
 //! and image → scene target → scene pass → refocus targets → refocus pass → texture →
-//! timestamps → compositor → swapchain (and its surface). The context goes last, with its
+//! frame staging → timestamps → compositor → swapchain (and its surface). The context goes last, with its
 //! last `Arc`.
 
 use std::sync::Arc;
@@ -30,6 +30,7 @@ use crate::gpu::frames::Frames;
 use crate::gpu::resources::{Buffer, Image, ImageDesc};
 use crate::gpu::swapchain::{Acquire, PresentMode, Swapchain};
 use crate::gpu::timing::Timestamps;
+use crate::gpu::upload::Staging;
 use crate::gpu::GpuContext;
 use crate::lightfield::LightField;
 use crate::passes::panel::{Compositor, PanelMode, Rect};
@@ -122,6 +123,8 @@ pub struct ViewerGpu {
     targets: Option<RefocusTargets>,
     pass: Option<RefocusPass>,
     texture: Option<LightFieldTexture>,
+    /// Kept between video frames (see [`LightFieldTexture::reupload`]).
+    staging: Option<Staging>,
     timestamps: Vec<Option<Timestamps>>,
     /// Per slot: what its last frame accumulated and its tag (to attribute its timestamps).
     slot_work: Vec<Option<SlotWork>>,
@@ -161,6 +164,7 @@ impl ViewerGpu {
             targets: None,
             pass: None,
             texture: None,
+            staging: None,
             timestamps: Vec::new(),
             slot_work: vec![None; FRAMES_IN_FLIGHT],
             next_slot: 0,
@@ -214,6 +218,27 @@ impl ViewerGpu {
         match self.scene_pass.as_mut() {
             Some(p) => p.set_cloud(&ctx, vertices),
             None => Ok(()),
+        }
+    }
+
+    /// Replaces the views with those of `lf` (the next frame of a video: same grid, same size),
+    /// after the frames in flight are done with the old ones.
+    pub fn replace_views(&mut self, lf: &LightField) -> Result<()> {
+        self.wait_idle()?;
+        let ctx = Arc::clone(&self.ctx);
+        let Some(texture) = self.texture.as_mut() else {
+            return Err(Error::Vulkan("the viewer was not fully created".into()));
+        };
+        if self.staging.is_none() {
+            self.staging = Some(Staging::new(
+                &ctx,
+                texture.staging_bytes(),
+                "viewer frame staging",
+            )?);
+        }
+        match self.staging.as_mut() {
+            Some(staging) => texture.reupload(&ctx, lf, staging),
+            None => Err(Error::Vulkan("no staging buffer".into())),
         }
     }
 
@@ -874,6 +899,9 @@ impl Drop for ViewerGpu {
         }
         if let Some(t) = self.texture.take() {
             t.destroy(&ctx);
+        }
+        if let Some(s) = self.staging.take() {
+            s.destroy(&ctx);
         }
         for t in self.timestamps.drain(..).flatten() {
             t.destroy(&ctx);
