@@ -7,8 +7,10 @@
 // the unused paths cost nothing).
 //   FILTER 0: hardware bilinear (one filtered fetch; positions snap to 8 fractional bits);
 //   FILTER 1: nearest texel;
-//   FILTER 2: bilinear in the shader with f32 weights from four texel fetches.
-// TEXEL: what happens to each texel before filtering (only with FILTER 1 or 2: transforming
+//   FILTER 2: bilinear in the shader with f32 weights from four texel fetches;
+//   FILTER 3: bicubic (Catmull-Rom, a = -1/2) in the shader from sixteen texel fetches, the
+//             weights of `catmull_rom` (mirrored by refocus::cpu on the host).
+// TEXEL: what happens to each texel before filtering (only with FILTER 1, 2 or 3: transforming
 // after hardware filtering would be a different image):
 //   0: nothing; 1: 8-bit sRGB-encoded texels are decoded exactly through `srgb_to_linear`
 //   (uploaded from Rust's `color::decode_table`); 2: linear texels are encoded with the exact
@@ -40,6 +42,17 @@ vec3 texel(ivec2 p, int layer) {
     return decode(texelFetch(views, ivec3(clamp(p, ivec2(0), hi), layer), 0).rgb);
 }
 
+// Catmull-Rom weights of the four texels at offsets -1, 0, 1, 2 from floor(p), for the
+// fraction t in [0, 1). They sum to 1; at t = 0 they are (0, 1, 0, 0).
+vec4 catmull_rom(float t) {
+    float t2 = t * t;
+    float t3 = t2 * t;
+    return vec4(-0.5 * t3 + t2 - 0.5 * t,
+                1.5 * t3 - 2.5 * t2 + 1.0,
+                -1.5 * t3 + 2.0 * t2 + 0.5 * t,
+                0.5 * t3 - 0.5 * t2);
+}
+
 // Colour of the view in `layer` at pixel position p (pixel centres at integers).
 vec3 fetch(vec2 p, float layer) {
     if (FILTER == 1u) {
@@ -53,6 +66,22 @@ vec3 fetch(vec2 p, float layer) {
         vec3 top = mix(texel(i, l), texel(i + ivec2(1, 0), l), f.x);
         vec3 bottom = mix(texel(i + ivec2(0, 1), l), texel(i + ivec2(1, 1), l), f.x);
         return mix(top, bottom, f.y);
+    }
+    if (FILTER == 3u) {
+        vec2 f0 = floor(p);
+        vec2 f = p - f0;
+        ivec2 i = ivec2(f0);
+        int l = int(layer);
+        vec4 wx = catmull_rom(f.x);
+        vec4 wy = catmull_rom(f.y);
+        vec3 c = vec3(0.0);
+        for (int j = 0; j < 4; ++j) {
+            ivec2 r = i + ivec2(-1, j - 1);
+            vec3 row = wx.x * texel(r, l) + wx.y * texel(r + ivec2(1, 0), l)
+                     + wx.z * texel(r + ivec2(2, 0), l) + wx.w * texel(r + ivec2(3, 0), l);
+            c += wy[j] * row;
+        }
+        return c;
     }
     return textureLod(views, vec3((p + 0.5) / pc.view_size, layer), 0.0).rgb;
 }

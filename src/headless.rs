@@ -20,7 +20,7 @@ use crate::gpu::timing::Timestamps;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
 use crate::passes::refocus::{
-    Accumulate, Filter, OutputFormat, RefocusPass, RefocusTarget, Strategy,
+    Accumulate, Accumulation, Filter, OutputFormat, RefocusPass, RefocusTarget, Strategy,
 };
 use crate::passes::texture::{LightFieldTexture, ViewStorage};
 use crate::refocus::{Averaging, RefocusImage, RefocusPlan};
@@ -34,6 +34,8 @@ pub struct RenderSettings {
     pub filter: Filter,
     /// Output size; `None` = the views' size.
     pub size: Option<(u32, u32)>,
+    /// The float format the views are summed in.
+    pub accumulation: Accumulation,
 }
 
 impl Default for RenderSettings {
@@ -44,6 +46,7 @@ impl Default for RenderSettings {
             strategy: Strategy::default(),
             filter: Filter::default(),
             size: None,
+            accumulation: Accumulation::default(),
         }
     }
 }
@@ -170,14 +173,20 @@ impl HeadlessRenderer {
             return Err(Error::Vulkan("the renderer was not fully created".into()));
         };
         let (w, h) = settings.size.unwrap_or((texture.width, texture.height));
-        if self.target.as_ref().map(|t| (t.width, t.height)) != Some((w, h)) {
+        let want = (w, h, settings.accumulation);
+        if self
+            .target
+            .as_ref()
+            .map(|t| (t.width, t.height, t.accumulation()))
+            != Some(want)
+        {
             if let Some(t) = self.target.take() {
                 t.destroy(&ctx);
             }
             if let Some(b) = self.readback.take() {
                 b.destroy(&ctx);
             }
-            self.target = Some(pass.create_target(&ctx, w, h)?);
+            self.target = Some(pass.create_target_with(&ctx, w, h, settings.accumulation)?);
             self.readback = Some(Buffer::readback(
                 &ctx,
                 w as u64 * h as u64 * 16,

@@ -16,8 +16,11 @@
 //!   ([`Strategy`]: one fullscreen draw, batched draws, or a compute dispatch), so a caller can
 //!   accumulate progressively over several submissions; [`RefocusPass::record_resolve`]
 //!   normalises whatever has been summed so far.
-//! - [`Filter`] picks hardware bilinear, nearest, or bilinear in the shader; with 8-bit sRGB
-//!   views and linear averaging the latter two decode texels exactly before filtering.
+//! - [`Filter`] picks hardware bilinear, nearest, bilinear or bicubic (Catmull-Rom) in the
+//!   shader; with 8-bit sRGB views and linear averaging the shader filters decode texels
+//!   exactly before filtering.
+//! - [`Accumulation`] is the float format of a target's sum (RGBA32F or RGBA16F), chosen
+//!   when the target is created ([`RefocusPass::create_target_with`]).
 //!
 //! Output pixel (i, j) has its centre at reference-view pixel position
 //! ((i + ½)·W_view/W_out − ½, (j + ½)·H_view/H_out − ½), so any output size is exact.
@@ -114,14 +117,37 @@ pub enum Filter {
     Nearest,
     /// Bilinear in the shader from four texel fetches with f32 weights.
     Shader,
+    /// Bicubic (Catmull-Rom, a = −½) in the shader from sixteen texel fetches with f32
+    /// weights: sharper than bilinear at fractional shifts, interpolating (texel centres are
+    /// reproduced exactly), and may overshoot near edges (no clamping before the average).
+    Bicubic,
 }
 
 impl Filter {
+    /// Every filter, in the order the CLI lists them.
+    pub const ALL: [Filter; 4] = [
+        Filter::Hardware,
+        Filter::Shader,
+        Filter::Bicubic,
+        Filter::Nearest,
+    ];
+
     fn code(self) -> u32 {
         match self {
             Filter::Hardware => 0,
             Filter::Nearest => 1,
             Filter::Shader => 2,
+            Filter::Bicubic => 3,
+        }
+    }
+
+    /// The name the CLI accepts.
+    pub fn name(self) -> &'static str {
+        match self {
+            Filter::Hardware => "hardware",
+            Filter::Nearest => "nearest",
+            Filter::Shader => "shader",
+            Filter::Bicubic => "bicubic",
         }
     }
 }
@@ -133,8 +159,59 @@ impl std::str::FromStr for Filter {
             "hardware" => Ok(Self::Hardware),
             "nearest" => Ok(Self::Nearest),
             "shader" => Ok(Self::Shader),
+            "bicubic" => Ok(Self::Bicubic),
             _ => Err(Error::Invalid(format!(
-                "unknown filter '{s}': expected hardware, nearest or shader"
+                "unknown filter '{s}': expected hardware, shader, bicubic or nearest"
+            ))),
+        }
+    }
+}
+
+/// The float format the views are summed in (a property of the [`RefocusTarget`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Accumulation {
+    /// RGBA32F: 24-bit mantissas, exact for any practical number of views. The default.
+    #[default]
+    Rgba32f,
+    /// RGBA16F: half the memory and bandwidth. The fragment and compute strategies write
+    /// each pixel's sum once (one rounding, relative error ≤ 2⁻¹¹); batched draws round after
+    /// every draw.
+    Rgba16f,
+}
+
+impl Accumulation {
+    /// The Vulkan format.
+    pub fn format(self) -> vk::Format {
+        match self {
+            Accumulation::Rgba32f => vk::Format::R32G32B32A32_SFLOAT,
+            Accumulation::Rgba16f => vk::Format::R16G16B16A16_SFLOAT,
+        }
+    }
+
+    /// The name the CLI accepts.
+    pub fn name(self) -> &'static str {
+        match self {
+            Accumulation::Rgba32f => "rgba32f",
+            Accumulation::Rgba16f => "rgba16f",
+        }
+    }
+
+    fn of_format(format: vk::Format) -> Option<Self> {
+        [Accumulation::Rgba32f, Accumulation::Rgba16f]
+            .into_iter()
+            .find(|a| a.format() == format)
+    }
+}
+
+impl std::str::FromStr for Accumulation {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "rgba32f" => Ok(Self::Rgba32f),
+            "rgba16f" => Ok(Self::Rgba16f),
+            _ => Err(Error::Invalid(format!(
+                "unknown accumulation '{s}': expected rgba32f or rgba16f"
             ))),
         }
     }
@@ -217,29 +294,31 @@ pub struct RefocusPass {
 /// The accumulation format: RGBA32F where the device blends into it (and, for the compute
 /// strategy, stores to it), else RGBA16F.
 pub fn pick_accum_format(ctx: &GpuContext) -> Result<(vk::Format, bool)> {
-    use vk::FormatFeatureFlags as F;
-    let need = F::COLOR_ATTACHMENT | F::COLOR_ATTACHMENT_BLEND | F::SAMPLED_IMAGE;
-    for f in [
-        vk::Format::R32G32B32A32_SFLOAT,
-        vk::Format::R16G16B16A16_SFLOAT,
-    ] {
-        // SAFETY: valid physical device.
-        let props = unsafe {
-            ctx.instance
-                .get_physical_device_format_properties(ctx.physical, f)
-        };
-        let features = props.optimal_tiling_features;
-        if features.contains(need) {
-            // refocus.comp declares rgba32f.
-            let storage =
-                f == vk::Format::R32G32B32A32_SFLOAT && features.contains(F::STORAGE_IMAGE);
-            return Ok((f, storage));
+    for a in [Accumulation::Rgba32f, Accumulation::Rgba16f] {
+        if let Some(storage) = accum_support(ctx, a) {
+            return Ok((a.format(), storage));
         }
     }
     Err(Error::Vulkan(format!(
         "{} cannot blend into a float colour attachment",
         ctx.info.name
     )))
+}
+
+/// Whether the device can accumulate in `a` (blend into it and sample it): `None` if not,
+/// else whether it can also be a storage image (the compute strategy).
+fn accum_support(ctx: &GpuContext, a: Accumulation) -> Option<bool> {
+    use vk::FormatFeatureFlags as F;
+    let need = F::COLOR_ATTACHMENT | F::COLOR_ATTACHMENT_BLEND | F::SAMPLED_IMAGE;
+    // SAFETY: valid physical device.
+    let props = unsafe {
+        ctx.instance
+            .get_physical_device_format_properties(ctx.physical, a.format())
+    };
+    let features = props.optimal_tiling_features;
+    features
+        .contains(need)
+        .then_some(features.contains(F::STORAGE_IMAGE))
 }
 
 impl RefocusPass {
@@ -343,12 +422,45 @@ impl RefocusPass {
         self.storage
     }
 
-    /// A target of `width × height` for this pass (the caller owns and destroys it).
+    /// A target of `width × height` for this pass (the caller owns and destroys it), summing
+    /// in RGBA32F where the device can, else RGBA16F.
     pub fn create_target(
         &self,
         ctx: &GpuContext,
         width: u32,
         height: u32,
+    ) -> Result<RefocusTarget> {
+        let (format, storage) = pick_accum_format(ctx)?;
+        self.target_of(ctx, width, height, format, storage)
+    }
+
+    /// A target of `width × height` that sums in `accumulation`; an error when the device
+    /// cannot blend into that format.
+    pub fn create_target_with(
+        &self,
+        ctx: &GpuContext,
+        width: u32,
+        height: u32,
+        accumulation: Accumulation,
+    ) -> Result<RefocusTarget> {
+        let storage = accum_support(ctx, accumulation).ok_or_else(|| {
+            Error::DeviceLimit(format!(
+                "{} cannot blend into {} colour attachments: use --accumulation {}",
+                ctx.info.name,
+                accumulation.name(),
+                Accumulation::Rgba16f.name()
+            ))
+        })?;
+        self.target_of(ctx, width, height, accumulation.format(), storage)
+    }
+
+    fn target_of(
+        &self,
+        ctx: &GpuContext,
+        width: u32,
+        height: u32,
+        format: vk::Format,
+        storage: bool,
     ) -> Result<RefocusTarget> {
         if width == 0 || height == 0 {
             return Err(Error::Invalid(format!(
@@ -362,7 +474,6 @@ impl RefocusPass {
                 ctx.info.name
             )));
         }
-        let (format, storage) = pick_accum_format(ctx)?;
         RefocusTarget::new(
             ctx,
             width,
@@ -426,8 +537,9 @@ impl RefocusPass {
         let compute = a.strategy == Strategy::Compute;
         if compute && target.storage_set == vk::DescriptorSet::null() {
             return Err(Error::DeviceLimit(format!(
-                "{} cannot store to an RGBA32F image: use a fragment strategy",
-                ctx.info.name
+                "{} cannot store to an {} image: use a fragment strategy",
+                ctx.info.name,
+                Accumulation::of_format(target.accum_format).map_or("accumulation", |a| a.name())
             )));
         }
         let key = AccumKey {
@@ -647,7 +759,13 @@ impl RefocusPass {
             key.texel
         );
         let pipeline = if key.compute {
-            let module = shaders::module(ctx, shaders::REFOCUS_COMP, "refocus.comp")?;
+            // The storage image's format is part of the shader: one module per format.
+            let (spirv, file) = if key.format == Accumulation::Rgba16f.format() {
+                (shaders::REFOCUS_HALF_COMP, "refocus_half.comp")
+            } else {
+                (shaders::REFOCUS_COMP, "refocus.comp")
+            };
+            let module = shaders::module(ctx, spirv, file)?;
             let p = compute_pipeline(ctx, self.objects.compute_layout, module, &constants);
             // SAFETY: pipelines keep their own copy of the code.
             unsafe { ctx.device.destroy_shader_module(module, None) };
