@@ -23,6 +23,7 @@
 //! - [`synth`]: synthetic scenes with exact ground truth: a CPU ray tracer of textured quads,
 //!   triangle meshes from glTF or the built-in scenes rendered by the Vulkan rasterizer
 //!   (`tiltfield synth`), and the optical ground truth of a tilt-shift lens;
+//! - [`bench`]: the speed–accuracy benchmark (variants, scaling sweep, charts);
 //! - [`cli`]: the `tiltfield` command line; it parses options into library requests and
 //!   reports the results.
 //!
@@ -30,6 +31,7 @@
 //! model, homographies, masks, disparity, colour) are stated in `docs/conventions.md`; the
 //! code cites its sections as `docs/conventions.md §N`.
 
+pub mod bench;
 pub mod cli;
 pub mod color;
 pub mod error;

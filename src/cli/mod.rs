@@ -1,5 +1,6 @@
 //! The `tiltfield` command line: argument parsing and the subcommands.
 
+mod bench;
 mod cloud;
 mod demo;
 mod focus;
@@ -39,6 +40,10 @@ pub enum Command {
     /// Write the point cloud of the depth map's view as binary PLY (positions, colours,
     /// normals), optionally with the refocus plane and the camera centres.
     Cloud(Box<cloud::CloudArgs>),
+    /// Measure GPU time and accuracy of every refocus variant (strategy, filter, storage,
+    /// accumulation, aperture, output size), a scaling sweep, and chart speed against
+    /// accuracy (JSON, CSV, SVG and PNG).
+    Bench(Box<bench::BenchArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -160,6 +165,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render(a) => render::run(&a),
         Command::Synth(a) => synth::run(&a),
         Command::Cloud(a) => cloud::run(&a),
+        Command::Bench(a) => bench::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }
@@ -196,6 +202,14 @@ pub(crate) fn check_output(path: &Path) -> Result<()> {
         std::fs::remove_file(path).map_err(|e| Error::io(path, e))?;
     }
     Ok(())
+}
+
+/// Creates output folder `dir` (and its parents), refusing a path that is a file.
+pub(crate) fn ensure_dir(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::bad_file(dir, "the output folder is a file"));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
 }
 
 /// Default output folder of `demo`.
