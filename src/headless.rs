@@ -21,6 +21,7 @@ use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
 use crate::passes::refocus::{
     Accumulate, Accumulation, Filter, OutputFormat, RefocusPass, RefocusTarget, Strategy,
+    WarpMemory,
 };
 use crate::passes::texture::{LightFieldTexture, ViewStorage};
 use crate::refocus::{Averaging, RefocusImage, RefocusPlan};
@@ -36,6 +37,8 @@ pub struct RenderSettings {
     pub size: Option<(u32, u32)>,
     /// The float format the views are summed in.
     pub accumulation: Accumulation,
+    /// Where the shaders read the warps from; `None`: the pass's default for the light field.
+    pub warps: Option<WarpMemory>,
 }
 
 impl Default for RenderSettings {
@@ -47,6 +50,7 @@ impl Default for RenderSettings {
             filter: Filter::default(),
             size: None,
             accumulation: Accumulation::default(),
+            warps: None,
         }
     }
 }
@@ -193,6 +197,7 @@ impl HeadlessRenderer {
                 "refocus readback",
             )?);
         }
+        pass.set_warp_memory(settings.warps)?;
         pass.set_views(plan)?;
         let (Some(target), Some(submission), Some(readback_buffer)) = (
             self.target.as_mut(),

@@ -221,3 +221,75 @@ fn exported_homographies_are_the_plans_warps() {
         "the whole tilted-plane image lies below its horizon"
     );
 }
+
+#[test]
+fn more_views_than_the_uniform_buffer_holds_fall_back_to_the_storage_buffer() {
+    use tiltfield::headless::RenderSettings;
+    use tiltfield::lightfield::GridSize;
+    use tiltfield::passes::refocus::{OutputFormat, WarpMemory, UBO_WARPS};
+    use tiltfield::synth::{Quad, Scene, Texture};
+    // 17 × 17 = 289 views of 8 × 8: more than the uniform buffer's 256 records.
+    let rig = TWO_PLANE_RIG;
+    let scene = Scene {
+        quads: vec![Quad {
+            centre: DVec3::new(0.0, 0.0, 4.0),
+            half_u: DVec3::new(3.0, 0.0, 0.0),
+            half_v: DVec3::new(0.0, 3.0, 0.0),
+            texture: Texture::Checker {
+                cells_u: 9,
+                cells_v: 9,
+                a: [0.9, 0.35, 0.05],
+                b: [0.05, 0.35, 0.35],
+            },
+        }],
+        background: [0.0; 3],
+    };
+    let grid = GridSize { cols: 17, rows: 17 };
+    let lf = tiltfield::synth::render_light_field(&scene, "many", grid, 8, 8, &rig, 1);
+    assert!(lf.views.len() > UBO_WARPS);
+    // 0.37 px per step: no sample lands exactly on a view's border (0.3 would at 5 steps).
+    let plan = refocus::plan(&lf, &request(FocusSpec::Disparity(0.37)), &[]).expect("plan");
+    let mut r = renderer(&lf);
+    let settings = RenderSettings {
+        output: OutputFormat::Float,
+        warps: Some(WarpMemory::Uniform),
+        ..RenderSettings::default()
+    };
+    let e = r.render(&plan, &settings).unwrap_err().to_string();
+    assert!(e.contains("at most 256"), "{e}");
+    // The default picks the storage buffer, and it renders the reference.
+    let settings = RenderSettings {
+        warps: None,
+        ..settings
+    };
+    let gpu = match r.render(&plan, &settings).expect("render").0 {
+        GpuImage::Float(img) => img,
+        GpuImage::Srgb8(_) => panic!("asked for float"),
+    };
+    let reference = cpu::render(&lf, &plan, Averaging::Linear);
+    let d = diff(&gpu, &reference, None);
+    assert!(d.psnr_db >= 55.0, "{d:?}");
+    assert_no_validation_errors(&r);
+}
+
+#[test]
+fn uniform_and_storage_warps_render_the_same_image() {
+    let lf = builtin("tilted");
+    let plan = tilted_plan(&lf, None);
+    let ctx = Arc::new(GpuContext::new(&gpu_options()).expect("validated context"));
+    let mut r = HeadlessRenderer::with_context(ctx, &lf, ViewStorage::Srgb8).expect("renderer");
+    for base in [
+        "fragment",
+        "compute",
+        "batched:4",
+        "shader",
+        "shader/compute",
+    ] {
+        let ubo: Variant = format!("{base}/ubo").parse().unwrap();
+        let ssbo: Variant = format!("{base}/ssbo").parse().unwrap();
+        let a = float(&mut r, &lf, &plan, &ubo);
+        let b = float(&mut r, &lf, &plan, &ssbo);
+        assert_eq!(a.pixels, b.pixels, "{base}: the warps are the same bytes");
+    }
+    assert_no_validation_errors(&r);
+}

@@ -138,6 +138,11 @@ pub struct BenchScene {
     pub description: String,
 }
 
+/// Distance (pixels) from a view's border within which a sample's mask counts as ambiguous
+/// between f32 and f64 ([`cpu::ambiguous_pixels`]); f32 positions of a 512-pixel view are
+/// within about 1e-4 px of the f64 ones.
+pub const AMBIGUITY_PX: f64 = 1e-3;
+
 /// Name of the bench's built-in synthetic scene.
 pub const SYNTHETIC_SCENE: &str = "tilted";
 
@@ -267,9 +272,14 @@ pub struct VariantReport {
     /// Minimum memory traffic (each used view read once, the accumulation written once) per
     /// second over the device's nominal bandwidth.
     pub bandwidth_roof_fraction: Option<f64>,
-    /// Against the f64 bilinear reference of the same plan and output size.
+    /// Against the f64 bilinear reference of the same plan and output size: PSNR over every
+    /// pixel; maximum error (8-bit levels) over the pixels whose masks are unambiguous.
     pub psnr_vs_reference_db: f64,
     pub max_error_vs_reference: f64,
+    /// Pixels left out of the maximum errors: some view's sample lies within
+    /// [`AMBIGUITY_PX`] of its border, where f32 and f64 may decide its mask differently (for
+    /// nearest also of a rounding tie).
+    pub ambiguous_pixels: usize,
     /// The f64 model of this variant's filter (bilinear, bicubic or nearest).
     pub model: &'static str,
     pub psnr_vs_model_db: f64,
@@ -423,6 +433,7 @@ pub fn settings_of(v: &Variant, lf: &LightField) -> RenderSettings {
         filter: v.filter,
         size: Some(v.size.resolve(lf.width, lf.height)),
         accumulation: v.accumulation,
+        warps: v.warps,
     }
 }
 
@@ -554,25 +565,82 @@ pub fn run(
         references.insert(key, img);
         bar.inc(1);
     }
+    // Pixels whose masks (nearest: texels) f32 and f64 may decide differently, per
+    // (aperture, size, nearest or not).
+    let mut ambiguous: HashMap<(Option<u64>, (u32, u32), bool), Vec<bool>> = HashMap::new();
+    let ambiguity_key = |v: &Variant| {
+        let size = v.size.resolve(lf.width, lf.height);
+        (
+            radius_key(v.aperture_radius),
+            size,
+            v.model() == Kernel::Nearest,
+        )
+    };
+    for v in &options.variants {
+        let key = ambiguity_key(v);
+        if let std::collections::hash_map::Entry::Vacant(e) = ambiguous.entry(key) {
+            let kernel = if key.2 {
+                Kernel::Nearest
+            } else {
+                Kernel::Bilinear
+            };
+            e.insert(cpu::ambiguous_pixels(
+                lf,
+                &plans[&key.0],
+                key.1,
+                kernel,
+                AMBIGUITY_PX,
+            ));
+        }
+    }
     let mut renderers: Vec<(ViewStorage, HeadlessRenderer)> = Vec::new();
     let peak = roof::peak_of(&ctx.info.name, options.peak_gtexels, options.peak_gbps);
-    let mut variants = Vec::new();
+    // Accuracy and warm-up of every variant first; then the timed frames round-robin, one
+    // frame of each variant per round, so that a change of machine load (other processes on a
+    // CPU driver, clocks on a GPU) affects every variant alike.
+    let mut accuracy = Vec::with_capacity(options.variants.len());
     for v in &options.variants {
-        let name = v.name();
-        bar.set_message(name.clone());
+        bar.set_message(format!("{} (accuracy, warm-up)", v.name()));
         let r = renderer_for(&mut renderers, &ctx, lf, v.storage)?;
         let plan = &plans[&radius_key(v.aperture_radius)];
-        let settings = settings_of(v, lf);
-        let (w, h) = v.size.resolve(lf.width, lf.height);
+        let size = v.size.resolve(lf.width, lf.height);
         // The image for accuracy is also the first warm-up frame (it compiles the pipeline).
         let image = render_variant(r, scene, plan, v)?;
         bar.inc(1);
-        let times = time_frames(r, plan, &settings, warmup - 1, options.frames, &bar)?;
-        let key = |k| (radius_key(v.aperture_radius), (w, h), k);
-        let vs_ref = stats::accuracy(&image, &references[&key(Kernel::Bilinear)])
-            .ok_or_else(|| Error::Invalid("reference size mismatch".into()))?;
-        let vs_model = stats::accuracy(&image, &references[&key(v.model())])
-            .ok_or_else(|| Error::Invalid("model size mismatch".into()))?;
+        for _ in 1..warmup {
+            r.render_timed(plan, &settings_of(v, lf))?;
+            bar.inc(1);
+        }
+        let key = |k| (radius_key(v.aperture_radius), size, k);
+        let exclude = ambiguous[&ambiguity_key(v)].as_slice();
+        let mismatch = || Error::Invalid("reference size mismatch".into());
+        let vs_ref = stats::accuracy(&image, &references[&key(Kernel::Bilinear)], Some(exclude))
+            .ok_or_else(mismatch)?;
+        let vs_model = stats::accuracy(&image, &references[&key(v.model())], Some(exclude))
+            .ok_or_else(mismatch)?;
+        let truth = scene
+            .truth
+            .as_ref()
+            .map(|t| stats::accuracy(&image, &t.image, None));
+        let ambiguous_count = exclude.iter().filter(|&&a| a).count();
+        accuracy.push((vs_ref, vs_model, truth, ambiguous_count));
+    }
+    let mut times: Vec<Vec<f64>> = vec![Vec::with_capacity(options.frames); options.variants.len()];
+    for round in 0..options.frames {
+        bar.set_message(format!("timing round {}/{}", round + 1, options.frames));
+        for (i, v) in options.variants.iter().enumerate() {
+            let r = renderer_for(&mut renderers, &ctx, lf, v.storage)?;
+            let plan = &plans[&radius_key(v.aperture_radius)];
+            times[i].push(time_frames(r, plan, &settings_of(v, lf), 0, 1, &bar)?.median);
+        }
+    }
+    let mut variants = Vec::new();
+    for (i, v) in options.variants.iter().enumerate() {
+        let plan = &plans[&radius_key(v.aperture_radius)];
+        let (w, h) = v.size.resolve(lf.width, lf.height);
+        let times =
+            stats::summarize(&times[i]).ok_or_else(|| Error::Invalid("no frames timed".into()))?;
+        let (vs_ref, vs_model, truth, ambiguous_count) = accuracy[i];
         let views = plan.views.len();
         let bound = v.bound(views);
         let samples = views as f64 * w as f64 * h as f64;
@@ -587,12 +655,8 @@ pub fn run(
         };
         let traffic = views as f64 * lf.width as f64 * lf.height as f64 * texel_bytes
             + w as f64 * h as f64 * accum_bytes;
-        let truth = scene
-            .truth
-            .as_ref()
-            .map(|t| stats::accuracy(&image, &t.image));
         variants.push(VariantReport {
-            name,
+            name: v.name(),
             label: v.label(),
             strategy: v.strategy.name(),
             filter: v.filter,
@@ -616,6 +680,7 @@ pub fn run(
                 .map(|g| traffic / (times.median / 1e3) / (g * 1e9)),
             psnr_vs_reference_db: vs_ref.psnr_db,
             max_error_vs_reference: vs_ref.max_levels,
+            ambiguous_pixels: ambiguous_count,
             model: kernel_name(v.model()),
             psnr_vs_model_db: vs_model.psnr_db,
             max_error_vs_model: vs_model.max_levels,

@@ -11,7 +11,7 @@ use crate::error::{Error, Result};
 /// Columns of `bench.csv`.
 pub const CSV_HEADER: &str = "kind,name,strategy,filter,storage,accumulation,views,width,height,\
 default,frames,gpu_ms_median,gpu_ms_min,gpu_ms_max,samples_per_s,psnr_vs_reference_db,\
-max_error_vs_reference,psnr_vs_model_db,max_error_vs_model,within_bound,psnr_vs_truth_db,\
+max_error_vs_reference,ambiguous_pixels,psnr_vs_model_db,max_error_vs_model,within_bound,psnr_vs_truth_db,\
 max_error_vs_truth";
 
 fn quote(s: &str) -> String {
@@ -33,7 +33,7 @@ pub fn csv(report: &BenchReport) -> String {
     for v in &report.variants {
         let _ = writeln!(
             out,
-            "variant,{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "variant,{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             quote(&v.name),
             quote(&v.strategy),
             v.filter.name(),
@@ -53,6 +53,7 @@ pub fn csv(report: &BenchReport) -> String {
             v.samples_per_s,
             num(Some(v.psnr_vs_reference_db)),
             v.max_error_vs_reference,
+            v.ambiguous_pixels,
             num(Some(v.psnr_vs_model_db)),
             v.max_error_vs_model,
             v.within_bound,
@@ -64,7 +65,7 @@ pub fn csv(report: &BenchReport) -> String {
     for p in &report.scaling {
         let _ = writeln!(
             out,
-            "scaling,{},{},{},linear16,{},{},{},{},true,{},{},{},{},{},,,,,,,",
+            "scaling,{},{},{},linear16,{},{},{},{},true,{},{},{},{},{},,,,,,,,",
             quote(&format!(
                 "scaling {} views {}x{}",
                 p.views, p.width, p.height

@@ -89,7 +89,8 @@ pub fn fit_cost(points: &[(f64, f64)]) -> Option<CostModel> {
 pub struct Accuracy {
     /// PSNR (dB) of the sRGB-encoded RGB over every pixel; infinite when identical.
     pub psnr_db: f64,
-    /// Largest difference of any channel of any pixel, in 8-bit levels of the encoded value.
+    /// Largest difference of any channel of any pixel not excluded, in 8-bit levels of the
+    /// encoded value.
     pub max_levels: f64,
 }
 
@@ -104,17 +105,25 @@ fn encoded(img: &RefocusImage) -> impl Iterator<Item = [f64; 3]> + '_ {
     })
 }
 
-/// Compares `a` with `reference` (same size, else `None`).
-pub fn accuracy(a: &RefocusImage, reference: &RefocusImage) -> Option<Accuracy> {
+/// Compares `a` with `reference` (same size, else `None`): PSNR over every pixel, the maximum
+/// error over the pixels `exclude` does not mark.
+pub fn accuracy(
+    a: &RefocusImage,
+    reference: &RefocusImage,
+    exclude: Option<&[bool]>,
+) -> Option<Accuracy> {
     if (a.width, a.height) != (reference.width, reference.height) {
         return None;
     }
     let (mut se, mut n, mut max) = (0.0, 0usize, 0f64);
-    for (p, q) in encoded(a).zip(encoded(reference)) {
+    for (i, (p, q)) in encoded(a).zip(encoded(reference)).enumerate() {
+        let counted = !exclude.is_some_and(|e| e.get(i).copied().unwrap_or(false));
         for k in 0..3 {
             let d = p[k] - q[k];
             se += d * d;
-            max = max.max(d.abs());
+            if counted {
+                max = max.max(d.abs());
+            }
         }
         n += 3;
     }
@@ -166,16 +175,19 @@ mod tests {
             averaging: Averaging::Encoded,
             pixels: vec![[v, v, v, 1.0], [0.5, 0.5, 0.5, 1.0]],
         };
-        let a = accuracy(&img(0.5), &img(0.5)).unwrap();
+        let a = accuracy(&img(0.5), &img(0.5), None).unwrap();
         assert_eq!(a.psnr_db, f64::INFINITY);
-        let b = accuracy(&img(0.5 + 2.0 / 255.0), &img(0.5)).unwrap();
+        let b = accuracy(&img(0.5 + 2.0 / 255.0), &img(0.5), None).unwrap();
         assert!((b.max_levels - 2.0).abs() < 1e-4);
         // Half the channels off by 2/255: MSE = (2/255)²/2.
         let want = 10.0 * (2.0 / (2.0f64 / 255.0).powi(2)).log10();
         assert!((b.psnr_db - want).abs() < 1e-3, "{}", b.psnr_db);
+        // Excluding the differing pixel removes it from the maximum, not from the PSNR.
+        let e = accuracy(&img(0.5 + 2.0 / 255.0), &img(0.5), Some(&[true, false])).unwrap();
+        assert_eq!((e.max_levels, e.psnr_db), (0.0, b.psnr_db));
         let mut c = img(0.5);
         c.width = 1;
         c.pixels.truncate(1);
-        assert!(accuracy(&c, &img(0.5)).is_none());
+        assert!(accuracy(&c, &img(0.5), None).is_none());
     }
 }

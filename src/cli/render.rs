@@ -19,7 +19,7 @@ use crate::headless::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::io::OutputKind;
 use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
-use crate::passes::refocus::{Accumulation, Filter, OutputFormat, Strategy};
+use crate::passes::refocus::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
 use crate::passes::texture::ViewStorage;
 use crate::refocus::{self, resolve_focus, Averaging, RefocusPlan, RefocusRequest, ResolvedFocus};
 
@@ -69,6 +69,9 @@ pub struct RenderArgs {
     /// The float format views are summed in: rgba32f (default) or rgba16f.
     #[arg(long, value_name = "FORMAT")]
     pub accumulation: Option<Accumulation>,
+    /// Where the shaders read the per-view warps: ubo (default up to 256 views) or ssbo.
+    #[arg(long, value_name = "MEMORY")]
+    pub warps: Option<WarpMemory>,
     /// How views are stored on the GPU: srgb8 or linear16 (exactly decoded linear light).
     #[arg(long, value_name = "STORAGE")]
     pub storage: Option<ViewStorage>,
@@ -180,6 +183,7 @@ pub fn render_settings(args: &RenderArgs, kind: OutputKind) -> Result<RenderSett
         filter: args.filter.unwrap_or_default(),
         size,
         accumulation: args.accumulation.unwrap_or_default(),
+        warps: args.warps,
     })
 }
 

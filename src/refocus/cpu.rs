@@ -137,6 +137,45 @@ fn bilinear(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
     c
 }
 
+/// Output pixels (row-major, `w × h`) where some view's mask is decided within `eps` pixels of
+/// its border (or its sample lies within `eps` relative of the view's camera plane): there an
+/// f32 evaluation of the same warp may include a view that f64 excludes or vice versa, so the
+/// pixel may legitimately differ by a fraction of one view's weight. Half-pixel disparities put
+/// whole rows and columns exactly on a border (0 − 0.5·1 = −0.5). For [`Kernel::Nearest`] a
+/// sample within `eps` of a rounding tie (a half-integer position) is ambiguous too: f32 may
+/// pick the other texel.
+pub fn ambiguous_pixels(
+    lf: &LightField,
+    plan: &RefocusPlan,
+    (w, h): (u32, u32),
+    kernel: Kernel,
+    eps: f64,
+) -> Vec<bool> {
+    let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
+    let (wf, hf) = (lf.width as f64, lf.height as f64);
+    let near = |v: f64, edge: f64| (v - edge).abs() <= eps;
+    (0..(w * h) as usize)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
+            let px = (DVec2::new(x, y) + 0.5) * scale - 0.5;
+            plan.views.iter().any(|v| {
+                let q = v.warp.apply(plan.m, px);
+                if q.z.abs() <= eps * q.truncate().length().max(1.0) {
+                    return true;
+                }
+                let p = DVec2::new(q.x / q.z, q.y / q.z);
+                let tie = |v: f64| near(v + 0.5, (v + 0.5).round());
+                near(p.x, -0.5)
+                    || near(p.x, wf - 0.5)
+                    || near(p.y, -0.5)
+                    || near(p.y, hf - 0.5)
+                    || (kernel == Kernel::Nearest && (tie(p.x) || tie(p.y)))
+            })
+        })
+        .collect()
+}
+
 /// The texel at integer position (x, y), clamped to the image, through `table`.
 fn texel(img: &image::RgbaImage, table: &[f64; 256], x: i64, y: i64) -> [f64; 3] {
     let (w, h) = (img.width() as i64, img.height() as i64);
