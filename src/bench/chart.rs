@@ -192,8 +192,11 @@ where
         .map_err(chart_err)?;
     let blue = RGBColor(31, 119, 180);
     let orange = RGBColor(230, 110, 20);
+    // The default last, so that it is drawn on top of variants measured at the same point.
+    let mut ordered: Vec<&&VariantReport> = points.iter().collect();
+    ordered.sort_by_key(|v| v.default);
     chart
-        .draw_series(points.iter().map(|v| {
+        .draw_series(ordered.iter().map(|v| {
             let style = if v.default {
                 RED.filled()
             } else {

@@ -475,6 +475,11 @@ fn time_frames(
     stats::summarize(&times).ok_or_else(|| Error::Invalid("no frames timed".into()))
 }
 
+/// A reference image: (aperture radius bits, output size, kernel).
+type RefKey = (Option<u64>, (u32, u32), Kernel);
+/// An ambiguity map: (aperture radius bits, output size, nearest or not).
+type AmbiguityKey = (Option<u64>, (u32, u32), bool);
+
 /// The renderer of `storage` in `list`, uploading the light field on first use.
 fn renderer_for<'a>(
     list: &'a mut Vec<(ViewStorage, HeadlessRenderer)>,
@@ -534,7 +539,7 @@ pub fn run(
         }
     }
     let sweep_points = sweep_plans.len() * sizes.len();
-    let mut ref_keys: Vec<(Option<u64>, (u32, u32), Kernel)> = Vec::new();
+    let mut ref_keys: Vec<RefKey> = Vec::new();
     for v in &options.variants {
         let size = v.size.resolve(lf.width, lf.height);
         for k in [Kernel::Bilinear, v.model()] {
@@ -552,7 +557,7 @@ pub fn run(
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     // The f64 references first: they are CPU work and need no device.
-    let mut references: HashMap<(Option<u64>, (u32, u32), Kernel), RefocusImage> = HashMap::new();
+    let mut references: HashMap<RefKey, RefocusImage> = HashMap::new();
     for key in ref_keys {
         bar.set_message(format!(
             "f64 {} reference {}×{}",
@@ -567,7 +572,7 @@ pub fn run(
     }
     // Pixels whose masks (nearest: texels) f32 and f64 may decide differently, per
     // (aperture, size, nearest or not).
-    let mut ambiguous: HashMap<(Option<u64>, (u32, u32), bool), Vec<bool>> = HashMap::new();
+    let mut ambiguous: HashMap<AmbiguityKey, Vec<bool>> = HashMap::new();
     let ambiguity_key = |v: &Variant| {
         let size = v.size.resolve(lf.width, lf.height);
         (
