@@ -7,20 +7,34 @@
 // the unused paths cost nothing).
 //   FILTER 0: hardware bilinear (one filtered fetch; positions snap to 8 fractional bits);
 //   FILTER 1: nearest texel;
-//   FILTER 2: bilinear in the shader with f32 weights from four texel fetches.
-// TEXEL: what happens to each texel before filtering (only with FILTER 1 or 2: transforming
+//   FILTER 2: bilinear in the shader with f32 weights from four texel fetches;
+//   FILTER 3: bicubic (Catmull-Rom, a = -1/2) in the shader from sixteen texel fetches, the
+//             weights of `catmull_rom` (mirrored by refocus::cpu on the host).
+// TEXEL: what happens to each texel before filtering (only with FILTER 1, 2 or 3: transforming
 // after hardware filtering would be a different image):
 //   0: nothing; 1: 8-bit sRGB-encoded texels are decoded exactly through `srgb_to_linear`
 //   (uploaded from Rust's `color::decode_table`); 2: linear texels are encoded with the exact
 //   sRGB curve (encoded averaging from linear storage).
 layout(constant_id = 0) const uint FILTER = 0;
 layout(constant_id = 1) const uint TEXEL = 0;
+// UNIFORM_WARPS 1: read the warps from the uniform buffer (binding 3, at most UBO_WARPS
+// views); 0: from the storage buffer (binding 1, any number). llvmpipe compiles a storage
+// buffer load indexed by the loop counter into a loop over the SIMD lanes with a bounds check
+// and branch per lane, a uniform buffer load into one gather: measured ~10x faster there.
+layout(constant_id = 2) const uint UNIFORM_WARPS = 1;
+const uint UBO_WARPS = 256; // passes::refocus::UBO_WARPS
 
 layout(set = 0, binding = 0) uniform sampler2DArray views;
 layout(std430, set = 0, binding = 1) readonly buffer Warps { ViewWarp warps[]; };
 // A buffer, not a constant array: llvmpipe compiles dynamically indexed constant arrays very
-// slowly (minutes per pipeline).
-layout(std430, set = 0, binding = 2) readonly buffer Decode { float srgb_to_linear[256]; };
+// slowly (minutes per pipeline). A uniform buffer for the reason above; std140 pads float
+// arrays to 16 bytes, so the 256 values are packed four to a vec4.
+layout(std140, set = 0, binding = 2) uniform Decode { vec4 srgb_to_linear4[64]; };
+layout(std140, set = 0, binding = 3) uniform WarpsU { ViewWarp warps_u[UBO_WARPS]; };
+
+float srgb_to_linear(int i) {
+    return srgb_to_linear4[i >> 2][i & 3];
+}
 
 vec3 decode(vec3 c) {
     if (TEXEL == 2u) {
@@ -30,7 +44,7 @@ vec3 decode(vec3 c) {
     }
     if (TEXEL == 1u) {
         ivec3 i = ivec3(c * 255.0 + 0.5);
-        return vec3(srgb_to_linear[i.r], srgb_to_linear[i.g], srgb_to_linear[i.b]);
+        return vec3(srgb_to_linear(i.r), srgb_to_linear(i.g), srgb_to_linear(i.b));
     }
     return c;
 }
@@ -38,6 +52,17 @@ vec3 decode(vec3 c) {
 vec3 texel(ivec2 p, int layer) {
     ivec2 hi = ivec2(pc.view_size) - 1;
     return decode(texelFetch(views, ivec3(clamp(p, ivec2(0), hi), layer), 0).rgb);
+}
+
+// Catmull-Rom weights of the four texels at offsets -1, 0, 1, 2 from floor(p), for the
+// fraction t in [0, 1). They sum to 1; at t = 0 they are (0, 1, 0, 0).
+vec4 catmull_rom(float t) {
+    float t2 = t * t;
+    float t3 = t2 * t;
+    return vec4(-0.5 * t3 + t2 - 0.5 * t,
+                1.5 * t3 - 2.5 * t2 + 1.0,
+                -1.5 * t3 + 2.0 * t2 + 0.5 * t,
+                0.5 * t3 - 0.5 * t2);
 }
 
 // Colour of the view in `layer` at pixel position p (pixel centres at integers).
@@ -54,6 +79,22 @@ vec3 fetch(vec2 p, float layer) {
         vec3 bottom = mix(texel(i + ivec2(0, 1), l), texel(i + ivec2(1, 1), l), f.x);
         return mix(top, bottom, f.y);
     }
+    if (FILTER == 3u) {
+        vec2 f0 = floor(p);
+        vec2 f = p - f0;
+        ivec2 i = ivec2(f0);
+        int l = int(layer);
+        vec4 wx = catmull_rom(f.x);
+        vec4 wy = catmull_rom(f.y);
+        vec3 c = vec3(0.0);
+        for (int j = 0; j < 4; ++j) {
+            ivec2 r = i + ivec2(-1, j - 1);
+            vec3 row = wx.x * texel(r, l) + wx.y * texel(r + ivec2(1, 0), l)
+                     + wx.z * texel(r + ivec2(2, 0), l) + wx.w * texel(r + ivec2(3, 0), l);
+            c += wy[j] * row;
+        }
+        return c;
+    }
     return textureLod(views, vec3((p + 0.5) / pc.view_size, layer), 0.0).rgb;
 }
 
@@ -69,7 +110,7 @@ vec4 accumulate(vec2 frag) {
     vec3 sum = vec3(0.0);
     float wsum = 0.0;
     for (uint k = pc.first_view; k < pc.first_view + pc.view_count; ++k) {
-        ViewWarp w = warps[k];
+        ViewWarp w = UNIFORM_WARPS != 0u ? warps_u[k] : warps[k];
         vec3 y = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz) * x + w.b_weight.xyz * s;
         if (y.z <= 0.0) {
             continue; // behind camera i

@@ -21,7 +21,8 @@ use crate::gpu::upload::Staging;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
 use crate::passes::refocus::{
-    Accumulate, Filter, OutputFormat, RefocusPass, RefocusTarget, Strategy,
+    Accumulate, Accumulation, Filter, OutputFormat, RefocusPass, RefocusTarget, Strategy,
+    WarpMemory,
 };
 use crate::passes::texture::{LightFieldTexture, ViewStorage};
 use crate::refocus::{Averaging, RefocusImage, RefocusPlan};
@@ -35,6 +36,10 @@ pub struct RenderSettings {
     pub filter: Filter,
     /// Output size; `None` = the views' size.
     pub size: Option<(u32, u32)>,
+    /// The float format the views are summed in.
+    pub accumulation: Accumulation,
+    /// Where the shaders read the warps from; `None`: the pass's default for the light field.
+    pub warps: Option<WarpMemory>,
 }
 
 impl Default for RenderSettings {
@@ -45,6 +50,8 @@ impl Default for RenderSettings {
             strategy: Strategy::default(),
             filter: Filter::default(),
             size: None,
+            accumulation: Accumulation::default(),
+            warps: None,
         }
     }
 }
@@ -193,20 +200,27 @@ impl HeadlessRenderer {
             return Err(Error::Vulkan("the renderer was not fully created".into()));
         };
         let (w, h) = settings.size.unwrap_or((texture.width, texture.height));
-        if self.target.as_ref().map(|t| (t.width, t.height)) != Some((w, h)) {
+        let want = (w, h, settings.accumulation);
+        if self
+            .target
+            .as_ref()
+            .map(|t| (t.width, t.height, t.accumulation()))
+            != Some(want)
+        {
             if let Some(t) = self.target.take() {
                 t.destroy(&ctx);
             }
             if let Some(b) = self.readback.take() {
                 b.destroy(&ctx);
             }
-            self.target = Some(pass.create_target(&ctx, w, h)?);
+            self.target = Some(pass.create_target_with(&ctx, w, h, settings.accumulation)?);
             self.readback = Some(Buffer::readback(
                 &ctx,
                 w as u64 * h as u64 * 16,
                 "refocus readback",
             )?);
         }
+        pass.set_warp_memory(settings.warps)?;
         pass.set_views(plan)?;
         let (Some(target), Some(submission), Some(readback_buffer)) = (
             self.target.as_mut(),

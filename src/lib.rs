@@ -28,6 +28,7 @@
 //! - [`synth`]: synthetic scenes with exact ground truth: a CPU ray tracer of textured quads,
 //!   triangle meshes from glTF or the built-in scenes rendered by the Vulkan rasterizer
 //!   (`tiltfield synth`), and the optical ground truth of a tilt-shift lens;
+//! - [`bench`]: the speed–accuracy benchmark (variants, scaling sweep, charts);
 //! - [`cli`]: the `tiltfield` command line; it parses options into library requests and
 //!   reports the results.
 //!
@@ -36,6 +37,7 @@
 //! code cites its sections as `docs/conventions.md §N`.
 
 pub mod batch;
+pub mod bench;
 pub mod cli;
 pub mod color;
 pub mod error;

@@ -1,5 +1,6 @@
 //! The `tiltfield` command line: argument parsing and the subcommands.
 
+mod bench;
 mod cloud;
 mod demo;
 mod focus;
@@ -43,6 +44,10 @@ pub enum Command {
     Cloud(Box<cloud::CloudArgs>),
     /// Interactive tilt-shift refocus in a window: refocus image and 3-D scene with the plane.
     View(Box<view::ViewArgs>),
+    /// Measure GPU time and accuracy of every refocus variant (strategy, filter, storage,
+    /// accumulation, aperture, output size), a scaling sweep, and chart speed against
+    /// accuracy (JSON, CSV, SVG and PNG).
+    Bench(Box<bench::BenchArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -174,6 +179,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Synth(a) => synth::run(&a),
         Command::Cloud(a) => cloud::run(&a),
         Command::View(a) => view::run(&a),
+        Command::Bench(a) => bench::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }
@@ -210,6 +216,14 @@ pub(crate) fn check_output(path: &Path) -> Result<()> {
         std::fs::remove_file(path).map_err(|e| Error::io(path, e))?;
     }
     Ok(())
+}
+
+/// Creates output folder `dir` (and its parents), refusing a path that is a file.
+pub(crate) fn ensure_dir(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::bad_file(dir, "the output folder is a file"));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
 }
 
 /// Default output folder of `demo`.

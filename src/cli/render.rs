@@ -19,7 +19,7 @@ use crate::headless::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::io::OutputKind;
 use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
-use crate::passes::refocus::{Filter, OutputFormat, Strategy};
+use crate::passes::refocus::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
 use crate::passes::texture::ViewStorage;
 use crate::refocus::{self, resolve_focus, Averaging, RefocusPlan, RefocusRequest, ResolvedFocus};
 
@@ -62,9 +62,16 @@ pub struct RenderArgs {
         conflicts_with = "strategy"
     )]
     pub views_per_draw: usize,
-    /// How views are sampled: hardware (bilinear), shader (exact bilinear) or nearest.
+    /// How views are sampled: hardware (bilinear), shader (exact bilinear), bicubic
+    /// (Catmull-Rom in the shader) or nearest.
     #[arg(long, value_name = "FILTER")]
     pub filter: Option<Filter>,
+    /// The float format views are summed in: rgba32f (default) or rgba16f.
+    #[arg(long, value_name = "FORMAT")]
+    pub accumulation: Option<Accumulation>,
+    /// Where the shaders read the per-view warps: ubo (default up to 256 views) or ssbo.
+    #[arg(long, value_name = "MEMORY")]
+    pub warps: Option<WarpMemory>,
     /// How views are stored on the GPU: srgb8 or linear16 (exactly decoded linear light).
     #[arg(long, value_name = "STORAGE")]
     pub storage: Option<ViewStorage>,
@@ -158,6 +165,8 @@ pub fn render_settings(args: &RenderArgs, kind: OutputKind) -> Result<RenderSett
         strategy,
         filter: args.filter.unwrap_or_default(),
         size,
+        accumulation: args.accumulation.unwrap_or_default(),
+        warps: args.warps,
     })
 }
 
@@ -250,6 +259,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "averaging": args.average,
             "strategy": settings.strategy.name(),
             "filter": settings.filter,
+            "accumulation": settings.accumulation,
             "storage": renderer_storage,
             "size": [out_w, out_h],
             "aperture": {"shape": args.aperture, "radius": args.aperture_radius},

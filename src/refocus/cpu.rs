@@ -2,6 +2,10 @@
 //! (`shaders/refocus.frag`), with exact bilinear sampling (no 8-bit snapping of sample
 //! positions) and clamp-to-edge addressing (docs/conventions.md §4). The tests compare the GPU
 //! against it.
+//!
+//! [`render_with`] also models the GPU's other filters exactly ([`Kernel`]: nearest texel and
+//! Catmull-Rom bicubic), so each filter can be held to a tight bound against its own model,
+//! while the bilinear reference stays the one that defines the method.
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -15,6 +19,18 @@ pub fn render(lf: &LightField, plan: &RefocusPlan, averaging: Averaging) -> Refo
     render_scaled(lf, plan, averaging, lf.width, lf.height)
 }
 
+/// How a view is sampled at a warped position (pixel centres at integers, clamp to edge).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum Kernel {
+    /// Bilinear: the reference of the method.
+    #[default]
+    Bilinear,
+    /// Catmull-Rom bicubic (a = −½), as the GPU's `bicubic` filter.
+    Bicubic,
+    /// The nearest texel (ties round up: floor(p + ½)), as the GPU's `nearest` filter.
+    Nearest,
+}
+
 /// Renders `plan` on the CPU at `w × h`: output pixel (i, j) has its centre at reference-view
 /// pixel position ((i + ½)·W/w − ½, (j + ½)·H/h − ½), as on the GPU.
 pub fn render_scaled(
@@ -23,6 +39,18 @@ pub fn render_scaled(
     averaging: Averaging,
     w: u32,
     h: u32,
+) -> RefocusImage {
+    render_with(lf, plan, averaging, w, h, Kernel::Bilinear)
+}
+
+/// [`render_scaled`] with the views sampled by `kernel`.
+pub fn render_with(
+    lf: &LightField,
+    plan: &RefocusPlan,
+    averaging: Averaging,
+    w: u32,
+    h: u32,
+    kernel: Kernel,
 ) -> RefocusImage {
     let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
     let table: [f64; 256] = match averaging {
@@ -48,7 +76,12 @@ pub fn render_scaled(
                     if !(p.x >= -0.5 && p.x <= wf - 0.5 && p.y >= -0.5 && p.y <= hf - 0.5) {
                         continue;
                     }
-                    let c = bilinear(&lf.views[v.index].image, &table, p);
+                    let img = &lf.views[v.index].image;
+                    let c = match kernel {
+                        Kernel::Bilinear => bilinear(img, &table, p),
+                        Kernel::Bicubic => bicubic(img, &table, p),
+                        Kernel::Nearest => nearest(img, &table, p),
+                    };
                     for k in 0..3 {
                         sum[k] += v.weight * c[k];
                     }
@@ -102,4 +135,158 @@ fn bilinear(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
         }
     }
     c
+}
+
+/// Output pixels (row-major, `w × h`) where some view's mask is decided within `eps` pixels of
+/// its border (or its sample lies within `eps` relative of the view's camera plane): there an
+/// f32 evaluation of the same warp may include a view that f64 excludes or vice versa, so the
+/// pixel may legitimately differ by a fraction of one view's weight. Half-pixel disparities put
+/// whole rows and columns exactly on a border (0 − 0.5·1 = −0.5). For [`Kernel::Nearest`] a
+/// sample within `eps` of a rounding tie (a half-integer position) is ambiguous too: f32 may
+/// pick the other texel.
+pub fn ambiguous_pixels(
+    lf: &LightField,
+    plan: &RefocusPlan,
+    (w, h): (u32, u32),
+    kernel: Kernel,
+    eps: f64,
+) -> Vec<bool> {
+    let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
+    let (wf, hf) = (lf.width as f64, lf.height as f64);
+    let near = |v: f64, edge: f64| (v - edge).abs() <= eps;
+    (0..(w * h) as usize)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
+            let px = (DVec2::new(x, y) + 0.5) * scale - 0.5;
+            plan.views.iter().any(|v| {
+                let q = v.warp.apply(plan.m, px);
+                if q.z.abs() <= eps * q.truncate().length().max(1.0) {
+                    return true;
+                }
+                let p = DVec2::new(q.x / q.z, q.y / q.z);
+                let tie = |v: f64| near(v + 0.5, (v + 0.5).round());
+                near(p.x, -0.5)
+                    || near(p.x, wf - 0.5)
+                    || near(p.y, -0.5)
+                    || near(p.y, hf - 0.5)
+                    || (kernel == Kernel::Nearest && (tie(p.x) || tie(p.y)))
+            })
+        })
+        .collect()
+}
+
+/// The texel at integer position (x, y), clamped to the image, through `table`.
+fn texel(img: &image::RgbaImage, table: &[f64; 256], x: i64, y: i64) -> [f64; 3] {
+    let (w, h) = (img.width() as i64, img.height() as i64);
+    let t = img
+        .get_pixel(x.clamp(0, w - 1) as u32, y.clamp(0, h - 1) as u32)
+        .0;
+    [
+        table[t[0] as usize],
+        table[t[1] as usize],
+        table[t[2] as usize],
+    ]
+}
+
+/// The nearest texel to `p` (ties round up), clamp-to-edge.
+fn nearest(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
+    texel(
+        img,
+        table,
+        (p.x + 0.5).floor() as i64,
+        (p.y + 0.5).floor() as i64,
+    )
+}
+
+/// Catmull-Rom weights (a = −½) of the texels at offsets −1, 0, 1, 2 from floor(p) for the
+/// fraction `t` ∈ [0, 1): the same polynomials as `catmull_rom` in
+/// `shaders/refocus_accumulate.glsl`.
+pub fn catmull_rom(t: f64) -> [f64; 4] {
+    let (t2, t3) = (t * t, t * t * t);
+    [
+        -0.5 * t3 + t2 - 0.5 * t,
+        1.5 * t3 - 2.5 * t2 + 1.0,
+        -1.5 * t3 + 2.0 * t2 + 0.5 * t,
+        0.5 * t3 - 0.5 * t2,
+    ]
+}
+
+/// Catmull-Rom bicubic interpolation at `p` with clamp-to-edge (no clamping of the result:
+/// it may overshoot near edges, as on the GPU).
+fn bicubic(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
+    let (x0, y0) = (p.x.floor(), p.y.floor());
+    let wx = catmull_rom(p.x - x0);
+    let wy = catmull_rom(p.y - y0);
+    let (xi, yi) = (x0 as i64, y0 as i64);
+    let mut c = [0f64; 3];
+    for (j, wyj) in wy.iter().enumerate() {
+        for (i, wxi) in wx.iter().enumerate() {
+            let t = texel(img, table, xi + i as i64 - 1, yi + j as i64 - 1);
+            for k in 0..3 {
+                c[k] += wxi * wyj * t[k];
+            }
+        }
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn catmull_rom_weights_partition_unity_and_interpolate() {
+        assert_eq!(catmull_rom(0.0), [0.0, 1.0, 0.0, 0.0]);
+        for k in 0..=16 {
+            let t = k as f64 / 16.0;
+            let w = catmull_rom(t);
+            assert!((w.iter().sum::<f64>() - 1.0).abs() < 1e-12, "t = {t}");
+            // Linear functions are reproduced: Σ w_i (i − 1) = t.
+            let lin: f64 = w
+                .iter()
+                .enumerate()
+                .map(|(i, w)| w * (i as f64 - 1.0))
+                .sum();
+            assert!((lin - t).abs() < 1e-12, "t = {t}");
+        }
+        // Symmetric: the weights at 1 − t are the mirror image.
+        let (a, b) = (catmull_rom(0.3), catmull_rom(0.7));
+        for i in 0..4 {
+            assert!((a[i] - b[3 - i]).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn every_kernel_reproduces_texel_centres() {
+        let mut img = image::RgbaImage::new(5, 4);
+        for (x, y, p) in img.enumerate_pixels_mut() {
+            p.0 = [
+                (x * 40 + y * 7) as u8,
+                (y * y * 15) as u8,
+                (x * y * 9) as u8,
+                255,
+            ];
+        }
+        let table: [f64; 256] = std::array::from_fn(|i| i as f64 / 255.0);
+        for y in 0..4i64 {
+            for x in 0..5i64 {
+                let p = DVec2::new(x as f64, y as f64);
+                let want = texel(&img, &table, x, y);
+                for got in [
+                    bilinear(&img, &table, p),
+                    bicubic(&img, &table, p),
+                    nearest(&img, &table, p),
+                ] {
+                    for k in 0..3 {
+                        assert!((got[k] - want[k]).abs() < 1e-12, "({x},{y})");
+                    }
+                }
+            }
+        }
+        // Off-centre they differ: bilinear does not reproduce the quadratic green channel.
+        let p = DVec2::new(1.5, 1.5);
+        assert_ne!(bicubic(&img, &table, p), bilinear(&img, &table, p));
+        assert_eq!(nearest(&img, &table, p), texel(&img, &table, 2, 2));
+    }
 }

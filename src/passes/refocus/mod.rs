@@ -16,8 +16,14 @@
 //!   ([`Strategy`]: one fullscreen draw, batched draws, or a compute dispatch), so a caller can
 //!   accumulate progressively over several submissions; [`RefocusPass::record_resolve`]
 //!   normalises whatever has been summed so far.
-//! - [`Filter`] picks hardware bilinear, nearest, or bilinear in the shader; with 8-bit sRGB
-//!   views and linear averaging the latter two decode texels exactly before filtering.
+//! - [`Filter`] picks hardware bilinear, nearest, bilinear or bicubic (Catmull-Rom) in the
+//!   shader; with 8-bit sRGB views and linear averaging the shader filters decode texels
+//!   exactly before filtering.
+//! - [`WarpMemory`]: the warps are read from a uniform buffer where they fit (up to
+//!   [`UBO_WARPS`] views), else from a storage buffer; the sRGB decode table is a uniform
+//!   buffer.
+//! - [`Accumulation`] is the float format of a target's sum (RGBA32F or RGBA16F), chosen
+//!   when the target is created ([`RefocusPass::create_target_with`]).
 //!
 //! Output pixel (i, j) has its centre at reference-view pixel position
 //! ((i + ½)·W_view/W_out − ½, (j + ½)·H_view/H_out − ½), so any output size is exact.
@@ -114,14 +120,37 @@ pub enum Filter {
     Nearest,
     /// Bilinear in the shader from four texel fetches with f32 weights.
     Shader,
+    /// Bicubic (Catmull-Rom, a = −½) in the shader from sixteen texel fetches with f32
+    /// weights: sharper than bilinear at fractional shifts, interpolating (texel centres are
+    /// reproduced exactly), and may overshoot near edges (no clamping before the average).
+    Bicubic,
 }
 
 impl Filter {
+    /// Every filter, in the order the CLI lists them.
+    pub const ALL: [Filter; 4] = [
+        Filter::Hardware,
+        Filter::Shader,
+        Filter::Bicubic,
+        Filter::Nearest,
+    ];
+
     fn code(self) -> u32 {
         match self {
             Filter::Hardware => 0,
             Filter::Nearest => 1,
             Filter::Shader => 2,
+            Filter::Bicubic => 3,
+        }
+    }
+
+    /// The name the CLI accepts.
+    pub fn name(self) -> &'static str {
+        match self {
+            Filter::Hardware => "hardware",
+            Filter::Nearest => "nearest",
+            Filter::Shader => "shader",
+            Filter::Bicubic => "bicubic",
         }
     }
 }
@@ -133,8 +162,111 @@ impl std::str::FromStr for Filter {
             "hardware" => Ok(Self::Hardware),
             "nearest" => Ok(Self::Nearest),
             "shader" => Ok(Self::Shader),
+            "bicubic" => Ok(Self::Bicubic),
             _ => Err(Error::Invalid(format!(
-                "unknown filter '{s}': expected hardware, nearest or shader"
+                "unknown filter '{s}': expected hardware, shader, bicubic or nearest"
+            ))),
+        }
+    }
+}
+
+/// The float format the views are summed in (a property of the [`RefocusTarget`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Accumulation {
+    /// RGBA32F: 24-bit mantissas, exact for any practical number of views. The default.
+    #[default]
+    Rgba32f,
+    /// RGBA16F: half the memory and bandwidth. The fragment and compute strategies write
+    /// each pixel's sum once (one rounding, relative error ≤ 2⁻¹¹); batched draws round after
+    /// every draw.
+    Rgba16f,
+}
+
+impl Accumulation {
+    /// The Vulkan format.
+    pub fn format(self) -> vk::Format {
+        match self {
+            Accumulation::Rgba32f => vk::Format::R32G32B32A32_SFLOAT,
+            Accumulation::Rgba16f => vk::Format::R16G16B16A16_SFLOAT,
+        }
+    }
+
+    /// The name the CLI accepts.
+    pub fn name(self) -> &'static str {
+        match self {
+            Accumulation::Rgba32f => "rgba32f",
+            Accumulation::Rgba16f => "rgba16f",
+        }
+    }
+
+    fn of_format(format: vk::Format) -> Option<Self> {
+        [Accumulation::Rgba32f, Accumulation::Rgba16f]
+            .into_iter()
+            .find(|a| a.format() == format)
+    }
+}
+
+impl std::str::FromStr for Accumulation {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "rgba32f" => Ok(Self::Rgba32f),
+            "rgba16f" => Ok(Self::Rgba16f),
+            _ => Err(Error::Invalid(format!(
+                "unknown accumulation '{s}': expected rgba32f or rgba16f"
+            ))),
+        }
+    }
+}
+
+/// Records in the uniform-buffer binding of the warps: 16 KiB, the least
+/// `maxUniformBufferRange` Vulkan guarantees.
+pub const UBO_WARPS: usize = 256;
+
+/// Where the accumulation shaders read the per-view warps from.
+///
+/// Measured on lavapipe (llvmpipe, Mesa 22.3): a storage-buffer load whose index is the loop
+/// counter is compiled as a loop over the SIMD lanes with a bounds check and a branch per
+/// lane, while a uniform-buffer load is one vector gather; with 81 views the storage path
+/// spent about 90 % of the refocus time loading warps. GPUs serve both from the same caches.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WarpMemory {
+    /// A uniform buffer of at most [`UBO_WARPS`] records (the default where the views fit).
+    #[default]
+    Uniform,
+    /// A storage buffer: any number of views.
+    Storage,
+}
+
+impl WarpMemory {
+    /// The default for a light field of `views` views.
+    pub fn for_views(views: usize) -> Self {
+        if views <= UBO_WARPS {
+            WarpMemory::Uniform
+        } else {
+            WarpMemory::Storage
+        }
+    }
+
+    /// The name the CLI accepts (`ubo`, `ssbo`).
+    pub fn name(self) -> &'static str {
+        match self {
+            WarpMemory::Uniform => "ubo",
+            WarpMemory::Storage => "ssbo",
+        }
+    }
+}
+
+impl std::str::FromStr for WarpMemory {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        match s {
+            "ubo" => Ok(Self::Uniform),
+            "ssbo" => Ok(Self::Storage),
+            _ => Err(Error::Invalid(format!(
+                "unknown warp memory '{s}': expected ubo or ssbo"
             ))),
         }
     }
@@ -188,6 +320,7 @@ struct AccumKey {
     filter: u32,
     texel: u32,
     format: vk::Format,
+    uniform_warps: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -208,6 +341,8 @@ pub struct RefocusPass {
     /// `color::decode_table` as f32, read by shaders that decode texels exactly.
     decode: Buffer,
     warp_capacity: usize,
+    /// Where the shaders read the warps from (see [`WarpMemory`]).
+    warp_memory: WarpMemory,
     /// What `warps` holds now, so an unchanged view set is not rewritten.
     uploaded: Vec<GpuViewWarp>,
     accum_pipelines: Vec<(AccumKey, vk::Pipeline)>,
@@ -217,29 +352,31 @@ pub struct RefocusPass {
 /// The accumulation format: RGBA32F where the device blends into it (and, for the compute
 /// strategy, stores to it), else RGBA16F.
 pub fn pick_accum_format(ctx: &GpuContext) -> Result<(vk::Format, bool)> {
-    use vk::FormatFeatureFlags as F;
-    let need = F::COLOR_ATTACHMENT | F::COLOR_ATTACHMENT_BLEND | F::SAMPLED_IMAGE;
-    for f in [
-        vk::Format::R32G32B32A32_SFLOAT,
-        vk::Format::R16G16B16A16_SFLOAT,
-    ] {
-        // SAFETY: valid physical device.
-        let props = unsafe {
-            ctx.instance
-                .get_physical_device_format_properties(ctx.physical, f)
-        };
-        let features = props.optimal_tiling_features;
-        if features.contains(need) {
-            // refocus.comp declares rgba32f.
-            let storage =
-                f == vk::Format::R32G32B32A32_SFLOAT && features.contains(F::STORAGE_IMAGE);
-            return Ok((f, storage));
+    for a in [Accumulation::Rgba32f, Accumulation::Rgba16f] {
+        if let Some(storage) = accum_support(ctx, a) {
+            return Ok((a.format(), storage));
         }
     }
     Err(Error::Vulkan(format!(
         "{} cannot blend into a float colour attachment",
         ctx.info.name
     )))
+}
+
+/// Whether the device can accumulate in `a` (blend into it and sample it): `None` if not,
+/// else whether it can also be a storage image (the compute strategy).
+fn accum_support(ctx: &GpuContext, a: Accumulation) -> Option<bool> {
+    use vk::FormatFeatureFlags as F;
+    let need = F::COLOR_ATTACHMENT | F::COLOR_ATTACHMENT_BLEND | F::SAMPLED_IMAGE;
+    // SAFETY: valid physical device.
+    let props = unsafe {
+        ctx.instance
+            .get_physical_device_format_properties(ctx.physical, a.format())
+    };
+    let features = props.optimal_tiling_features;
+    features
+        .contains(need)
+        .then_some(features.contains(F::STORAGE_IMAGE))
 }
 
 impl RefocusPass {
@@ -259,9 +396,12 @@ impl RefocusPass {
             .iter()
             .flat_map(|&v| (v as f32).to_ne_bytes())
             .collect();
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let bytes = (capacity * std::mem::size_of::<GpuViewWarp>()) as u64;
+        // The warp buffer is bound twice: as a storage buffer (any number of views) and as a
+        // uniform buffer of UBO_WARPS records, so it is at least that large.
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_BUFFER;
+        let bytes = (capacity.max(UBO_WARPS) * std::mem::size_of::<GpuViewWarp>()) as u64;
         let buffers = Buffer::new(ctx, bytes, usage, true, "view warps").and_then(|warps| {
+            let usage = vk::BufferUsageFlags::UNIFORM_BUFFER;
             match Buffer::with_bytes(ctx, &table, usage, "sRGB decode table") {
                 Ok(decode) => Ok((warps, decode)),
                 Err(e) => {
@@ -282,6 +422,10 @@ impl RefocusPass {
             .buffer(warps.buffer)
             .offset(0)
             .range(vk::WHOLE_SIZE)];
+        let ubo_info = [vk::DescriptorBufferInfo::default()
+            .buffer(warps.buffer)
+            .offset(0)
+            .range((UBO_WARPS * std::mem::size_of::<GpuViewWarp>()) as u64)];
         let decode_info = [vk::DescriptorBufferInfo::default()
             .buffer(decode.buffer)
             .offset(0)
@@ -317,8 +461,15 @@ impl RefocusPass {
                 vk::WriteDescriptorSet::default()
                     .dst_set(*set)
                     .dst_binding(2)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
                     .buffer_info(&decode_info),
+            );
+            writes.push(
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(3)
+                    .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+                    .buffer_info(&ubo_info),
             );
         }
         // SAFETY: new, unused sets; the infos reference live objects.
@@ -332,10 +483,31 @@ impl RefocusPass {
             warps,
             decode,
             warp_capacity: capacity,
+            warp_memory: WarpMemory::for_views(capacity),
             uploaded: Vec::new(),
             accum_pipelines: Vec::new(),
             resolve_pipelines: Vec::new(),
         })
+    }
+
+    /// Where the shaders read the warps from: `None` picks the default for this light field
+    /// ([`WarpMemory::for_views`]). The uniform buffer holds at most [`UBO_WARPS`] views; asking
+    /// for it with more is an error.
+    pub fn set_warp_memory(&mut self, memory: Option<WarpMemory>) -> Result<()> {
+        let memory = memory.unwrap_or_else(|| WarpMemory::for_views(self.warp_capacity));
+        if memory == WarpMemory::Uniform && self.warp_capacity > UBO_WARPS {
+            return Err(Error::Invalid(format!(
+                "the light field has {} views; a uniform buffer of warps holds at most {UBO_WARPS}",
+                self.warp_capacity
+            )));
+        }
+        self.warp_memory = memory;
+        Ok(())
+    }
+
+    /// Where the shaders read the warps from.
+    pub fn warp_memory(&self) -> WarpMemory {
+        self.warp_memory
     }
 
     /// How the views are stored in the texture this pass reads.
@@ -343,12 +515,45 @@ impl RefocusPass {
         self.storage
     }
 
-    /// A target of `width × height` for this pass (the caller owns and destroys it).
+    /// A target of `width × height` for this pass (the caller owns and destroys it), summing
+    /// in RGBA32F where the device can, else RGBA16F.
     pub fn create_target(
         &self,
         ctx: &GpuContext,
         width: u32,
         height: u32,
+    ) -> Result<RefocusTarget> {
+        let (format, storage) = pick_accum_format(ctx)?;
+        self.target_of(ctx, width, height, format, storage)
+    }
+
+    /// A target of `width × height` that sums in `accumulation`; an error when the device
+    /// cannot blend into that format.
+    pub fn create_target_with(
+        &self,
+        ctx: &GpuContext,
+        width: u32,
+        height: u32,
+        accumulation: Accumulation,
+    ) -> Result<RefocusTarget> {
+        let storage = accum_support(ctx, accumulation).ok_or_else(|| {
+            Error::DeviceLimit(format!(
+                "{} cannot blend into {} colour attachments: use --accumulation {}",
+                ctx.info.name,
+                accumulation.name(),
+                Accumulation::Rgba16f.name()
+            ))
+        })?;
+        self.target_of(ctx, width, height, accumulation.format(), storage)
+    }
+
+    fn target_of(
+        &self,
+        ctx: &GpuContext,
+        width: u32,
+        height: u32,
+        format: vk::Format,
+        storage: bool,
     ) -> Result<RefocusTarget> {
         if width == 0 || height == 0 {
             return Err(Error::Invalid(format!(
@@ -362,7 +567,6 @@ impl RefocusPass {
                 ctx.info.name
             )));
         }
-        let (format, storage) = pick_accum_format(ctx)?;
         RefocusTarget::new(
             ctx,
             width,
@@ -437,8 +641,9 @@ impl RefocusPass {
         let compute = a.strategy == Strategy::Compute;
         if compute && target.storage_set == vk::DescriptorSet::null() {
             return Err(Error::DeviceLimit(format!(
-                "{} cannot store to an RGBA32F image: use a fragment strategy",
-                ctx.info.name
+                "{} cannot store to an {} image: use a fragment strategy",
+                ctx.info.name,
+                Accumulation::of_format(target.accum_format).map_or("accumulation", |a| a.name())
             )));
         }
         let key = AccumKey {
@@ -446,6 +651,7 @@ impl RefocusPass {
             filter: filter.code(),
             texel: texel as u32,
             format: target.accum_format,
+            uniform_warps: self.warp_memory == WarpMemory::Uniform,
         };
         let pipeline = self.accum_pipeline(ctx, key)?;
         let d = &ctx.device;
@@ -650,15 +856,26 @@ impl RefocusPass {
         if let Some((_, p)) = self.accum_pipelines.iter().find(|(k, _)| *k == key) {
             return Ok(*p);
         }
-        let constants = [key.filter, key.texel];
+        let constants = [key.filter, key.texel, u32::from(key.uniform_warps)];
         let name = format!(
-            "refocus {} pipeline (filter {}, texel {})",
+            "refocus {} pipeline (filter {}, texel {}, {} warps)",
             if key.compute { "compute" } else { "fragment" },
             key.filter,
-            key.texel
+            key.texel,
+            if key.uniform_warps {
+                "uniform"
+            } else {
+                "storage"
+            }
         );
         let pipeline = if key.compute {
-            let module = shaders::module(ctx, shaders::REFOCUS_COMP, "refocus.comp")?;
+            // The storage image's format is part of the shader: one module per format.
+            let (spirv, file) = if key.format == Accumulation::Rgba16f.format() {
+                (shaders::REFOCUS_HALF_COMP, "refocus_half.comp")
+            } else {
+                (shaders::REFOCUS_COMP, "refocus.comp")
+            };
+            let module = shaders::module(ctx, spirv, file)?;
             let p = compute_pipeline(ctx, self.objects.compute_layout, module, &constants);
             // SAFETY: pipelines keep their own copy of the code.
             unsafe { ctx.device.destroy_shader_module(module, None) };
@@ -818,7 +1035,8 @@ impl PassObjects {
         self.input_set_layout = set_layout(&[
             binding(0, T::COMBINED_IMAGE_SAMPLER, shading),
             binding(1, T::STORAGE_BUFFER, shading),
-            binding(2, T::STORAGE_BUFFER, shading),
+            binding(2, T::UNIFORM_BUFFER, shading),
+            binding(3, T::UNIFORM_BUFFER, shading),
         ])?;
         self.resolve_set_layout = set_layout(&[binding(
             0,
@@ -843,6 +1061,10 @@ impl PassObjects {
             },
             vk::DescriptorPoolSize {
                 ty: T::STORAGE_BUFFER,
+                descriptor_count: n,
+            },
+            vk::DescriptorPoolSize {
+                ty: T::UNIFORM_BUFFER,
                 descriptor_count: 2 * n,
             },
         ];

@@ -183,6 +183,15 @@ impl RefocusTarget {
         Ok(())
     }
 
+    /// The format the views are summed in.
+    pub fn accumulation(&self) -> super::Accumulation {
+        if self.accum_format == super::Accumulation::Rgba16f.format() {
+            super::Accumulation::Rgba16f
+        } else {
+            super::Accumulation::Rgba32f
+        }
+    }
+
     /// The image and view a resolve into `format` writes.
     pub fn output(&self, format: OutputFormat) -> (&Image, vk::ImageView) {
         let image = match format {

@@ -1,0 +1,210 @@
+//! `tiltfield bench`: GPU time and accuracy of every refocus variant on one device, a scaling
+//! sweep, and the speed–accuracy and scaling charts. The library ([`crate::bench`]) measures;
+//! this file parses, picks the scene and prints the summary.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use clap::Args;
+
+use super::focus::{focus_summary, FocusArgs};
+use super::{device_load_limits, load_light_field_within, GpuArgs, LightFieldArgs};
+use crate::bench::{self, variant, BenchOptions, BenchReport, BenchScene};
+use crate::error::{Error, Result};
+use crate::geometry::aperture::ApertureShape;
+use crate::gpu::GpuContext;
+use crate::refocus::{resolve_focus, FocusSpec};
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// A light field (as for `render`); default: the built-in synthetic scene with optical
+    /// ground truth (a 40°-tilted textured plane, refocused onto itself).
+    pub light_field: Option<String>,
+    /// Grid folders only: focal length in pixels (default: max(width, height)).
+    #[arg(long, value_name = "PX")]
+    pub focal_px: Option<f64>,
+    /// Grid folders only: distance between neighbouring views in world units.
+    #[arg(long, value_name = "B", default_value_t = 1.0)]
+    pub baseline: f64,
+    #[command(flatten)]
+    pub focus: FocusArgs,
+    /// Timed frames per variant (after discarded warm-up frames); default 20 (--quick: 3).
+    #[arg(long, value_name = "N")]
+    pub frames: Option<usize>,
+    /// Output folder for bench.json, bench.csv, homographies.json and the charts.
+    #[arg(long, value_name = "DIR", default_value = "tiltfield-bench")]
+    pub out: PathBuf,
+    /// Comma-separated variants, each `/`-separated tokens: fragment|batched:N|compute,
+    /// hardware|shader|bicubic|nearest, srgb8|linear16, rgba32f|rgba16f, rR (disk aperture
+    /// radius), WxH or xF (output size or scale); unnamed parts are render's defaults.
+    /// Default: a catalogue that changes one thing at a time.
+    #[arg(long, value_name = "LIST")]
+    pub variants: Option<String>,
+    /// A small scene and few frames: seconds on a CPU driver (the test suite runs this).
+    #[arg(long)]
+    pub quick: bool,
+    /// Skip the scaling sweep (views × output size).
+    #[arg(long)]
+    pub no_scaling: bool,
+    /// The device's bilinear texture rate in GTexel/s (default: a table of common GPUs).
+    #[arg(long, value_name = "G")]
+    pub peak_gtexels: Option<f64>,
+    /// The device's memory bandwidth in GB/s (default: a table of common GPUs).
+    #[arg(long, value_name = "G")]
+    pub peak_gbps: Option<f64>,
+    /// Print the report as JSON on stdout too.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+/// The options of `args` (checked before any GPU work).
+pub fn options(args: &BenchArgs) -> Result<BenchOptions> {
+    let mut o = if args.quick {
+        BenchOptions::quick()
+    } else {
+        BenchOptions::full()
+    };
+    if let Some(n) = args.frames {
+        o.frames = n;
+        o.sweep_frames = o.sweep_frames.min(n).max(1);
+    }
+    if let Some(list) = &args.variants {
+        o.variants = variant::parse_list(list)?;
+    }
+    if args.no_scaling {
+        o.sweep_radii.clear();
+    }
+    o.peak_gtexels = args.peak_gtexels;
+    o.peak_gbps = args.peak_gbps;
+    Ok(o)
+}
+
+fn scene(args: &BenchArgs, ctx: &Arc<GpuContext>) -> Result<BenchScene> {
+    let request = args.focus.request()?;
+    let Some(path) = &args.light_field else {
+        if request.is_some() {
+            return Err(Error::Invalid(
+                "the built-in bench scene is refocused onto its own plane; focus options need a \
+                 light field"
+                    .into(),
+            ));
+        }
+        return bench::synthetic_scene(Arc::clone(ctx), args.quick);
+    };
+    let lf_args = LightFieldArgs {
+        light_field: path.clone(),
+        focal_px: args.focal_px,
+        baseline: args.baseline,
+        frame: None,
+    };
+    let lf = load_light_field_within(&lf_args, &device_load_limits(ctx))?;
+    let (spec, text) = match request {
+        Some(req) => {
+            let focus = resolve_focus(&lf, &req, lf.grid.centre())?;
+            let text = focus_summary(&focus).unwrap_or_else(|| format!("{:?}", focus.spec));
+            (focus.spec, text)
+        }
+        None => (FocusSpec::Disparity(0.0), "disparity 0".to_string()),
+    };
+    Ok(BenchScene {
+        description: format!(
+            "{} ({} views of {}×{})",
+            lf.name,
+            lf.views.len(),
+            lf.width,
+            lf.height
+        ),
+        lf,
+        focus: spec,
+        focus_text: text,
+        truth: None,
+    })
+}
+
+/// Fixed-width table of a report, for the terminal.
+pub fn table(report: &BenchReport) -> String {
+    let mut out = format!(
+        "{} — {} ({}, Vulkan {})\n{:<44} {:>9} {:>9} {:>9} {:>8} {:>7} {:>8} {:>6}\n",
+        report.light_field.description,
+        report.device.name,
+        report.device.driver,
+        report.device.api_version,
+        "variant",
+        "median ms",
+        "min ms",
+        "Msamp/s",
+        "PSNR dB",
+        "max lv",
+        "truth dB",
+        "bound"
+    );
+    for v in &report.variants {
+        out.push_str(&format!(
+            "{:<44} {:>9.2} {:>9.2} {:>9.1} {:>8.1} {:>7.2} {:>8} {:>6}\n",
+            format!("{}{}", v.name, if v.default { " *" } else { "" }),
+            v.gpu_ms_median,
+            v.gpu_ms_min,
+            v.samples_per_s / 1e6,
+            v.psnr_vs_reference_db,
+            v.max_error_vs_reference,
+            v.psnr_vs_truth_db
+                .flatten()
+                .map_or("-".to_string(), |p| format!("{p:.1}")),
+            if v.within_bound { "ok" } else { "FAIL" }
+        ));
+    }
+    if let Some(fit) = report.scaling_fit {
+        out.push_str(&format!(
+            "scaling ({} points): {:.2} ms per frame + {:.3} ns per view-sample (R² {:.3})\n",
+            report.scaling.len(),
+            fit.fixed_ms,
+            fit.ns_per_sample,
+            fit.r_squared
+        ));
+    }
+    if let Some(f) = &report.fastest_full_quality {
+        out.push_str(&format!("fastest at full quality: {f}\n"));
+    }
+    out
+}
+
+pub fn run(args: &BenchArgs) -> Result<()> {
+    let options = options(args)?;
+    super::ensure_dir(&args.out)?;
+    let ctx = Arc::new(GpuContext::new(&args.gpu.options())?);
+    let scene = scene(args, &ctx)?;
+    let report = bench::run(Arc::clone(&ctx), &scene, &options)?;
+    let plan = bench::plan_for(&scene, ApertureShape::Disk, None)?;
+    let homographies = bench::homographies(&scene.lf, &plan);
+    let written = bench::output::write_all(&report, &homographies, &args.out)?;
+    eprint!("{}", table(&report));
+    eprintln!(
+        "wrote {}",
+        written
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let failed: Vec<&str> = report
+        .variants
+        .iter()
+        .filter(|v| !v.within_bound)
+        .map(|v| v.name.as_str())
+        .collect();
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| Error::Invalid(e.to_string()))?
+        );
+    }
+    if !failed.is_empty() {
+        return Err(Error::Invalid(format!(
+            "variants outside their accuracy bound: {}",
+            failed.join(", ")
+        )));
+    }
+    Ok(())
+}
