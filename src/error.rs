@@ -34,6 +34,9 @@ pub enum Error {
     /// Vulkan is unusable (no loader, no device, missing features or layers).
     #[error("vulkan: {0}")]
     Vulkan(String),
+    /// The window system is unusable (no display, no Vulkan presentation).
+    #[error("window: {0}")]
+    Window(String),
     /// A Vulkan call failed.
     #[error("vulkan call failed: {0}")]
     VkResult(#[from] vk::Result),

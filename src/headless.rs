@@ -2,7 +2,7 @@
 //! submission, timestamps and a readback buffer on a shared [`GpuContext`]. What the CLI and the
 //! tests drive. Every frame is submitted and waited for, since its pixels are read back.
 //!
-//! Teardown (in `Drop`): readback → timestamps → submission → target → pass → texture; the
+//! Teardown (in `Drop`): frame staging → readback → timestamps → submission → target → pass → texture; the
 //! context is shared (`Arc`) and goes when its last user does.
 
 use std::ops::Range;
@@ -17,6 +17,7 @@ use crate::gpu::commands::{
 };
 use crate::gpu::resources::{rgba_f32, Buffer};
 use crate::gpu::timing::Timestamps;
+use crate::gpu::upload::Staging;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
 use crate::passes::refocus::{
@@ -71,6 +72,8 @@ pub enum GpuImage {
 
 /// A ready-to-render light field on a Vulkan device.
 pub struct HeadlessRenderer {
+    /// Kept between [`HeadlessRenderer::replace_views`] calls (created by the first).
+    staging: Option<Staging>,
     readback: Option<Buffer>,
     timestamps: Option<Timestamps>,
     submission: Option<Submission>,
@@ -94,6 +97,7 @@ impl HeadlessRenderer {
         storage: ViewStorage,
     ) -> Result<Self> {
         let mut r = HeadlessRenderer {
+            staging: None,
             readback: None,
             timestamps: None,
             submission: None,
@@ -128,6 +132,25 @@ impl HeadlessRenderer {
         self.texture
             .as_ref()
             .map_or_else(ViewStorage::default, |t| t.storage)
+    }
+
+    /// Replaces the uploaded views with those of `lf` in place — the next frame of a video,
+    /// with the same grid, cameras and view size — keeping the pass, target and plans valid.
+    pub fn replace_views(&mut self, lf: &LightField) -> Result<()> {
+        let Some(texture) = self.texture.as_mut() else {
+            return Err(Error::Vulkan("the renderer was not fully created".into()));
+        };
+        if self.staging.is_none() {
+            self.staging = Some(Staging::new(
+                &self.ctx,
+                texture.staging_bytes(),
+                "light field frame staging",
+            )?);
+        }
+        let Some(staging) = self.staging.as_mut() else {
+            return Err(Error::Vulkan("no staging buffer".into()));
+        };
+        texture.reupload(&self.ctx, lf, staging)
     }
 
     /// Renders `plan` and reads the image back.
@@ -307,6 +330,9 @@ impl Drop for HeadlessRenderer {
         // completes before its resources go.
         unsafe {
             let _ = ctx.device.device_wait_idle();
+        }
+        if let Some(s) = self.staging.take() {
+            s.destroy(ctx);
         }
         if let Some(b) = self.readback.take() {
             b.destroy(ctx);

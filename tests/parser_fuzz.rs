@@ -16,7 +16,7 @@ use glam::{DVec2, DVec3};
 use proptest::prelude::*;
 use tiltfield::geometry::aperture::{Aperture, ApertureShape};
 use tiltfield::geometry::plane::Plane;
-use tiltfield::lightfield::{self, grid_folder, hci, manifest, pfm, LightField};
+use tiltfield::lightfield::{self, grid_naming, hci, manifest, pfm, LightField};
 use tiltfield::refocus::{self, FocusSpec, RefocusRequest};
 
 // ---------------------------------------------------------------------------------------------
@@ -208,9 +208,19 @@ proptest! {
     }
 
     #[test]
-    fn grid_names_never_panic(stem in ".{0,40}") {
-        if let Some((r, c)) = grid_folder::row_col(&stem) {
-            prop_assert!(stem.contains(&r.to_string()) && stem.contains(&c.to_string()));
+    fn grid_names_never_panic(stems in proptest::collection::vec(".{0,40}", 0..12)) {
+        for stem in &stems {
+            // Every number found is the text at its place in the name, in order.
+            let mut at = 0;
+            for n in grid_naming::numbers(stem) {
+                prop_assert!(n.start >= at && stem.get(n.start..n.end) == Some(n.text.as_str()));
+                at = n.end;
+            }
+        }
+        let names: Vec<String> = stems.iter().map(|s| format!("{s}.png")).collect();
+        if let Ok(g) = grid_naming::read_grid(&names, None) {
+            prop_assert_eq!(g.order.len(), g.grid.len());
+            prop_assert!(g.order.iter().all(|&i| i < names.len()));
         }
     }
 

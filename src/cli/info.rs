@@ -50,6 +50,12 @@ pub fn run(args: &InfoArgs) -> Result<()> {
             })
         })
         .collect();
+    let dark: Vec<(usize, usize)> = lf
+        .views
+        .iter()
+        .filter(|v| crate::lightfield::images::is_dark(&v.image))
+        .map(|v| (v.s, v.t))
+        .collect();
     let k = ref_cam.k;
     let report = json!({
         "name": lf.name,
@@ -64,6 +70,7 @@ pub fn run(args: &InfoArgs) -> Result<()> {
         "rotated_cameras": rotated,
         "parallel_rig": lf.rig,
         "depth": depth,
+        "dark_views": dark,
     });
     if args.json {
         println!(
@@ -76,9 +83,27 @@ pub fn run(args: &InfoArgs) -> Result<()> {
         Source::Hci(_) => "HCI benchmark folder",
         Source::Manifest { .. } => "tiltfield manifest",
         Source::GridFolder { .. } => "grid of views named by row and column",
+        Source::TechnicolorVideo(_) => "camera-array video, Technicolor layout",
         Source::Generated { .. } => "built-in scene",
     };
     println!("{} ({format})", lf.name);
+    match &lf.source {
+        Source::GridFolder { naming, .. } => println!("  names       {}", naming.describe()),
+        Source::TechnicolorVideo(v) => println!(
+            "  video       frame {} of {} frames ({}–{}), {} values per camera{}",
+            v.frame,
+            v.frames,
+            v.first_frame,
+            v.last_frame,
+            v.parameter_columns,
+            if v.undistorted_on_load {
+                ", radial distortion removed on load"
+            } else {
+                ""
+            }
+        ),
+        _ => {}
+    }
     println!(
         "  grid        {} × {} views (s × t), {} in all",
         lf.grid.cols,
@@ -114,6 +139,16 @@ pub fn run(args: &InfoArgs) -> Result<()> {
             r.disparity_at_infinity()
         ),
         None => println!("  disparity   classic shift-and-sum (no parallel-rig parameters)"),
+    }
+    if !dark.is_empty() {
+        println!(
+            "  dark views  {} (almost) black, left out of the aperture by default: {}",
+            dark.len(),
+            dark.iter()
+                .map(|(s, t)| format!("({s}, {t})"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        );
     }
     if lf.depth.is_empty() {
         println!("  depth       none (click-based plane placement unavailable)");

@@ -4,9 +4,11 @@ mod bench;
 mod cloud;
 mod demo;
 mod focus;
+mod frames;
 mod info;
 mod render;
 mod synth;
+mod view;
 
 use std::path::{Path, PathBuf};
 
@@ -44,6 +46,8 @@ pub enum Command {
     /// accumulation, aperture, output size), a scaling sweep, and chart speed against
     /// accuracy (JSON, CSV, SVG and PNG).
     Bench(Box<bench::BenchArgs>),
+    /// Interactive tilt-shift refocus in a window: refocus image and 3-D scene with the plane.
+    View(Box<view::ViewArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -62,6 +66,10 @@ pub struct LightFieldArgs {
     /// Grid folders only: distance between neighbouring views in world units.
     #[arg(long, value_name = "B", default_value_t = 1.0)]
     pub baseline: f64,
+    /// Camera-array videos only: the frame, by its number in the file names (default: the
+    /// first frame).
+    #[arg(long, value_name = "N")]
+    pub frame: Option<u64>,
 }
 
 /// Vulkan device options.
@@ -76,7 +84,7 @@ pub struct GpuArgs {
 }
 
 impl GpuArgs {
-    fn options(&self) -> GpuOptions {
+    pub(crate) fn options(&self) -> GpuOptions {
         let env = GpuOptions::from_env();
         GpuOptions {
             device: self.device.clone().or(env.device),
@@ -106,6 +114,11 @@ pub fn device_load_limits(ctx: &GpuContext) -> LoadLimits {
 /// [`load_light_field`], refusing a light field beyond `limits` before decoding its views.
 pub fn load_light_field_within(args: &LightFieldArgs, limits: &LoadLimits) -> Result<LightField> {
     if let Some(name) = args.light_field.strip_prefix("builtin:") {
+        if let Some(n) = args.frame {
+            return Err(Error::Invalid(format!(
+                "--frame {n}: builtin:{name} is a single light field, not a video"
+            )));
+        }
         return builtin_light_field(name);
     }
     if args.baseline.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
@@ -125,7 +138,7 @@ pub fn load_light_field_within(args: &LightFieldArgs, limits: &LoadLimits) -> Re
         focal_px: args.focal_px,
         baseline: args.baseline,
     };
-    lightfield::open_within(Path::new(&args.light_field), &opts, limits)
+    lightfield::open_frame_within(Path::new(&args.light_field), &opts, limits, args.frame)
 }
 
 /// Renders built-in scene `name` (2×2 supersampling).
@@ -166,6 +179,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Synth(a) => synth::run(&a),
         Command::Cloud(a) => cloud::run(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::View(a) => view::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }

@@ -4,13 +4,13 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use glam::{DVec2, DVec3};
+use glam::DVec2;
 use serde_json::json;
 
 use super::focus::{focus_json, focus_summary, FocusArgs, FOCUS_OPTIONS};
 use super::{
-    check_output, device_load_limits, ensure_parent, load_light_field_within, parse_numbers,
-    GpuArgs, LightFieldArgs,
+    check_output, device_load_limits, load_light_field_within, parse_numbers, GpuArgs,
+    LightFieldArgs,
 };
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
@@ -81,6 +81,10 @@ pub struct RenderArgs {
     /// Render N more frames for timing and report the median GPU time.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub repeat: usize,
+    /// Camera-array videos: render frames A..B (inclusive; A.. to the end, ..B from the start)
+    /// with one GPU set-up; the output names each file with {frame} or {frame:05}.
+    #[arg(long, value_name = "A..B", conflicts_with_all = ["frame", "repeat"])]
+    pub frames: Option<String>,
     /// Print the resolved plane, views used and timings as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -133,32 +137,11 @@ pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, Res
     Ok((plan, focus))
 }
 
-/// The JSON description of a plan (shared by `render --json` and `demo`).
-pub fn plan_json(plan: &RefocusPlan) -> serde_json::Value {
-    let v3 = |v: DVec3| [v.x, v.y, v.z];
-    json!({
-        "method": plan.method,
-        "plane": plan.plane.map(|p| json!({"point": v3(p.point), "normal": v3(p.normal)})),
-        "reference_view": [plan.reference.x, plan.reference.y],
-        "reference_centre": v3(plan.reference_camera.centre()),
-        "views_used": plan.views.len(),
-        "views": plan.views.iter().map(|v| json!({"s": v.s, "t": v.t, "weight": v.weight})).collect::<Vec<_>>(),
-    })
-}
+pub use crate::refocus::plan_json;
 
 /// Writes a GPU result to `path` (PNG or EXR by extension). Returns the uncovered pixel count.
 pub fn save(image: &GpuImage, path: &std::path::Path) -> Result<usize> {
-    ensure_parent(path)?;
-    match image {
-        GpuImage::Srgb8(img) => {
-            crate::io::save_png(img, path)?;
-            Ok(img.pixels().filter(|p| p.0[3] == 0).count())
-        }
-        GpuImage::Float(img) => {
-            crate::io::save_exr(img.width, img.height, &img.linear(), path)?;
-            Ok(img.uncovered())
-        }
-    }
+    crate::batch::save_image(image, path)
 }
 
 /// The GPU settings of `args` for an output of `kind`.
@@ -201,6 +184,9 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
 }
 
 pub fn run(args: &RenderArgs) -> Result<()> {
+    if let Some(spec) = &args.frames {
+        return super::frames::run(args, spec);
+    }
     let t0 = Instant::now();
     let kind = OutputKind::from_path(&args.output)?;
     // Bad options and an unwritable output fail before any loading or rendering.

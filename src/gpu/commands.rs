@@ -137,7 +137,7 @@ fn barrier(
 }
 
 /// Begins dynamic rendering into one colour attachment (and optionally a depth attachment,
-/// cleared to `clear_depth` and not stored) covering `extent`, and sets viewport and scissor
+/// cleared to `clear_depth` and stored, so a later pass can test against it) covering `extent`, and sets viewport and scissor
 /// to it. `color_load` CLEAR clears colour to 0.
 pub fn begin_rendering(
     d: &ash::Device,
@@ -174,7 +174,7 @@ pub fn begin_rendering_in(
             .image_view(view)
             .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
             .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .store_op(vk::AttachmentStoreOp::STORE)
             .clear_value(vk::ClearValue {
                 depth_stencil: vk::ClearDepthStencilValue {
                     depth: clear,
@@ -234,6 +234,15 @@ pub mod stage {
 
     pub type End = (L, S, A);
     pub const UNDEFINED: End = (L::UNDEFINED, S::NONE, A::NONE);
+    /// Contents discarded once everything earlier in the queue is done with the image: the
+    /// write-after-read guard for an image rewritten every frame while the previous frame may
+    /// still sample it (frames in flight).
+    pub const DISCARD: End = (L::UNDEFINED, S::ALL_COMMANDS, A::NONE);
+    /// A swapchain image just acquired: the submission waits for its semaphore at the colour
+    /// output stage, and the transition chains after that wait.
+    pub const ACQUIRED: End = (L::UNDEFINED, S::COLOR_ATTACHMENT_OUTPUT, A::NONE);
+    /// Handed to the presentation engine (the frame's semaphore signal orders it).
+    pub const PRESENT: End = (L::PRESENT_SRC_KHR, S::NONE, A::NONE);
     pub const TRANSFER_DST: End = (L::TRANSFER_DST_OPTIMAL, S::COPY, A::TRANSFER_WRITE);
     pub const TRANSFER_SRC: End = (L::TRANSFER_SRC_OPTIMAL, S::COPY, A::TRANSFER_READ);
     pub const FRAGMENT_READ: End = (

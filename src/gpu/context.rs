@@ -71,6 +71,8 @@ pub struct GpuContext {
     pub timestamp_valid_bits: u32,
     pub command_pool: vk::CommandPool,
     pub info: DeviceInfo,
+    /// Whether `largePoints` is enabled: points may be larger than one pixel.
+    pub large_points: bool,
 }
 
 fn kind_name(t: vk::PhysicalDeviceType) -> &'static str {
@@ -351,9 +353,16 @@ impl GpuContext {
         } else {
             Vec::new()
         };
+        // Points wider than one pixel (the viewer's point cloud and pick markers) where the
+        // device has them; shaders clamp their point size to 1 otherwise.
+        // SAFETY: physical comes from this instance.
+        let large_points =
+            unsafe { instance.get_physical_device_features(physical) }.large_points == vk::TRUE;
+        let core = vk::PhysicalDeviceFeatures::default().large_points(large_points);
         let device_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_extension_names(&device_extensions)
+            .enabled_features(&core)
             .push_next(&mut f13);
         // SAFETY: physical comes from this instance; the features were checked.
         let device = match unsafe { instance.create_device(physical, &device_info, None) } {
@@ -403,6 +412,7 @@ impl GpuContext {
             timestamp_valid_bits,
             command_pool,
             info,
+            large_points,
         };
         ctx.name(ctx.queue, "graphics queue");
         ctx.name(ctx.command_pool, "command pool");

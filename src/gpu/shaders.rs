@@ -19,6 +19,9 @@ pub const RESOLVE_FRAG: &[u8] = spirv!("resolve.frag");
 pub const MESH_VERT: &[u8] = spirv!("mesh.vert");
 pub const MESH_ACCUM_FRAG: &[u8] = spirv!("mesh_accum.frag");
 pub const MESH_GEOM_FRAG: &[u8] = spirv!("mesh_geom.frag");
+pub const SCENE_VERT: &[u8] = spirv!("scene.vert");
+pub const SCENE_FRAG: &[u8] = spirv!("scene.frag");
+pub const PANEL_FRAG: &[u8] = spirv!("panel.frag");
 
 /// A shader module; destroy it once the pipelines using it are created.
 pub fn module(ctx: &GpuContext, spirv: &[u8], name: &str) -> Result<vk::ShaderModule> {

@@ -24,10 +24,56 @@ pub fn upload_images(
     name: &str,
     fill: impl FnOnce(&mut [u8]) -> Result<()>,
 ) -> Result<()> {
-    let mut staging = Buffer::new(ctx, bytes, vk::BufferUsageFlags::TRANSFER_SRC, true, name)?;
-    let result = fill(&mut staging.bytes_mut()[..bytes as usize]).and_then(|()| {
-        let submission = Submission::new(ctx, name)?;
-        let r = submission.run(ctx, |d, cmd| {
+    let mut staging = Staging::new(ctx, bytes, name)?;
+    let result = staging.upload(ctx, regions, bytes, fill);
+    staging.destroy(ctx);
+    result
+}
+
+/// A staging buffer and submission kept for repeated uploads of the same size (the frames of
+/// a video), so each upload writes into memory that is already mapped and faulted in instead
+/// of allocating 10–100 MiB per frame. Free with [`Staging::destroy`] (buffer, then
+/// submission).
+pub struct Staging {
+    buffer: Buffer,
+    submission: Submission,
+}
+
+impl Staging {
+    /// A host-visible staging buffer of `bytes` bytes and its submission.
+    pub fn new(ctx: &GpuContext, bytes: u64, name: &str) -> Result<Self> {
+        let buffer = Buffer::new(ctx, bytes, vk::BufferUsageFlags::TRANSFER_SRC, true, name)?;
+        match Submission::new(ctx, name) {
+            Ok(submission) => Ok(Staging { buffer, submission }),
+            Err(e) => {
+                buffer.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    /// Size in bytes.
+    pub fn size(&self) -> u64 {
+        self.buffer.size
+    }
+
+    /// [`upload_images`] through this buffer (`bytes` at most its size) and waits.
+    pub fn upload(
+        &mut self,
+        ctx: &GpuContext,
+        regions: &[ImageRegion],
+        bytes: u64,
+        fill: impl FnOnce(&mut [u8]) -> Result<()>,
+    ) -> Result<()> {
+        if bytes > self.buffer.size {
+            return Err(crate::error::Error::Invalid(format!(
+                "{bytes} bytes do not fit the {}-byte staging buffer",
+                self.buffer.size
+            )));
+        }
+        fill(&mut self.buffer.bytes_mut()[..bytes as usize])?;
+        let staging = &self.buffer;
+        self.submission.run(ctx, |d, cmd| {
             for region in regions {
                 let img = region.image;
                 let layers = img.desc.layers;
@@ -53,10 +99,13 @@ pub fn upload_images(
                 };
                 image_barrier(d, cmd, img.image, layers, to_read);
             }
-        });
-        submission.destroy(ctx);
-        r
-    });
-    staging.destroy(ctx);
-    result
+        })
+    }
+
+    /// Frees the buffer and the submission (after the last upload completed; every upload
+    /// waits).
+    pub fn destroy(self, ctx: &GpuContext) {
+        self.buffer.destroy(ctx);
+        self.submission.destroy(ctx);
+    }
 }

@@ -1,53 +1,133 @@
 //! Folders of rectified views named by row and column.
 //!
-//! This covers sub-aperture exports of plenoptic cameras (Lytro toolboxes) and the Stanford
-//! light field archive. Every image file (`.png`, `.jpg`, `.jpeg`, `.bmp`, any letter case)
-//! directly inside the folder whose name stem contains at least two runs of ASCII digits is a
-//! view; the first run is the row t, the second the column s:
+//! This covers sub-aperture exports of plenoptic cameras (Lytro toolboxes, EPFL `R_C.bmp`
+//! exports with black vignetted corner views) and the Stanford light field archive. The row
+//! and the column are read from the numbers in the file names by the rule of
+//! [`super::grid_naming`]: the two whole numbers that vary across the files and together form
+//! a complete grid; numbers that are the same in every name (scene, frame or camera numbers)
+//! and numbers with a sign or decimals (Stanford camera positions) are not indices.
 //!
-//! | file name                          | row | column |
-//! |------------------------------------|-----|--------|
-//! | `out_03_07_-859.7_1022.8_.png`     | 3   | 7      |
-//! | `row_3_col_7.png`                  | 3   | 7      |
-//! | `Sub_03_07.jpg`                    | 3   | 7      |
-//! | `03_07.bmp`                        | 3   | 7      |
+//! | file names                                   | row    | column |
+//! |----------------------------------------------|--------|--------|
+//! | `2067_01_01.png` … `2067_09_09.png` (Lytro)  | 2nd    | 3rd    |
+//! | `out_00_00_-381.909271_1103.376221_.png`     | 1st    | 2nd    |
+//! | `1_1.bmp` … `15_15.bmp` (EPFL)               | 1st    | 2nd    |
+//! | `row_3_col_7.png`, `col_7_row_3.png`         | by label | by label |
+//! | `Sub_03_07.jpg`, `03_07.bmp`, `img-3-7.png`  | 1st    | 2nd    |
 //!
-//! Other files are ignored; an image file with fewer than two digit runs is ignored with a
-//! warning. The smallest row and column found become t = 0 and s = 0 (exports often count
-//! from 1), and the rows × columns grid must then be complete, one file per (row, column).
+//! Image files are `.png` (8 or 16 bit), `.jpg`, `.jpeg` and `.bmp` in any letter case; names
+//! starting with `.` are never views. The views are read from the folder itself when it holds
+//! image files with numbers in their names, otherwise from its only sub-folder that does (an
+//! archive that unpacks into `rectified/`). The smallest row and column become t = 0 and
+//! s = 0 (exports count from 0 or 1). Image files that are not part of the grid are ignored
+//! with one warning naming them. A folder that can be read as no grid or as several (a missing
+//! view, a duplicate, two complete grids) and views of different sizes are errors that list
+//! what was found. `tiltfield info` reports which numbers gave the row and the column
+//! ([`GridNaming`]).
 //!
 //! The folder carries no calibration, so the cameras come from [`GridCameraOptions`]: a
 //! parallel rig (R = I) without sensor shift, focal length `focal_px` (default max(W, H)),
-//! principal point at the image centre ((W−1)/2, (H−1)/2), camera (s, t) centred at
-//! ((s − s_c)·b, (t − t_c)·b, 0) with b = `baseline` (default 1) and (s_c, t_c) the grid
+//! principal point at the image centre, baseline `baseline` (default 1), centred on the grid
 //! centre. Such views are usually rectified so that the zero-disparity plane is somewhere in
 //! the scene rather than at infinity, so these cameras are only a nominal model; the light
 //! field has no [`super::ParallelRig`] and `--disparity` means classic shift-and-sum.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use glam::{DMat3, DVec3};
 
-use super::images::{decode_views_within, LoadLimits};
+use super::grid_naming::{read_grid, NamingError};
+use super::images::{decode_views_within, probe_view, LoadLimits};
 use super::{GridCameraOptions, GridSize, LightField, Source};
 use crate::error::{Error, Result};
 use crate::geometry::camera::{intrinsics, Camera};
 
 /// Extensions (lower case) of the image files considered.
-const EXTENSIONS: [&str; 4] = ["png", "jpg", "jpeg", "bmp"];
+pub const EXTENSIONS: [&str; 4] = ["png", "jpg", "jpeg", "bmp"];
 
-/// Largest grid extent accepted; guards against names like `IMG_20240101_123456.png`.
-const MAX_GRID: usize = 10_000;
+/// True for a file name with an image extension that is not hidden.
+pub fn is_image_name(name: &str) -> bool {
+    !name.starts_with('.')
+        && Path::new(name)
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+}
 
-/// The first two maximal runs of ASCII digits of `stem` as (row, column); `None` when there are
-/// fewer than two (or a run does not fit a `usize`).
-pub fn row_col(stem: &str) -> Option<(usize, usize)> {
-    let mut runs = stem
-        .split(|c: char| !c.is_ascii_digit())
-        .filter(|r| !r.is_empty());
-    let row = runs.next()?.parse().ok()?;
-    let col = runs.next()?.parse().ok()?;
-    Some((row, col))
+/// The names of the image files directly in `dir` (see [`is_image_name`]), sorted.
+pub fn image_names(dir: &Path) -> Result<Vec<String>> {
+    let mut names = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+        let entry = entry.map_err(|e| Error::io(dir, e))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if is_image_name(&name) && entry.path().is_file() {
+            names.push(name);
+        }
+    }
+    names.sort();
+    Ok(names)
+}
+
+/// The sub-folders of `dir` (not hidden), sorted.
+pub fn subfolders(dir: &Path) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+        let entry = entry.map_err(|e| Error::io(dir, e))?;
+        let hidden = entry.file_name().to_string_lossy().starts_with('.');
+        if !hidden && entry.path().is_dir() {
+            out.push(entry.path());
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// True when some name holds a number (a candidate view).
+fn has_numbered(names: &[String]) -> bool {
+    names.iter().any(|n| n.bytes().any(|b| b.is_ascii_digit()))
+}
+
+/// The folder holding the views: `dir` itself when it has numbered image files, otherwise its
+/// only sub-folder that has them (with its name). Several such sub-folders are an error.
+fn locate(dir: &Path) -> Result<(PathBuf, Vec<String>, Option<String>)> {
+    let names = image_names(dir)?;
+    if has_numbered(&names) {
+        return Ok((dir.to_path_buf(), names, None));
+    }
+    let mut found = Vec::new();
+    for sub in subfolders(dir)? {
+        let sub_names = image_names(&sub)?;
+        if has_numbered(&sub_names) {
+            found.push((sub, sub_names));
+        }
+    }
+    match found.len() {
+        0 => Ok((dir.to_path_buf(), names, None)),
+        1 => {
+            let (sub, sub_names) = found.pop().expect("one sub-folder");
+            let label = sub
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            Ok((sub, sub_names, Some(label)))
+        }
+        _ => Err(Error::LightField(format!(
+            "{}: has no views of its own and {} sub-folders with numbered images ({}); give \
+             the one that holds the light field",
+            dir.display(),
+            found.len(),
+            found
+                .iter()
+                .map(|(p, n)| format!(
+                    "{} ({} images)",
+                    p.file_name().unwrap_or_default().to_string_lossy(),
+                    n.len()
+                ))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))),
+    }
 }
 
 /// Loads a grid folder (see the module docs).
@@ -55,125 +135,79 @@ pub fn load(dir: &Path, opts: &GridCameraOptions) -> Result<LightField> {
     load_within(dir, opts, &LoadLimits::default())
 }
 
+/// What the folder is not, for messages when no grid is found.
+const NOT_OTHER_FORMATS: &str = "the folder has no parameters.cfg (HCI), no \
+    cameras_parameters.txt (Technicolor video) and no tiltfield.json (manifest)";
+
+/// How grid folders must be named, for messages.
+const NAMING_HINT: &str = "grid folders need image files (.png, .jpg, .jpeg, .bmp) whose names \
+    hold a row and a column, e.g. 03_07.png, 2067_03_07.png, row_3_col_7.png, Sub_03_07.jpg or \
+    out_03_07_-859.7_1022.8_.png";
+
 /// [`load`], refusing before decoding a light field beyond `limits`.
 pub fn load_within(
     dir: &Path,
     opts: &GridCameraOptions,
     limits: &LoadLimits,
 ) -> Result<LightField> {
-    let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
-    // (row, col, path), in file-name order so messages do not depend on the file system.
-    let mut found: Vec<(usize, usize, PathBuf)> = Vec::new();
-    let mut files: Vec<PathBuf> = Vec::new();
-    for entry in entries {
-        let entry = entry.map_err(|e| Error::io(dir, e))?;
-        files.push(entry.path());
-    }
-    files.sort();
-    let mut ignored: Vec<PathBuf> = Vec::new();
-    for path in files {
-        let is_image = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()));
-        if !is_image || !path.is_file() {
-            continue;
+    let (folder, names, subfolder) = locate(dir)?;
+    let reading = read_grid(&names, subfolder).map_err(|e| match e {
+        NamingError::NoNumberedViews => {
+            // One message for the folder, not one warning per file: most likely this is an
+            // HCI folder without its parameters.cfg, or not a light field at all.
+            let seen = match names.first() {
+                Some(first) => format!(
+                    "; of its {} image files no two share a naming rule with numbers, e.g. {first}",
+                    names.len()
+                ),
+                None => "; it holds no image files".to_string(),
+            };
+            Error::bad_file(
+                dir,
+                format!("no views found: {NOT_OTHER_FORMATS}{seen}; {NAMING_HINT}"),
+            )
         }
-        let stem = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        match row_col(&stem) {
-            Some((row, col)) => found.push((row, col, path)),
-            None => ignored.push(path),
+        NamingError::OneIndex(m) => Error::bad_file(
+            &folder,
+            format!("no grid of views found: {NOT_OTHER_FORMATS}, and {m}; {NAMING_HINT}"),
+        ),
+        NamingError::Incomplete(m) | NamingError::Ambiguous(m) => {
+            Error::LightField(format!("{}: {m}", folder.display()))
         }
-    }
-    if found.is_empty() {
-        // One message for the folder, not one warning per file: most likely this is an HCI
-        // folder without its parameters.cfg, or not a light field at all.
-        let seen = match ignored.first() {
-            Some(first) => format!(
-                "; {} image files have no row and column in their names, e.g. {}",
-                ignored.len(),
-                first.file_name().unwrap_or_default().to_string_lossy()
-            ),
-            None => String::new(),
-        };
-        return Err(Error::bad_file(
-            dir,
-            format!(
-                "no views found: the folder has no parameters.cfg (HCI), no tiltfield.json \
-                 (manifest) and no views named by row and column{seen}; grid folders need image \
-                 files (.png, .jpg, .jpeg, .bmp) whose names hold the row and the column as \
-                 their first two numbers, e.g. 03_07.png, row_3_col_7.png, Sub_03_07.jpg or \
-                 out_03_07_-859.7_1022.8_.png"
-            ),
-        ));
-    }
-    for path in &ignored {
+    })?;
+    if !reading.ignored.is_empty() {
+        let shown: Vec<&str> = reading
+            .ignored
+            .iter()
+            .take(3)
+            .map(|&i| names[i].as_str())
+            .collect();
         log::warn!(
-            "{}: ignored: its name does not contain a row and a column number",
-            path.display()
+            "{}: ignored {} image file{} that are not part of the grid of {} (e.g. {})",
+            folder.display(),
+            reading.ignored.len(),
+            if reading.ignored.len() == 1 { "" } else { "s" },
+            reading.naming.pattern,
+            shown.join(", ")
         );
     }
-
-    let row0 = found.iter().map(|f| f.0).min().unwrap_or(0);
-    let col0 = found.iter().map(|f| f.1).min().unwrap_or(0);
-    let rows = found.iter().map(|f| f.0).max().unwrap_or(0) - row0 + 1;
-    let cols = found.iter().map(|f| f.1).max().unwrap_or(0) - col0 + 1;
-    if rows > MAX_GRID || cols > MAX_GRID {
-        return Err(Error::LightField(format!(
-            "{}: the file names span rows {row0}–{} and columns {col0}–{}, more than {MAX_GRID}; \
-             are the first two numbers in the names really the row and the column?",
-            dir.display(),
-            row0 + rows - 1,
-            col0 + cols - 1
-        )));
-    }
-    let grid = GridSize { cols, rows };
-    // Stable sort: among duplicates the file-name order is kept.
-    found.sort_by_key(|f| (f.0, f.1));
-    for pair in found.windows(2) {
-        if (pair[0].0, pair[0].1) == (pair[1].0, pair[1].1) {
-            return Err(Error::LightField(format!(
-                "{}: {} and {} are both row {}, column {}",
-                dir.display(),
-                pair[0].2.display(),
-                pair[1].2.display(),
-                pair[0].0,
-                pair[0].1
-            )));
-        }
-    }
-    // Sorted and unique: where the list departs from row-major order is the first gap.
-    let missing = (0..grid.len()).find(|&n| {
-        found
-            .get(n)
-            .map_or(true, |f| (f.0 - row0) * cols + (f.1 - col0) != n)
-    });
-    if let Some(n) = missing {
-        return Err(Error::LightField(format!(
-            "{}: the grid of rows {row0}–{} × columns {col0}–{} is incomplete: no view for row \
-             {}, column {} ({} of {} views found)",
-            dir.display(),
-            row0 + rows - 1,
-            col0 + cols - 1,
-            row0 + n / cols,
-            col0 + n % cols,
-            found.len(),
-            grid.len()
-        )));
-    }
+    let grid = reading.grid;
+    let paths: Vec<PathBuf> = reading
+        .order
+        .iter()
+        .map(|&i| folder.join(&names[i]))
+        .collect();
+    check_sizes(&paths, &folder)?;
 
     let name = dir
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| super::path_string(dir));
-    let paths: Vec<PathBuf> = found.into_iter().map(|f| f.2).collect();
     let images = decode_views_within(&paths, &name, limits)?;
     let (width, height) = images[0].dimensions();
     let cameras = cameras(grid, width, height, opts)?;
     let views = super::grid_views(grid, images, cameras, &paths);
+    log::info!("{}: {}", dir.display(), reading.naming.describe());
     Ok(LightField {
         name,
         grid,
@@ -185,8 +219,40 @@ pub fn load_within(
         disparity_range: None,
         source: Source::GridFolder {
             path: dir.to_path_buf(),
+            naming: reading.naming,
         },
     })
+}
+
+/// Reads every view's header; views of different sizes are an error listing each size with
+/// its count and an example file (mixed exports, thumbnails named like views).
+fn check_sizes(paths: &[PathBuf], folder: &Path) -> Result<()> {
+    let mut sizes: BTreeMap<(u32, u32), Vec<&PathBuf>> = BTreeMap::new();
+    for p in paths {
+        sizes.entry(probe_view(p)?).or_default().push(p);
+    }
+    if sizes.len() <= 1 {
+        return Ok(());
+    }
+    let mut list: Vec<_> = sizes.into_iter().collect();
+    list.sort_by_key(|(_, files)| std::cmp::Reverse(files.len()));
+    let described: Vec<String> = list
+        .iter()
+        .map(|((w, h), files)| {
+            format!(
+                "{w}×{h} ({} view{}, e.g. {})",
+                files.len(),
+                if files.len() == 1 { "" } else { "s" },
+                files[0].file_name().unwrap_or_default().to_string_lossy()
+            )
+        })
+        .collect();
+    Err(Error::LightField(format!(
+        "{}: the views have {} different sizes: {}; all views of a light field must have one size",
+        folder.display(),
+        list.len(),
+        described.join(", ")
+    )))
 }
 
 /// The nominal parallel cameras of a grid folder (see the module docs), row-major.
@@ -255,18 +321,6 @@ mod tests {
     }
 
     #[test]
-    fn parses_row_and_column_from_names() {
-        assert_eq!(row_col("out_03_07_-859.7_1022.8_"), Some((3, 7)));
-        assert_eq!(row_col("row_3_col_7"), Some((3, 7)));
-        assert_eq!(row_col("Sub_03_07"), Some((3, 7)));
-        assert_eq!(row_col("03_07"), Some((3, 7)));
-        assert_eq!(row_col("12x4"), Some((12, 4)));
-        assert_eq!(row_col("IMG_0001"), None);
-        assert_eq!(row_col("centre"), None);
-        assert_eq!(row_col("99999999999999999999999_1"), None);
-    }
-
-    #[test]
     fn loads_stanford_names_in_row_major_order() {
         let dir = tempfile::tempdir().unwrap();
         // 2 rows × 3 columns, counted from 1 as some exports do.
@@ -284,12 +338,15 @@ mod tests {
         assert_eq!((lf.width, lf.height), (W, H));
         assert!(lf.rig.is_none());
         assert!(lf.depth.is_empty());
-        assert_eq!(
-            lf.source,
-            Source::GridFolder {
-                path: dir.path().to_path_buf()
-            }
+        let Source::GridFolder { path, naming } = &lf.source else {
+            panic!("not a grid folder: {:?}", lf.source);
+        };
+        assert_eq!(path, dir.path());
+        assert!(
+            naming.pattern.starts_with("out_{row}_{col}_{pos}_{pos}_"),
+            "{naming:?}"
         );
+        assert_eq!(naming.files, 6);
         for t in 0..2 {
             for s in 0..3 {
                 let v = &lf.views[t * 3 + s];
@@ -366,8 +423,11 @@ mod tests {
         let msg = load(dir.path(), &GridCameraOptions::default())
             .unwrap_err()
             .to_string();
-        assert!(msg.contains("no view for row 3, column 1"), "{msg}");
-        assert!(msg.contains("rows 2–4 × columns 0–2"), "{msg}");
+        assert!(msg.contains("the first at row 3, column 1"), "{msg}");
+        assert!(
+            msg.contains("rows 2–4 (number 1) × columns 0–2 (number 2)"),
+            "{msg}"
+        );
         assert!(msg.contains("7 of 9 views"), "{msg}");
     }
 
@@ -375,17 +435,17 @@ mod tests {
     fn duplicate_view_names_both_files() {
         let dir = tempfile::tempdir().unwrap();
         make(dir.path(), 0..2, 0..2, |r, c| format!("{r:02}_{c:02}.png"));
+        // The same rule, row 1 column 0 again without zero padding.
         RgbaImage::from_pixel(W, H, image::Rgba([1, 2, 3, 255]))
-            .save(dir.path().join("row_1_col_0.bmp"))
+            .save(dir.path().join("1_0.png"))
             .unwrap();
         let msg = load(dir.path(), &GridCameraOptions::default())
             .unwrap_err()
             .to_string();
         assert!(
-            msg.contains("01_00.png") && msg.contains("row_1_col_0.bmp"),
+            msg.contains("01_00.png and 1_0.png are both row 1, column 0"),
             "{msg}"
         );
-        assert!(msg.contains("row 1, column 0"), "{msg}");
     }
 
     #[test]
@@ -412,13 +472,23 @@ mod tests {
     #[test]
     fn implausible_numbers_are_refused() {
         let dir = tempfile::tempdir().unwrap();
-        make(dir.path(), 0..1, 0..1, |r, c| format!("{r}_{c}.png"));
-        RgbaImage::new(W, H)
-            .save(dir.path().join("IMG_20240101_123456.png"))
-            .unwrap();
+        for name in ["IMG_20240101_123456.png", "IMG_20250101_000001.png"] {
+            RgbaImage::new(W, H).save(dir.path().join(name)).unwrap();
+        }
         let msg = load(dir.path(), &GridCameraOptions::default())
             .unwrap_err()
             .to_string();
-        assert!(msg.contains("really the row and the column"), "{msg}");
+        assert!(msg.contains("not a row and a column"), "{msg}");
+    }
+
+    #[test]
+    fn a_stray_numbered_file_is_ignored_with_the_grid_loaded() {
+        let dir = tempfile::tempdir().unwrap();
+        make(dir.path(), 0..2, 0..2, |r, c| format!("{r:02}_{c:02}.png"));
+        RgbaImage::new(W, H)
+            .save(dir.path().join("thumbnail_512.png"))
+            .unwrap();
+        let lf = load(dir.path(), &GridCameraOptions::default()).unwrap();
+        assert_eq!(lf.grid, GridSize { cols: 2, rows: 2 });
     }
 }

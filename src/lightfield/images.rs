@@ -34,8 +34,19 @@ pub fn decode_views_within(
     what: &str,
     limits: &LoadLimits,
 ) -> Result<Vec<RgbaImage>> {
+    decode_views_opts(paths, what, limits, true)
+}
+
+/// [`decode_views_within`], with the progress bar only when `progress` (a video decoded in the
+/// background must not draw over its caller's own progress bar).
+pub fn decode_views_opts(
+    paths: &[PathBuf],
+    what: &str,
+    limits: &LoadLimits,
+    progress: bool,
+) -> Result<Vec<RgbaImage>> {
     check_views(paths, what, limits)?;
-    decode_views(paths, what)
+    decode_with_progress(paths, what, progress)
 }
 
 /// Decodes `paths` in parallel into sRGB-encoded, opaque RGBA8 images, in the order given.
@@ -45,10 +56,18 @@ pub fn decode_views_within(
 /// file (in the order given) that fails to decode or has another size is reported, so the error
 /// does not depend on thread scheduling. An empty list gives an empty result.
 pub fn decode_views(paths: &[PathBuf], what: &str) -> Result<Vec<RgbaImage>> {
+    decode_with_progress(paths, what, true)
+}
+
+fn decode_with_progress(paths: &[PathBuf], what: &str, progress: bool) -> Result<Vec<RgbaImage>> {
     if paths.is_empty() {
         return Ok(Vec::new());
     }
-    let bar = ProgressBar::new(paths.len() as u64);
+    let bar = if progress {
+        ProgressBar::new(paths.len() as u64)
+    } else {
+        ProgressBar::hidden()
+    };
     if let Ok(style) = ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} {elapsed}") {
         bar.set_style(style.progress_chars("=> "));
     }

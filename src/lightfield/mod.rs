@@ -6,15 +6,22 @@
 //! sRGB-encoded RGBA8. Depth or disparity maps are optional and belong to one view.
 //!
 //! Loaders: [`hci`] (HCI 4D Light Field Benchmark folders), [`manifest`] (our JSON manifest for
-//! calibrated arrays), [`grid_folder`] (rectified views named by row and column). [`open`] picks
-//! one from the path. [`ply`] writes point clouds (`tiltfield cloud`).
+//! calibrated arrays), [`grid_folder`] (rectified views named by row and column, read by the
+//! rule of [`grid_naming`]), [`technicolor`] (camera-array video; one frame is one light field,
+//! [`video`] steps through the frames and decodes them in the background). [`open`] picks one
+//! from the path, [`open_frame_within`] a frame of a video. [`ply`] writes point clouds
+//! (`tiltfield cloud`).
 
+pub mod distortion;
 pub mod grid_folder;
+pub mod grid_naming;
 pub mod hci;
 pub mod images;
 pub mod manifest;
 pub mod pfm;
 pub mod ply;
+pub mod technicolor;
+pub mod video;
 
 pub use images::LoadLimits;
 
@@ -188,8 +195,13 @@ pub enum Source {
     Hci(hci::HciConfig),
     /// Our JSON manifest.
     Manifest { path: PathBuf },
-    /// A folder of views named by row and column.
-    GridFolder { path: PathBuf },
+    /// A folder of views named by row and column, and how the names were read.
+    GridFolder {
+        path: PathBuf,
+        naming: grid_naming::GridNaming,
+    },
+    /// One frame of a camera-array video in the Technicolor layout.
+    TechnicolorVideo(technicolor::VideoFrameInfo),
     /// Generated in code (built-in scenes, tests).
     Generated { scene: String },
 }
@@ -392,7 +404,8 @@ impl Default for GridCameraOptions {
 
 /// Opens a light field, choosing the loader from the path:
 /// a `.json` file → manifest; a folder with `parameters.cfg` → HCI; a folder with
-/// `tiltfield.json` → manifest; any other folder → grid of views named by row and column.
+/// `tiltfield.json` → manifest; a folder with `cameras_parameters.txt` → the first frame of a
+/// Technicolor-layout video; any other folder → grid of views named by row and column.
 pub fn open(path: &Path, grid_opts: &GridCameraOptions) -> Result<LightField> {
     open_within(path, grid_opts, &LoadLimits::default())
 }
@@ -404,6 +417,28 @@ pub fn open_within(
     grid_opts: &GridCameraOptions,
     limits: &LoadLimits,
 ) -> Result<LightField> {
+    open_frame_within(path, grid_opts, limits, None)
+}
+
+/// [`open_within`], choosing frame `frame` (its number in the file names) of a camera-array
+/// video; `None` is the first frame. Asking for a frame of a light field that is not a video
+/// is an error.
+pub fn open_frame_within(
+    path: &Path,
+    grid_opts: &GridCameraOptions,
+    limits: &LoadLimits,
+    frame: Option<u64>,
+) -> Result<LightField> {
+    if let Some(n) = frame {
+        if path.exists() && !technicolor::is_technicolor(path) {
+            return Err(Error::Invalid(format!(
+                "frame {n} asked of {}, which is a single light field, not a video (videos are \
+                 folders with {})",
+                path.display(),
+                technicolor::PARAMETERS_NAME
+            )));
+        }
+    }
     if !path.exists() {
         return Err(Error::io(
             path,
@@ -437,6 +472,9 @@ pub fn open_within(
             ));
         }
         manifest::load_within(&manifest_in_folder, limits)?
+    } else if technicolor::is_technicolor(path) {
+        let video = video::FrameSequence::open(path)?;
+        video.load_within(frame.unwrap_or_else(|| video.first()), limits)?
     } else {
         grid_folder::load_within(path, grid_opts, limits)?
     };

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use crate::color;
 use crate::error::{Error, Result};
 use crate::gpu::resources::{Image, ImageDesc};
-use crate::gpu::upload::{upload_images, ImageRegion};
+use crate::gpu::upload::{upload_images, ImageRegion, Staging};
 use crate::gpu::GpuContext;
 use crate::lightfield::LightField;
 
@@ -180,22 +180,7 @@ impl LightFieldTexture {
             ViewStorage::Linear16 => &[format],
         };
         let image = Image::new(ctx, desc, view_formats, "light field views")?;
-        let layer_bytes = w as usize * h as usize * storage.texel_bytes() as usize;
-        let total = layer_bytes as u64 * layers as u64;
-        let regions = [ImageRegion {
-            image: &image,
-            offset: 0,
-        }];
-        let uploaded = upload_images(ctx, &regions, total, "light field staging", |dst| {
-            dst.par_chunks_exact_mut(layer_bytes)
-                .zip(&lf.views)
-                .for_each(|(dst, v)| match storage {
-                    ViewStorage::Srgb8 => dst.copy_from_slice(v.image.as_raw()),
-                    ViewStorage::Linear16 => encode_linear16(v.image.as_raw(), dst),
-                });
-            Ok(())
-        });
-        if let Err(e) = uploaded {
+        if let Err(e) = write_views(ctx, &image, storage, lf) {
             image.destroy(ctx);
             return Err(e);
         }
@@ -208,26 +193,104 @@ impl LightFieldTexture {
         })
     }
 
+    /// Replaces the texels with the views of `lf` in place (the next frame of a video): the
+    /// image, its views and every descriptor that refers to them stay valid. `lf` must have
+    /// as many views of the same size as the texture holds; the caller must have waited for
+    /// the work that read the old texels (every headless frame does).
+    ///
+    /// `staging` must hold [`Self::staging_bytes`]; it is kept by the caller between frames
+    /// so each frame writes into memory already mapped (allocating and faulting in tens of
+    /// MiB per frame cost more than the copy itself on lavapipe).
+    pub fn reupload(
+        &mut self,
+        ctx: &GpuContext,
+        lf: &LightField,
+        staging: &mut Staging,
+    ) -> Result<()> {
+        if lf.views.len() != self.layers as usize
+            || (lf.width, lf.height) != (self.width, self.height)
+        {
+            return Err(Error::Invalid(format!(
+                "{}: {} views of {}×{} cannot replace the uploaded {} views of {}×{}; a new \
+                 light field needs a new texture",
+                lf.name,
+                lf.views.len(),
+                lf.width,
+                lf.height,
+                self.layers,
+                self.width,
+                self.height
+            )));
+        }
+        let regions = [ImageRegion {
+            image: &self.image,
+            offset: 0,
+        }];
+        let storage = self.storage;
+        staging.upload(ctx, &regions, self.staging_bytes(), |dst| {
+            fill_staging(dst, storage, lf);
+            Ok(())
+        })
+    }
+
+    /// Bytes of all layers in this texture's storage: the staging size [`Self::reupload`]
+    /// needs.
+    pub fn staging_bytes(&self) -> u64 {
+        self.width as u64 * self.height as u64 * self.storage.texel_bytes() * self.layers as u64
+    }
+
     /// Frees the texture.
     pub fn destroy(self, ctx: &GpuContext) {
         self.image.destroy(ctx);
     }
 }
 
+/// Converts the views of `lf` into `storage` in one staging buffer and copies them into every
+/// layer of `image` (one submission, waited for).
+fn write_views(
+    ctx: &GpuContext,
+    image: &Image,
+    storage: ViewStorage,
+    lf: &LightField,
+) -> Result<()> {
+    let layer_bytes = lf.width as usize * lf.height as usize * storage.texel_bytes() as usize;
+    let total = layer_bytes as u64 * lf.views.len() as u64;
+    let regions = [ImageRegion { image, offset: 0 }];
+    upload_images(ctx, &regions, total, "light field staging", |dst| {
+        fill_staging(dst, storage, lf);
+        Ok(())
+    })
+}
+
+/// Writes every view of `lf` in `storage`, layer after layer, into `dst` (views in parallel).
+fn fill_staging(dst: &mut [u8], storage: ViewStorage, lf: &LightField) {
+    let layer_bytes = lf.width as usize * lf.height as usize * storage.texel_bytes() as usize;
+    dst.par_chunks_exact_mut(layer_bytes)
+        .zip(&lf.views)
+        .for_each(|(dst, v)| match storage {
+            ViewStorage::Srgb8 => dst.copy_from_slice(v.image.as_raw()),
+            ViewStorage::Linear16 => encode_linear16(v.image.as_raw(), dst),
+        });
+}
+
 /// RGBA8 sRGB texels → RGBA16 UNORM linear light (alpha stays linear in [0, 1]), rounding
 /// the exact decoded value to the nearest 16-bit level.
 fn encode_linear16(rgba8: &[u8], dst: &mut [u8]) {
-    let table = linear16_table();
+    // One 64-bit store per texel: the four 16-bit levels packed so that their bytes land in
+    // memory in R, G, B, A order with each level in native byte order. (Four 16-bit stores
+    // per texel made this conversion the slowest step of a video frame's upload.)
+    let table = linear16_table().map(|v| v as u64);
+    let shifts: [u32; 4] = if cfg!(target_endian = "little") {
+        [0, 16, 32, 48]
+    } else {
+        [48, 32, 16, 0]
+    };
     for (src, out) in rgba8.chunks_exact(4).zip(dst.chunks_exact_mut(8)) {
-        let v = [
-            table[src[0] as usize],
-            table[src[1] as usize],
-            table[src[2] as usize],
-            (src[3] as u32 * 257) as u16,
-        ];
-        for (o, x) in out.chunks_exact_mut(2).zip(v) {
-            o.copy_from_slice(&x.to_ne_bytes());
-        }
+        let texel = table[src[0] as usize] << shifts[0]
+            | table[src[1] as usize] << shifts[1]
+            | table[src[2] as usize] << shifts[2]
+            | (src[3] as u64 * 257) << shifts[3];
+        out.copy_from_slice(&texel.to_ne_bytes());
     }
 }
 

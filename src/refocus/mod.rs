@@ -14,7 +14,7 @@ use crate::error::{Error, Result};
 pub use focus::{
     resolve_focus, DepthInfo, FocusMethod, FocusRequest, FocusSpec, FocusTarget, ResolvedFocus,
 };
-pub use plan::{plan, PlannedView, RefocusPlan, RefocusRequest};
+pub use plan::{plan, plan_json, PlannedView, RefocusPlan, RefocusRequest};
 
 /// In which space views are averaged.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]

@@ -125,6 +125,19 @@ pub fn plan(lf: &LightField, req: &RefocusRequest, excluded: &[bool]) -> Result<
     })
 }
 
+/// The JSON description of a plan (`render --json`, `demo`, the viewer's `--json` and screenshots).
+pub fn plan_json(plan: &RefocusPlan) -> serde_json::Value {
+    let v3 = |v: DVec3| [v.x, v.y, v.z];
+    serde_json::json!({
+        "method": plan.method,
+        "plane": plan.plane.map(|p| serde_json::json!({"point": v3(p.point), "normal": v3(p.normal)})),
+        "reference_view": [plan.reference.x, plan.reference.y],
+        "reference_centre": v3(plan.reference_camera.centre()),
+        "views_used": plan.views.len(),
+        "views": plan.views.iter().map(|v| serde_json::json!({"s": v.s, "t": v.t, "weight": v.weight})).collect::<Vec<_>>(),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

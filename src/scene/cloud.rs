@@ -98,6 +98,31 @@ impl PointCloud {
                 depth.height
             )));
         }
+        Self::collect(depth, image, stride, |i| match &normals[i] {
+            Ok(n) => (Some(n.normal), n.planarity),
+            Err(_) => (None, 0.0),
+        })
+    }
+
+    fn collect(
+        depth: &ViewDepth,
+        image: &RgbaImage,
+        stride: u32,
+        normal_of: impl Fn(usize) -> (Option<DVec3>, f64),
+    ) -> Result<Self> {
+        if stride == 0 {
+            return Err(Error::Invalid("--stride must be at least 1".into()));
+        }
+        if image.dimensions() != (depth.width, depth.height) {
+            return Err(Error::LightField(format!(
+                "the image ({}×{}) for depth map {} does not match its {}×{} pixels",
+                image.width(),
+                image.height(),
+                depth.source,
+                depth.width,
+                depth.height
+            )));
+        }
         let mut points = Vec::new();
         for y in (0..depth.height).step_by(stride as usize) {
             for x in (0..depth.width).step_by(stride as usize) {
@@ -105,10 +130,7 @@ impl PointCloud {
                     continue;
                 };
                 let c = image.get_pixel(x, y).0;
-                let (normal, planarity) = match &normals[depth.index(x, y)] {
-                    Ok(n) => (Some(n.normal), n.planarity),
-                    Err(_) => (None, 0.0),
-                };
+                let (normal, planarity) = normal_of(depth.index(x, y));
                 points.push(CloudPoint {
                     pixel: (x, y),
                     position,
@@ -124,6 +146,12 @@ impl PointCloud {
             points,
             bounds,
         })
+    }
+
+    /// The cloud of `depth`'s view with colours from `image`, every `stride`-th pixel, without
+    /// normals (what a 3-D view draws; picks estimate their own normals).
+    pub fn colours_only(depth: &ViewDepth, image: &RgbaImage, stride: u32) -> Result<Self> {
+        Self::collect(depth, image, stride, |_| (None, 0.0))
     }
 
     /// Number of points with a normal.

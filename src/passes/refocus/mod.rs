@@ -606,6 +606,17 @@ impl RefocusPass {
         Ok(true)
     }
 
+    /// Whether [`RefocusPass::set_views`] would rewrite the warps for `plan`: a caller with
+    /// frames in flight waits for them first.
+    pub fn views_differ(&self, plan: &RefocusPlan) -> bool {
+        plan.views.len() != self.uploaded.len()
+            || plan
+                .views
+                .iter()
+                .zip(&self.uploaded)
+                .any(|(v, u)| GpuViewWarp::new(&v.warp, v.index, v.weight) != *u)
+    }
+
     /// Number of views uploaded by the last [`RefocusPass::set_views`].
     pub fn view_count(&self) -> usize {
         self.uploaded.len()
@@ -808,7 +819,7 @@ impl RefocusPass {
             out.image,
             1,
             ImageTransition {
-                from: stage::UNDEFINED,
+                from: stage::DISCARD,
                 to: stage::COLOR_WRITE,
             },
         );

@@ -1,0 +1,141 @@
+//! `tiltfield render LF --frames A..B -o 'out_{frame}.png'`: a frame range of a camera-array
+//! video with one GPU set-up ([`crate::batch`] does the work; this parses and reports).
+
+use std::path::Path;
+use std::sync::Arc;
+
+use serde_json::json;
+
+use super::focus::{focus_json, focus_summary};
+use super::render::{make_plan, plan_json, render_settings, RenderArgs};
+use super::{check_output, device_load_limits};
+use crate::batch::{render_frames, BatchJob, OutputPattern};
+use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
+use crate::io::OutputKind;
+use crate::lightfield::technicolor::describe_frames;
+use crate::lightfield::video::{FrameRange, FrameSequence};
+use crate::passes::texture::ViewStorage;
+
+pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
+    // Options and outputs first, then the video's listing, then the device: nothing is
+    // decoded before everything that can be checked cheaply has been.
+    let range: FrameRange = spec.parse()?;
+    let output_text = args.output.to_string_lossy();
+    let pattern = OutputPattern::parse(&output_text)?;
+    let sequence = FrameSequence::open(Path::new(&args.lf.light_field))?;
+    let frames = sequence.select(range)?;
+    let kind = OutputKind::from_path(&pattern.path(frames[0]))?;
+    check_output(&pattern.path(frames[0]))?;
+    let settings = render_settings(args, kind)?;
+    let storage = args
+        .storage
+        .unwrap_or_else(|| ViewStorage::for_averaging(args.average));
+    let ctx = Arc::new(GpuContext::new(&args.gpu.options())?);
+    let job = BatchJob {
+        sequence: &sequence,
+        frames: &frames,
+        settings,
+        storage,
+        output: &pattern,
+        limits: device_load_limits(&ctx),
+    };
+
+    let bar = indicatif::ProgressBar::new(frames.len() as u64);
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "{msg} [{bar:30}] {pos}/{len} frames, {per_sec}, ETA {eta}",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_message(format!("refocusing {}", sequence.name()));
+    let mut focus = None;
+    let (report, plan) = render_frames(
+        Arc::clone(&ctx),
+        &job,
+        |lf| {
+            let (plan, f) = make_plan(lf, args)?;
+            focus = Some(f);
+            Ok(plan)
+        },
+        |_| bar.inc(1),
+    )?;
+    bar.finish_and_clear();
+    let errors = ctx.validation().errors();
+    if errors > 0 {
+        return Err(Error::Vulkan(format!(
+            "{errors} validation errors while rendering (see the log above)"
+        )));
+    }
+    let (out_w, out_h) = settings.size.unwrap_or((plan.width, plan.height));
+    let mean = |f: fn(&crate::batch::FrameTimes) -> Option<f64>| report.mean(f);
+    // The first frame's upload includes the whole set-up; the steady state leaves it out.
+    let steady_upload = report
+        .frames
+        .iter()
+        .skip(usize::from(report.frames.len() > 1))
+        .map(|t| t.upload_ms)
+        .sum::<f64>()
+        / (report.frames.len() - usize::from(report.frames.len() > 1)).max(1) as f64;
+    if args.json {
+        let mut out = plan_json(&plan);
+        let extra = json!({
+            "light_field": {
+                "name": sequence.name(),
+                "grid": [sequence.grid().cols, sequence.grid().rows],
+                "size": [sequence.view_size().0, sequence.view_size().1],
+            },
+            "focus": focus.as_ref().map(focus_json),
+            "frames": frames,
+            "outputs": frames.iter().map(|&f| pattern.path(f)).collect::<Vec<_>>(),
+            "averaging": args.average,
+            "strategy": settings.strategy.name(),
+            "filter": settings.filter,
+            "storage": storage,
+            "size": [out_w, out_h],
+            "device": report.device,
+            "wall_s": report.wall_s,
+            "frames_per_second": report.frames_per_second,
+            "mean_ms": {
+                "decode": mean(|t| Some(t.decode_ms)),
+                "wait_for_decode": mean(|t| Some(t.wait_ms)),
+                "upload": steady_upload,
+                "render_and_readback": mean(|t| Some(t.render_ms)),
+                "gpu_refocus": mean(|t| t.gpu_refocus_ms),
+                "encode": mean(|t| Some(t.encode_ms)),
+            },
+            "per_frame": report.frames,
+        });
+        if let (Some(obj), Some(extra)) = (out.as_object_mut(), extra.as_object()) {
+            obj.extend(extra.clone());
+        }
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&out).map_err(|e| Error::Invalid(e.to_string()))?
+        );
+        return Ok(());
+    }
+    if let Some(line) = focus.as_ref().and_then(focus_summary) {
+        eprintln!("{line}");
+    }
+    let ms = |v: Option<f64>| v.map_or("–".to_string(), |x| format!("{x:.0} ms"));
+    eprintln!(
+        "wrote {} frames ({}) to {} ({out_w}×{out_h}, {} views) in {:.1} s: {:.2} frames/s on {}",
+        report.frames.len(),
+        describe_frames(&frames),
+        output_text,
+        plan.views.len(),
+        report.wall_s,
+        report.frames_per_second,
+        report.device
+    );
+    eprintln!(
+        "per frame: decode {} (background), waiting for it {}, upload {steady_upload:.0} ms, \
+         render and readback {} (GPU refocus {}), encode {} (background)",
+        ms(mean(|t| Some(t.decode_ms))),
+        ms(mean(|t| Some(t.wait_ms))),
+        ms(mean(|t| Some(t.render_ms))),
+        ms(mean(|t| t.gpu_refocus_ms)),
+        ms(mean(|t| Some(t.encode_ms))),
+    );
+    Ok(())
+}

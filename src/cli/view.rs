@@ -1,0 +1,175 @@
+//! `tiltfield view`: parses the options into [`ViewerOptions`], runs the window
+//! ([`crate::viewer::run`]) and prints the final state as `render --json` does, plus the frame
+//! statistics.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use glam::DVec2;
+use serde_json::json;
+
+use super::focus::{focus_json, FocusArgs};
+use super::render::{dark_views, plan_json};
+use super::{load_light_field, parse_numbers, GpuArgs, LightFieldArgs};
+use crate::error::{Error, Result};
+use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::gpu::swapchain::PresentMode;
+use crate::lightfield::video::FrameSequence;
+use crate::passes::texture::ViewStorage;
+use crate::refocus::Averaging;
+use crate::viewer::{self, script, ViewerOptions};
+
+/// The light field `view` opens without one.
+pub const DEFAULT_SCENE: &str = "builtin:demo";
+
+#[derive(Debug, Args)]
+pub struct ViewArgs {
+    /// A light field (as for render); default: the built-in demo scene.
+    pub light_field: Option<String>,
+    /// Grid folders only: focal length in pixels (default: max(width, height)).
+    #[arg(long, value_name = "PX")]
+    pub focal_px: Option<f64>,
+    /// Grid folders only: distance between neighbouring views in world units.
+    #[arg(long, value_name = "B", default_value_t = 1.0)]
+    pub baseline: f64,
+    /// Camera-array videos only: the frame to start on (default: the first); , and . step
+    /// through frames, Space plays.
+    #[arg(long, value_name = "N")]
+    pub frame: Option<u64>,
+    #[command(flatten)]
+    pub focus: FocusArgs,
+    /// Aperture shape: disk, square or gaussian.
+    #[arg(long, default_value = "disk")]
+    pub aperture: ApertureShape,
+    /// Aperture radius in grid steps (σ for gaussian); default: all views.
+    #[arg(long, value_name = "R")]
+    pub aperture_radius: Option<f64>,
+    /// Reference (virtual) view S,T in grid units; default: grid centre.
+    #[arg(long, value_name = "S,T")]
+    pub view: Option<String>,
+    /// Average linear light (default) or the sRGB-encoded values (E toggles).
+    #[arg(long, default_value = "linear")]
+    pub average: Averaging,
+    /// Use views that are (almost) entirely black too.
+    #[arg(long)]
+    pub include_dark: bool,
+    /// Presentation: fifo (vsync), mailbox or immediate (for profiling).
+    #[arg(long, default_value = "fifo")]
+    pub present: PresentMode,
+    /// Frame budget in milliseconds for progressive refinement.
+    #[arg(long, value_name = "MS", default_value_t = 33.0)]
+    pub frame_budget_ms: f64,
+    /// Initial window size WxH.
+    #[arg(long, value_name = "WxH", default_value = "1280x720")]
+    pub window: String,
+    /// Replay commands from FILE (see the README for the format).
+    #[arg(long, value_name = "FILE")]
+    pub script: Option<PathBuf>,
+    /// Prefix of the screenshots P writes (a number is appended).
+    #[arg(long, value_name = "PREFIX", default_value = "tiltfield-shot")]
+    pub screenshot_prefix: PathBuf,
+    /// Print the final state and the frame statistics as JSON on exit.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+pub fn run(args: &ViewArgs) -> Result<()> {
+    // Everything that can be checked without the light field and the window comes first.
+    let window = super::synth::parse_pair(&args.window, "--window")?;
+    if !script::WINDOW_SIZES.contains(&window.0) || !script::WINDOW_SIZES.contains(&window.1) {
+        return Err(Error::Invalid(format!(
+            "--window must be {} to {} pixels each way, got {}×{}",
+            script::WINDOW_SIZES.start(),
+            script::WINDOW_SIZES.end(),
+            window.0,
+            window.1
+        )));
+    }
+    let lines = match &args.script {
+        Some(path) => script::load(path)?,
+        None => Vec::new(),
+    };
+    let reference = match &args.view {
+        Some(text) => {
+            let v = parse_numbers(text, 2, "--view")?;
+            Some(DVec2::new(v[0], v[1]))
+        }
+        None => None,
+    };
+    let aperture = Aperture {
+        shape: args.aperture,
+        radius: args.aperture_radius,
+    };
+    aperture.validate()?;
+    let focus = args.focus.request()?;
+    let lf = load_light_field(&LightFieldArgs {
+        light_field: args
+            .light_field
+            .clone()
+            .unwrap_or_else(|| DEFAULT_SCENE.to_string()),
+        focal_px: args.focal_px,
+        baseline: args.baseline,
+        frame: args.frame,
+    })?;
+    let video = match &args.light_field {
+        Some(path) if FrameSequence::is_video(std::path::Path::new(path)) => {
+            let sequence = FrameSequence::open(std::path::Path::new(path))?;
+            let frame = args.frame.unwrap_or_else(|| sequence.first());
+            Some((sequence, frame))
+        }
+        _ => None,
+    };
+    let opts = ViewerOptions {
+        focus,
+        aperture,
+        reference,
+        averaging: args.average,
+        excluded: dark_views(&lf, args.include_dark),
+        present: args.present,
+        frame_budget_ms: args.frame_budget_ms,
+        window,
+        script: lines,
+        gpu: args.gpu.options(),
+        storage: ViewStorage::default(),
+        screenshot_prefix: args.screenshot_prefix.clone(),
+        video,
+    };
+    let report = viewer::run(&lf, opts)?;
+    let state = &report.state;
+    if args.json {
+        let mut out = plan_json(&state.plan);
+        let extra = json!({
+            "light_field": {
+                "name": lf.name,
+                "grid": [lf.grid.cols, lf.grid.rows],
+                "size": [lf.width, lf.height],
+            },
+            "focus": focus_json(&state.resolved),
+            "averaging": state.averaging(),
+            "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},
+            "storage": ViewStorage::default(),
+            "size": [lf.width, lf.height],
+            "device": report.device,
+            "present_mode": report.present_mode,
+            "window": [report.window.0, report.window.1],
+            "frames": report.frames,
+            "validation_errors": report.validation_errors,
+        });
+        if let (Some(obj), Some(extra)) = (out.as_object_mut(), extra.as_object()) {
+            obj.extend(extra.clone());
+        }
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&out).map_err(|e| Error::Invalid(e.to_string()))?
+        );
+    }
+    if report.validation_errors > 0 {
+        return Err(Error::Vulkan(format!(
+            "{} validation errors in the viewer (see the log above)",
+            report.validation_errors
+        )));
+    }
+    Ok(())
+}

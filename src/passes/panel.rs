@@ -1,0 +1,305 @@
+//! The window compositor: draws a sampled image into a rectangle of the current rendering (the
+//! refocus image and the scene view into their panels, the text overlay over everything).
+//!
+//! The destination is a UNORM attachment that receives sRGB-encoded values (the swapchain).
+//! Sources are either already encoded (the refocus pass's 8-bit output: copied) or sRGB images
+//! whose samples are linear light (the scene view: encoded in the shader), see
+//! `shaders/panel.frag`. Sampling is bilinear with clamped edges, so a panel of another size than
+//! its image is a smooth resample; the text overlay is drawn 1:1 and stays sharp.
+//!
+//! Descriptor sets come from one pool that is reset whenever the sources change (a resize):
+//! callers reset only when no frame in flight uses the old sets.
+//!
+//! Destruction order: pipelines → pipeline layout → descriptor pool → set layout → sampler.
+
+use ash::vk;
+
+use crate::error::Result;
+use crate::gpu::pipeline::{graphics_pipeline, Blend, PipelineDesc};
+use crate::gpu::{shaders, GpuContext};
+
+/// How a source's pixels reach the destination.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PanelMode {
+    /// Encoded values, replacing the destination.
+    Encoded,
+    /// Linear-light samples of an sRGB image, encoded, replacing the destination.
+    Linear,
+    /// Encoded values with straight alpha over the destination (text, markers).
+    Overlay,
+}
+
+/// A destination rectangle in window pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Rect {
+    pub x: f32,
+    pub y: f32,
+    pub width: f32,
+    pub height: f32,
+}
+
+impl Rect {
+    pub fn new(x: f32, y: f32, width: f32, height: f32) -> Self {
+        Rect {
+            x,
+            y,
+            width,
+            height,
+        }
+    }
+
+    /// Whether window pixel position (x, y) lies inside.
+    pub fn contains(&self, x: f64, y: f64) -> bool {
+        x >= self.x as f64
+            && y >= self.y as f64
+            && x < (self.x + self.width) as f64
+            && y < (self.y + self.height) as f64
+    }
+
+    /// Whether it covers at least one pixel.
+    pub fn is_empty(&self) -> bool {
+        self.width < 1.0 || self.height < 1.0
+    }
+}
+
+/// Pipelines, sampler and descriptor sets of the compositor.
+pub struct Compositor {
+    pipelines: [vk::Pipeline; 3],
+    layout: vk::PipelineLayout,
+    pool: vk::DescriptorPool,
+    set_layout: vk::DescriptorSetLayout,
+    sampler: vk::Sampler,
+}
+
+/// Most descriptor sets alive between two resets.
+const MAX_SETS: u32 = 16;
+
+impl Compositor {
+    /// Creates the compositor for destinations of `format`.
+    pub fn new(ctx: &GpuContext, format: vk::Format) -> Result<Self> {
+        let mut c = Compositor {
+            pipelines: [vk::Pipeline::null(); 3],
+            layout: vk::PipelineLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            set_layout: vk::DescriptorSetLayout::null(),
+            sampler: vk::Sampler::null(),
+        };
+        if let Err(e) = c.make(ctx, format) {
+            c.destroy(ctx);
+            return Err(e);
+        }
+        Ok(c)
+    }
+
+    fn make(&mut self, ctx: &GpuContext, format: vk::Format) -> Result<()> {
+        let d = &ctx.device;
+        let sampler = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::LINEAR)
+            .min_filter(vk::Filter::LINEAR)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE);
+        // SAFETY: valid device and create infos; each handle is stored as soon as it exists,
+        // so `destroy` frees it when a later step fails.
+        unsafe {
+            self.sampler = d.create_sampler(&sampler, None)?;
+            let bindings = [vk::DescriptorSetLayoutBinding::default()
+                .binding(0)
+                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
+            self.set_layout = d.create_descriptor_set_layout(
+                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                None,
+            )?;
+            let sizes = [vk::DescriptorPoolSize::default()
+                .ty(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .descriptor_count(MAX_SETS)];
+            self.pool = d.create_descriptor_pool(
+                &vk::DescriptorPoolCreateInfo::default()
+                    .max_sets(MAX_SETS)
+                    .pool_sizes(&sizes),
+                None,
+            )?;
+            let push = [vk::PushConstantRange::default()
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT)
+                .size(16)];
+            let set_layouts = [self.set_layout];
+            self.layout = d.create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&set_layouts)
+                    .push_constant_ranges(&push),
+                None,
+            )?;
+        }
+        ctx.name(self.sampler, "panel sampler");
+        let vert = shaders::module(ctx, shaders::FULLSCREEN_VERT, "fullscreen.vert")?;
+        let frag = match shaders::module(ctx, shaders::PANEL_FRAG, "panel.frag") {
+            Ok(f) => f,
+            Err(e) => {
+                // SAFETY: unused module.
+                unsafe { d.destroy_shader_module(vert, None) };
+                return Err(e);
+            }
+        };
+        let made = (|| -> Result<()> {
+            for (i, (blend, encode)) in [
+                (Blend::Replace, 0u32),
+                (Blend::Replace, 1),
+                (Blend::Alpha, 0),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let constants = [encode];
+                let desc = PipelineDesc {
+                    blend,
+                    frag_constants: &constants,
+                    ..PipelineDesc::fullscreen(self.layout, vert, frag, format)
+                };
+                self.pipelines[i] = graphics_pipeline(ctx, &desc)?;
+                ctx.name(self.pipelines[i], &format!("panel pipeline {i}"));
+            }
+            Ok(())
+        })();
+        // SAFETY: pipelines keep their own copy of the code.
+        unsafe {
+            d.destroy_shader_module(vert, None);
+            d.destroy_shader_module(frag, None);
+        }
+        made
+    }
+
+    /// A descriptor set that samples `view` (in `SHADER_READ_ONLY_OPTIMAL`). Valid until the
+    /// next [`Compositor::reset`].
+    pub fn source(&self, ctx: &GpuContext, view: vk::ImageView) -> Result<vk::DescriptorSet> {
+        let layouts = [self.set_layout];
+        let alloc = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(self.pool)
+            .set_layouts(&layouts);
+        // SAFETY: valid pool and layout; the pool is sized for MAX_SETS sets between resets.
+        let set = unsafe { ctx.device.allocate_descriptor_sets(&alloc) }?[0];
+        let image = [vk::DescriptorImageInfo::default()
+            .sampler(self.sampler)
+            .image_view(view)
+            .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)];
+        let write = [vk::WriteDescriptorSet::default()
+            .dst_set(set)
+            .dst_binding(0)
+            .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+            .image_info(&image)];
+        // SAFETY: the set is new and unused.
+        unsafe { ctx.device.update_descriptor_sets(&write, &[]) };
+        Ok(set)
+    }
+
+    /// Frees every set from [`Compositor::source`]; no pending frame may use them.
+    pub fn reset(&self, ctx: &GpuContext) -> Result<()> {
+        // SAFETY: callers guarantee the sets are unused.
+        unsafe {
+            ctx.device
+                .reset_descriptor_pool(self.pool, vk::DescriptorPoolResetFlags::empty())
+        }?;
+        Ok(())
+    }
+
+    /// Records a draw of `set`'s image into `rect` of the current rendering instance, clipped
+    /// to `bounds` (the attachment's extent).
+    pub fn draw(
+        &self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        set: vk::DescriptorSet,
+        rect: Rect,
+        bounds: vk::Extent2D,
+        mode: PanelMode,
+    ) {
+        self.draw_part(ctx, cmd, set, rect, rect, bounds, mode);
+    }
+
+    /// [`Compositor::draw`] restricted to the part `clip` of `rect`: only those pixels are
+    /// shaded (a sparse overlay costs what it covers, not the whole window).
+    #[allow(clippy::too_many_arguments)]
+    pub fn draw_part(
+        &self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        set: vk::DescriptorSet,
+        rect: Rect,
+        clip: Rect,
+        bounds: vk::Extent2D,
+        mode: PanelMode,
+    ) {
+        let x0 = rect.x.max(clip.x).max(0.0);
+        let y0 = rect.y.max(clip.y).max(0.0);
+        let x1 = (rect.x + rect.width)
+            .min(clip.x + clip.width)
+            .min(bounds.width as f32);
+        let y1 = (rect.y + rect.height)
+            .min(clip.y + clip.height)
+            .min(bounds.height as f32);
+        if x1 - x0 < 1.0 || y1 - y0 < 1.0 {
+            return;
+        }
+        let pipeline = self.pipelines[match mode {
+            PanelMode::Encoded => 0,
+            PanelMode::Linear => 1,
+            PanelMode::Overlay => 2,
+        }];
+        let viewport = [vk::Viewport {
+            x: rect.x,
+            y: rect.y,
+            width: rect.width,
+            height: rect.height,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        }];
+        let scissor = [vk::Rect2D {
+            offset: vk::Offset2D {
+                x: x0.floor() as i32,
+                y: y0.floor() as i32,
+            },
+            extent: vk::Extent2D {
+                width: (x1.ceil() - x0.floor()) as u32,
+                height: (y1.ceil() - y0.floor()) as u32,
+            },
+        }];
+        let push: Vec<u8> = [rect.x, rect.y, rect.width, rect.height]
+            .iter()
+            .flat_map(|v| v.to_ne_bytes())
+            .collect();
+        let d = &ctx.device;
+        // SAFETY: recording inside a rendering instance of the compositor's format; the set
+        // is valid (not reset since it was made).
+        unsafe {
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+            d.cmd_set_viewport(cmd, 0, &viewport);
+            d.cmd_set_scissor(cmd, 0, &scissor);
+            d.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.layout,
+                0,
+                &[set],
+                &[],
+            );
+            d.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::FRAGMENT, 0, &push);
+            d.cmd_draw(cmd, 3, 1, 0, 0);
+        }
+    }
+
+    /// Frees everything (see the module docs for the order). The GPU must be done with it.
+    pub fn destroy(self, ctx: &GpuContext) {
+        // SAFETY: no pending work uses these objects; null handles are ignored.
+        unsafe {
+            for p in self.pipelines {
+                ctx.device.destroy_pipeline(p, None);
+            }
+            ctx.device.destroy_pipeline_layout(self.layout, None);
+            ctx.device.destroy_descriptor_pool(self.pool, None);
+            ctx.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+            ctx.device.destroy_sampler(self.sampler, None);
+        }
+    }
+}

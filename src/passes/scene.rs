@@ -1,0 +1,617 @@
+//! The scene pass: a 3-D view of the point cloud with the cameras, the reference optical axis,
+//! the plane normal and the refocus plane, drawn by its own pipelines (separate from the
+//! refocus pass) into a caller-owned [`SceneTarget`].
+//!
+//! Draw order inside one rendering instance (reverse Z: depth cleared to 0, test `GREATER_OR_
+//! EQUAL`, infinite far plane, see [`crate::passes::raster::Projection`]):
+//! 1. the cloud's points, depth-tested and depth-writing;
+//! 2. lines (camera frustums, optical axis, normal, the quad's outline) and larger points
+//!    (camera centres), depth-tested and writing;
+//! 3. the plane quad, alpha-blended, depth-tested against everything opaque, no depth write —
+//!    so points behind it show through tinted and points in front hide it;
+//! 4. markers (picked points) as large points with the depth test passing always, so a pick is
+//!    visible wherever it is.
+//!
+//! Colours are linear light with straight alpha ([`ColourVertex`]); the target is an sRGB image,
+//! so blending happens in linear light and the hardware encodes.
+//!
+//! The cloud is the expensive part (hundreds of thousands of points) and changes only with
+//! the view; the overlay changes with every plane move. So step 1 renders into a cached cloud
+//! layer (colour and depth) only when the caller says the view changed, and every frame starts
+//! by copying that layer into the target and draws steps 2–4 over it, depth-tested against
+//! the cloud's depth.
+//!
+//! The cloud is uploaded once ([`ScenePass::set_cloud`]); the small overlay geometry that
+//! changes with the plane and the aperture is written per frame into one buffer per frame slot
+//! ([`ScenePass::record`]'s `slot`), so a frame never overwrites what an earlier frame in flight
+//! still reads.
+//!
+//! Destruction order: overlay buffers → cloud buffer → pipelines → layout.
+
+use ash::vk;
+
+use crate::error::{Error, Result};
+use image::RgbaImage;
+
+use crate::gpu::commands::{
+    begin_rendering, color_copy, format_barrier, host_read_barrier, image_barrier, stage,
+    ImageTransition, Submission,
+};
+use crate::gpu::pipeline::{graphics_pipeline, Blend, DepthTest, PipelineDesc};
+use crate::gpu::resources::{Buffer, Image, ImageDesc};
+use crate::gpu::{shaders, GpuContext};
+use crate::scene::ColourVertex;
+
+/// Colour format of scene targets (linear blending, encoded storage).
+pub const SCENE_FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
+const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
+const VERTEX_BYTES: u64 = std::mem::size_of::<ColourVertex>() as u64;
+const PUSH_BYTES: u32 = 68;
+
+/// The geometry that changes with the focus, the aperture and the picks.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct SceneOverlay {
+    /// Pairs of vertices.
+    pub lines: Vec<ColourVertex>,
+    /// Triples of vertices, alpha-blended (the plane quad).
+    pub triangles: Vec<ColourVertex>,
+    /// Points drawn like the cloud's but larger (camera centres), depth-tested.
+    pub points: Vec<ColourVertex>,
+    /// Large points drawn over everything (picks).
+    pub markers: Vec<ColourVertex>,
+}
+
+impl SceneOverlay {
+    fn vertex_count(&self) -> usize {
+        self.lines.len() + self.triangles.len() + self.points.len() + self.markers.len()
+    }
+}
+
+/// How to draw one frame of the scene.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SceneView {
+    /// Column-major clip-from-world matrix (reverse Z).
+    pub clip_from_world: [f32; 16],
+    /// Diameter of cloud points in pixels.
+    pub point_size: f32,
+    /// Diameter of markers in pixels.
+    pub marker_size: f32,
+}
+
+/// Colour (sRGB) and depth images of one scene view, and the cached cloud layer.
+pub struct SceneTarget {
+    pub width: u32,
+    pub height: u32,
+    pub color: Image,
+    pub depth: Image,
+    cloud_color: Image,
+    cloud_depth: Image,
+    /// Whether the cloud layer holds the cloud as last drawn.
+    cloud_valid: bool,
+}
+
+impl SceneTarget {
+    /// Creates the images; the colour image can be sampled (a window draws it into its panel)
+    /// and copied (screenshots, tests).
+    pub fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self> {
+        let (w, h) = (width.max(1), height.max(1));
+        let attach = vk::ImageUsageFlags::COLOR_ATTACHMENT;
+        let depth_attach = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+        let src = vk::ImageUsageFlags::TRANSFER_SRC;
+        let dst = vk::ImageUsageFlags::TRANSFER_DST;
+        let specs = [
+            (
+                SCENE_FORMAT,
+                attach | vk::ImageUsageFlags::SAMPLED | src | dst,
+                "scene colour",
+            ),
+            (DEPTH_FORMAT, depth_attach | dst, "scene depth"),
+            (SCENE_FORMAT, attach | src, "scene cloud layer"),
+            (DEPTH_FORMAT, depth_attach | src, "scene cloud depth"),
+        ];
+        let mut made: Vec<Image> = Vec::new();
+        for (format, usage, name) in specs {
+            match Image::new(ctx, ImageDesc::new_2d(format, w, h, usage), &[format], name) {
+                Ok(i) => made.push(i),
+                Err(e) => {
+                    for i in made {
+                        i.destroy(ctx);
+                    }
+                    return Err(e);
+                }
+            }
+        }
+        let mut it = made.into_iter();
+        let mut next = || it.next().expect("four images made above");
+        Ok(SceneTarget {
+            width: w,
+            height: h,
+            color: next(),
+            depth: next(),
+            cloud_color: next(),
+            cloud_depth: next(),
+            cloud_valid: false,
+        })
+    }
+
+    /// Reads the colour image back (sRGB-encoded RGBA, alpha set to opaque), waiting for the
+    /// GPU. `layout` is where the last use left the image; it is put back there.
+    pub fn read(&self, ctx: &GpuContext, layout: stage::End) -> Result<RgbaImage> {
+        let (w, h) = (self.width, self.height);
+        let mut readback = Buffer::readback(ctx, w as u64 * h as u64 * 4, "scene readback")?;
+        let submission = match Submission::new(ctx, "scene readback") {
+            Ok(s) => s,
+            Err(e) => {
+                readback.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let ran = submission.run(ctx, |d, cmd| {
+            let to_copy = ImageTransition {
+                from: layout,
+                to: stage::TRANSFER_SRC,
+            };
+            image_barrier(d, cmd, self.color.image, 1, to_copy);
+            // SAFETY: recording; the image is in TRANSFER_SRC, the buffer holds w·h·4 bytes.
+            unsafe {
+                d.cmd_copy_image_to_buffer(
+                    cmd,
+                    self.color.image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    readback.buffer,
+                    &[color_copy(0, w, h, 1)],
+                )
+            };
+            let back = ImageTransition {
+                from: stage::TRANSFER_SRC,
+                to: layout,
+            };
+            image_barrier(d, cmd, self.color.image, 1, back);
+            host_read_barrier(d, cmd);
+        });
+        submission.destroy(ctx);
+        let image = ran.and_then(|()| {
+            readback.invalidate(ctx)?;
+            let mut raw = readback.bytes_mut()[..(w * h * 4) as usize].to_vec();
+            for p in raw.chunks_exact_mut(4) {
+                p[3] = 255;
+            }
+            RgbaImage::from_raw(w, h, raw)
+                .ok_or_else(|| Error::Vulkan("scene readback size mismatch".into()))
+        });
+        readback.destroy(ctx);
+        image
+    }
+
+    /// Frees the images (the GPU must be done with them).
+    pub fn destroy(self, ctx: &GpuContext) {
+        self.cloud_depth.destroy(ctx);
+        self.cloud_color.destroy(ctx);
+        self.depth.destroy(ctx);
+        self.color.destroy(ctx);
+    }
+}
+
+/// Pipelines and vertex buffers of the scene view.
+pub struct ScenePass {
+    overlay: Vec<Option<Buffer>>,
+    cloud: Option<Buffer>,
+    cloud_count: u32,
+    points: vk::Pipeline,
+    lines: vk::Pipeline,
+    quad: vk::Pipeline,
+    markers: vk::Pipeline,
+    layout: vk::PipelineLayout,
+    max_point_size: f32,
+}
+
+impl ScenePass {
+    /// Creates the pipelines, with `slots` overlay buffers (one per frame in flight).
+    pub fn new(ctx: &GpuContext, slots: usize) -> Result<Self> {
+        let d = &ctx.device;
+        let push = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::VERTEX)
+            .size(PUSH_BYTES)];
+        let info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&push);
+        // SAFETY: valid device and create info.
+        let layout = unsafe { d.create_pipeline_layout(&info, None) }?;
+        let range = ctx.properties.limits.point_size_range;
+        let mut pass = ScenePass {
+            overlay: (0..slots.max(1)).map(|_| None).collect(),
+            cloud: None,
+            cloud_count: 0,
+            points: vk::Pipeline::null(),
+            lines: vk::Pipeline::null(),
+            quad: vk::Pipeline::null(),
+            markers: vk::Pipeline::null(),
+            layout,
+            max_point_size: if ctx.large_points { range[1] } else { 1.0 },
+        };
+        if let Err(e) = pass.make_pipelines(ctx) {
+            pass.destroy(ctx);
+            return Err(e);
+        }
+        Ok(pass)
+    }
+
+    fn make_pipelines(&mut self, ctx: &GpuContext) -> Result<()> {
+        let vert = shaders::module(ctx, shaders::SCENE_VERT, "scene.vert")?;
+        let frag = match shaders::module(ctx, shaders::SCENE_FRAG, "scene.frag") {
+            Ok(f) => f,
+            Err(e) => {
+                // SAFETY: unused module.
+                unsafe { ctx.device.destroy_shader_module(vert, None) };
+                return Err(e);
+            }
+        };
+        let bindings = [vk::VertexInputBindingDescription::default()
+            .binding(0)
+            .stride(VERTEX_BYTES as u32)
+            .input_rate(vk::VertexInputRate::VERTEX)];
+        let attributes = [
+            vk::VertexInputAttributeDescription::default()
+                .location(0)
+                .format(vk::Format::R32G32B32_SFLOAT)
+                .offset(0),
+            vk::VertexInputAttributeDescription::default()
+                .location(1)
+                .format(vk::Format::R32G32B32A32_SFLOAT)
+                .offset(12),
+        ];
+        let depth = |compare, write| {
+            Some(DepthTest {
+                format: DEPTH_FORMAT,
+                compare,
+                write,
+            })
+        };
+        let base = PipelineDesc {
+            layout: self.layout,
+            vert,
+            frag,
+            color_format: SCENE_FORMAT,
+            topology: vk::PrimitiveTopology::POINT_LIST,
+            blend: Blend::Replace,
+            color_write: true,
+            depth: depth(vk::CompareOp::GREATER_OR_EQUAL, true),
+            vertex_bindings: &bindings,
+            vertex_attributes: &attributes,
+            frag_constants: &[],
+        };
+        let made = (|| -> Result<()> {
+            self.points = graphics_pipeline(ctx, &base)?;
+            ctx.name(self.points, "scene points");
+            self.lines = graphics_pipeline(
+                ctx,
+                &PipelineDesc {
+                    topology: vk::PrimitiveTopology::LINE_LIST,
+                    ..base
+                },
+            )?;
+            ctx.name(self.lines, "scene lines");
+            self.quad = graphics_pipeline(
+                ctx,
+                &PipelineDesc {
+                    topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+                    blend: Blend::Alpha,
+                    depth: depth(vk::CompareOp::GREATER_OR_EQUAL, false),
+                    ..base
+                },
+            )?;
+            ctx.name(self.quad, "scene plane quad");
+            self.markers = graphics_pipeline(
+                ctx,
+                &PipelineDesc {
+                    depth: depth(vk::CompareOp::ALWAYS, false),
+                    ..base
+                },
+            )?;
+            ctx.name(self.markers, "scene markers");
+            Ok(())
+        })();
+        // SAFETY: pipelines keep their own copy of the code.
+        unsafe {
+            ctx.device.destroy_shader_module(vert, None);
+            ctx.device.destroy_shader_module(frag, None);
+        }
+        made
+    }
+
+    /// Replaces the point cloud. The GPU must not be using the old one (call it before the
+    /// first frame, or after waiting for the frames in flight).
+    pub fn set_cloud(&mut self, ctx: &GpuContext, points: &[ColourVertex]) -> Result<()> {
+        if let Some(b) = self.cloud.take() {
+            b.destroy(ctx);
+        }
+        self.cloud_count = 0;
+        if points.is_empty() {
+            return Ok(());
+        }
+        let bytes = vertex_bytes(points);
+        let buffer = Buffer::with_bytes(
+            ctx,
+            &bytes,
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+            "scene cloud",
+        )?;
+        self.cloud = Some(buffer);
+        self.cloud_count = points.len() as u32;
+        Ok(())
+    }
+
+    /// The largest point size the device draws (1 without `largePoints`).
+    pub fn max_point_size(&self) -> f32 {
+        self.max_point_size
+    }
+
+    /// Records the scene into `target`: the cloud seen through `view` (re-rendered into the
+    /// cached layer when `cloud_changed` or the layer is new, else copied from it), then
+    /// `overlay` over it. `slot` picks the overlay buffer: the caller guarantees that the
+    /// previous frame that used `slot` has completed (frames in flight). Leaves the colour image
+    /// in `COLOR_ATTACHMENT_OPTIMAL`; the caller adds the barrier for its next use.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &mut self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        slot: usize,
+        target: &mut SceneTarget,
+        view: &SceneView,
+        overlay: &SceneOverlay,
+        cloud_changed: bool,
+    ) -> Result<()> {
+        let overlay_buffer = self.write_overlay(ctx, slot, overlay)?;
+        let d = &ctx.device;
+        let extent = vk::Extent2D {
+            width: target.width,
+            height: target.height,
+        };
+        let push = |size: f32| {
+            let mut bytes = [0u8; PUSH_BYTES as usize];
+            for (i, v) in view.clip_from_world.iter().enumerate() {
+                bytes[i * 4..i * 4 + 4].copy_from_slice(&v.to_ne_bytes());
+            }
+            bytes[64..68].copy_from_slice(&size.clamp(1.0, self.max_point_size).to_ne_bytes());
+            bytes
+        };
+        let draw =
+            |pipeline: vk::Pipeline, buffer: vk::Buffer, first: usize, count: usize, size| {
+                if count == 0 {
+                    return;
+                }
+                // SAFETY: recording inside a rendering instance; the buffer holds `first + count`
+                // vertices.
+                unsafe {
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+                    d.cmd_push_constants(
+                        cmd,
+                        self.layout,
+                        vk::ShaderStageFlags::VERTEX,
+                        0,
+                        &push(size),
+                    );
+                    d.cmd_bind_vertex_buffers(cmd, 0, &[buffer], &[0]);
+                    d.cmd_draw(cmd, count as u32, 1, first as u32, 0);
+                }
+            };
+        let barrier = |image: &Image, from, to| {
+            format_barrier(
+                d,
+                cmd,
+                image.image,
+                image.desc.format,
+                ImageTransition { from, to },
+            );
+        };
+
+        // 1. The cloud layer, when the view changed.
+        if cloud_changed || !target.cloud_valid {
+            barrier(&target.cloud_color, stage::DISCARD, stage::COLOR_WRITE);
+            barrier(&target.cloud_depth, stage::DISCARD, stage::DEPTH_WRITE);
+            begin_rendering(
+                d,
+                cmd,
+                extent,
+                target.cloud_color.views[0],
+                vk::AttachmentLoadOp::CLEAR,
+                Some((target.cloud_depth.views[0], 0.0)),
+            );
+            if let Some(cloud) = &self.cloud {
+                draw(
+                    self.points,
+                    cloud.buffer,
+                    0,
+                    self.cloud_count as usize,
+                    view.point_size,
+                );
+            }
+            // SAFETY: inside the rendering instance begun above.
+            unsafe { d.cmd_end_rendering(cmd) };
+            barrier(&target.cloud_color, stage::COLOR_WRITE, stage::TRANSFER_SRC);
+            barrier(&target.cloud_depth, stage::DEPTH_WRITE, stage::TRANSFER_SRC);
+            target.cloud_valid = true;
+        }
+
+        // 2. Copy the layer into the target.
+        barrier(&target.color, stage::DISCARD, stage::TRANSFER_DST);
+        barrier(&target.depth, stage::DISCARD, stage::TRANSFER_DST);
+        for (src, dst, aspect) in [
+            (
+                &target.cloud_color,
+                &target.color,
+                vk::ImageAspectFlags::COLOR,
+            ),
+            (
+                &target.cloud_depth,
+                &target.depth,
+                vk::ImageAspectFlags::DEPTH,
+            ),
+        ] {
+            let layers = vk::ImageSubresourceLayers {
+                aspect_mask: aspect,
+                mip_level: 0,
+                base_array_layer: 0,
+                layer_count: 1,
+            };
+            let region = vk::ImageCopy {
+                src_subresource: layers,
+                src_offset: vk::Offset3D::default(),
+                dst_subresource: layers,
+                dst_offset: vk::Offset3D::default(),
+                extent: vk::Extent3D {
+                    width: target.width,
+                    height: target.height,
+                    depth: 1,
+                },
+            };
+            // SAFETY: recording outside a rendering instance; layouts set by the barriers.
+            unsafe {
+                d.cmd_copy_image(
+                    cmd,
+                    src.image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    dst.image,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[region],
+                )
+            };
+        }
+        barrier(&target.color, stage::TRANSFER_DST, stage::COLOR_WRITE);
+        barrier(&target.depth, stage::TRANSFER_DST, stage::DEPTH_WRITE);
+
+        // 3. The overlay over the cloud, depth-tested against it.
+        begin_loaded(d, cmd, extent, target);
+        let (nl, nt, np) = (
+            overlay.lines.len(),
+            overlay.triangles.len(),
+            overlay.points.len(),
+        );
+        draw(self.lines, overlay_buffer, 0, nl, 1.0);
+        draw(
+            self.points,
+            overlay_buffer,
+            nl + nt,
+            np,
+            0.5 * view.marker_size,
+        );
+        draw(self.quad, overlay_buffer, nl, nt, 1.0);
+        draw(
+            self.markers,
+            overlay_buffer,
+            nl + nt + np,
+            overlay.markers.len(),
+            view.marker_size,
+        );
+        // SAFETY: inside the rendering instance begun above.
+        unsafe { d.cmd_end_rendering(cmd) };
+        Ok(())
+    }
+
+    /// Writes `overlay` into the slot's host-visible buffer (grown when too small).
+    fn write_overlay(
+        &mut self,
+        ctx: &GpuContext,
+        slot: usize,
+        overlay: &SceneOverlay,
+    ) -> Result<vk::Buffer> {
+        let n = overlay.vertex_count();
+        let slot_buffer = self
+            .overlay
+            .get_mut(slot)
+            .ok_or_else(|| Error::Invalid(format!("scene pass has no frame slot {slot}")))?;
+        let needed = (n.max(1) as u64) * VERTEX_BYTES;
+        if slot_buffer.as_ref().map_or(true, |b| b.size < needed) {
+            if let Some(b) = slot_buffer.take() {
+                b.destroy(ctx);
+            }
+            // Grow geometrically so a growing number of picks does not reallocate every frame.
+            let size = needed.next_power_of_two().max(64 * VERTEX_BYTES);
+            *slot_buffer = Some(Buffer::new(
+                ctx,
+                size,
+                vk::BufferUsageFlags::VERTEX_BUFFER,
+                true,
+                &format!("scene overlay {slot}"),
+            )?);
+        }
+        let buffer = slot_buffer.as_mut().expect("created above");
+        let mut all = Vec::with_capacity(n);
+        all.extend_from_slice(&overlay.lines);
+        all.extend_from_slice(&overlay.triangles);
+        all.extend_from_slice(&overlay.points);
+        all.extend_from_slice(&overlay.markers);
+        let bytes = vertex_bytes(&all);
+        buffer.bytes_mut()[..bytes.len()].copy_from_slice(&bytes);
+        Ok(buffer.buffer)
+    }
+
+    /// Frees everything (see the module docs for the order). The GPU must be done with it.
+    pub fn destroy(mut self, ctx: &GpuContext) {
+        for b in self.overlay.drain(..).flatten() {
+            b.destroy(ctx);
+        }
+        if let Some(b) = self.cloud.take() {
+            b.destroy(ctx);
+        }
+        // SAFETY: no pending work uses these objects; null handles are ignored.
+        unsafe {
+            for p in [self.points, self.lines, self.quad, self.markers] {
+                ctx.device.destroy_pipeline(p, None);
+            }
+            ctx.device.destroy_pipeline_layout(self.layout, None);
+        }
+    }
+}
+
+/// Begins rendering into `target` keeping the colour and depth already there.
+fn begin_loaded(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    extent: vk::Extent2D,
+    target: &SceneTarget,
+) {
+    let color = [vk::RenderingAttachmentInfo::default()
+        .image_view(target.color.views[0])
+        .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+        .load_op(vk::AttachmentLoadOp::LOAD)
+        .store_op(vk::AttachmentStoreOp::STORE)];
+    let depth = vk::RenderingAttachmentInfo::default()
+        .image_view(target.depth.views[0])
+        .image_layout(vk::ImageLayout::DEPTH_ATTACHMENT_OPTIMAL)
+        .load_op(vk::AttachmentLoadOp::LOAD)
+        .store_op(vk::AttachmentStoreOp::DONT_CARE);
+    let area = vk::Rect2D {
+        offset: vk::Offset2D::default(),
+        extent,
+    };
+    let info = vk::RenderingInfo::default()
+        .render_area(area)
+        .layer_count(1)
+        .color_attachments(&color)
+        .depth_attachment(&depth);
+    let viewport = [vk::Viewport {
+        x: 0.0,
+        y: 0.0,
+        width: extent.width as f32,
+        height: extent.height as f32,
+        min_depth: 0.0,
+        max_depth: 1.0,
+    }];
+    // SAFETY: recording outside a rendering instance; the attachments are in the layouts
+    // named (the caller's barriers put them there).
+    unsafe {
+        d.cmd_begin_rendering(cmd, &info);
+        d.cmd_set_viewport(cmd, 0, &viewport);
+        d.cmd_set_scissor(cmd, 0, &[area]);
+    }
+}
+
+fn vertex_bytes(vertices: &[ColourVertex]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(vertices.len() * VERTEX_BYTES as usize);
+    for v in vertices {
+        for f in v.position.iter().chain(v.colour.iter()) {
+            out.extend_from_slice(&f.to_ne_bytes());
+        }
+    }
+    out
+}

@@ -1,0 +1,916 @@
+//! The viewer's GPU side: the resident light field texture, the refocus pass with a full-size
+//! and a preview target, the scene pass and its panel-size target, the text overlay image, the
+//! compositor, the swapchain and the frames in flight. It records one frame from a
+//! [`FrameRequest`] (what to accumulate, whether the scene or the text changed) and captures
+//! screenshots; what to draw is decided by the caller (UI state never lives here).
+//!
+//! Per frame: wait for the slot's previous frame (its timestamps are read then) → acquire →
+//! a global barrier (images reused across frames are rewritten only after earlier frames are
+//! done with them) → accumulate + resolve a batch of views → scene view (only when it changed)
+//! → overlay rows (only those that changed) → compose the window → present.
+//!
+//! Destruction order: wait idle → frames (run deferred releases) → readback → overlay staging
+//! and image → scene target → scene pass → refocus targets → refocus pass → texture →
+//! frame staging → timestamps → compositor → swapchain (and its surface). The context goes last, with its
+//! last `Arc`.
+
+use std::sync::Arc;
+
+use ash::vk;
+use image::RgbaImage;
+
+use super::refine::Batch;
+use super::text::Canvas;
+use crate::error::{Error, Result};
+use crate::gpu::commands::{
+    begin_rendering, color_copy, host_read_barrier, image_barrier, stage, ImageTransition,
+    Submission,
+};
+use crate::gpu::frames::Frames;
+use crate::gpu::resources::{Buffer, Image, ImageDesc};
+use crate::gpu::swapchain::{Acquire, PresentMode, Swapchain};
+use crate::gpu::timing::Timestamps;
+use crate::gpu::upload::Staging;
+use crate::gpu::GpuContext;
+use crate::lightfield::LightField;
+use crate::passes::panel::{Compositor, PanelMode, Rect};
+use crate::passes::refocus::{Accumulate, OutputFormat, RefocusPass, RefocusTarget, Strategy};
+use crate::passes::scene::{SceneOverlay, ScenePass, SceneTarget, SceneView};
+use crate::passes::texture::{LightFieldTexture, ViewStorage};
+use crate::refocus::{Averaging, RefocusPlan};
+
+use super::layout::Layout;
+
+/// Frames in flight.
+pub const FRAMES_IN_FLIGHT: usize = 2;
+const OVERLAY_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
+
+/// What one frame does besides composing the window.
+pub struct FrameRequest<'a> {
+    /// The plan in refinement order (the batch's ranges index it).
+    pub plan: &'a RefocusPlan,
+    pub averaging: Averaging,
+    /// Views to add, if refinement is not complete.
+    pub batch: Option<Batch>,
+    /// The scene to redraw, when it changed, and whether the view (and so the cloud) did.
+    pub scene: Option<(SceneView, &'a SceneOverlay, bool)>,
+    pub canvas: &'a mut Canvas,
+    pub layout: &'a Layout,
+    /// Copy the composed window for a screenshot.
+    pub capture_window: bool,
+    /// Returned with this frame's timings (the caller's refinement id, interactive or not).
+    pub tag: (u32, bool),
+    /// The parts of the window the text overlay has content in (only these are composited).
+    pub overlay_parts: &'a [Rect],
+}
+
+/// GPU times of a completed frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FrameTiming {
+    /// Views it accumulated and at which preview divisor.
+    pub views: usize,
+    pub divisor: u32,
+    pub accumulate_ms: f64,
+    pub frame_ms: f64,
+    /// The request's tag.
+    pub tag: (u32, bool),
+}
+
+/// What recording a frame produced.
+#[derive(Debug, Default)]
+pub struct FrameResult {
+    /// Timings of the earlier frame whose slot this frame reused.
+    pub timing: Option<FrameTiming>,
+    /// The swapchain had to be recreated; the frame was not shown.
+    pub skipped: bool,
+    /// The composed window, when asked for.
+    pub window: Option<RgbaImage>,
+}
+
+/// What a frame slot's last frame accumulated: views, preview divisor, the request's tag.
+type SlotWork = (usize, u32, (u32, bool));
+
+struct RefocusTargets {
+    full: RefocusTarget,
+    full_set: vk::DescriptorSet,
+    full_ready: bool,
+    preview: Option<(u32, RefocusTarget, vk::DescriptorSet)>,
+    preview_ready: bool,
+    /// Which target the window shows (its divisor).
+    shown: Option<u32>,
+}
+
+struct Overlay {
+    image: Image,
+    set: vk::DescriptorSet,
+    staging: Vec<Buffer>,
+    ready: bool,
+}
+
+struct SceneImage {
+    target: SceneTarget,
+    set: vk::DescriptorSet,
+    ready: bool,
+}
+
+/// Everything the window renders with.
+pub struct ViewerGpu {
+    frames: Option<Frames>,
+    readback: Option<Buffer>,
+    overlay: Option<Overlay>,
+    scene: Option<SceneImage>,
+    scene_pass: Option<ScenePass>,
+    targets: Option<RefocusTargets>,
+    pass: Option<RefocusPass>,
+    texture: Option<LightFieldTexture>,
+    /// Kept between video frames (see [`LightFieldTexture::reupload`]).
+    staging: Option<Staging>,
+    timestamps: Vec<Option<Timestamps>>,
+    /// Per slot: what its last frame accumulated and its tag (to attribute its timestamps).
+    slot_work: Vec<Option<SlotWork>>,
+    /// The slot the next frame uses (the oldest in flight).
+    next_slot: usize,
+    compositor: Option<Compositor>,
+    swapchain: Option<Swapchain>,
+    ctx: Arc<GpuContext>,
+    /// Output size of full-quality refocus images.
+    pub full_size: (u32, u32),
+    pub strategy: Strategy,
+}
+
+fn out_size(full: (u32, u32), divisor: u32) -> (u32, u32) {
+    let d = divisor.max(1);
+    (full.0.div_ceil(d), full.1.div_ceil(d))
+}
+
+impl ViewerGpu {
+    /// Uploads `lf` and builds everything for a window whose surface is `surface` (owned from
+    /// here on) of `extent`.
+    pub fn new(
+        ctx: Arc<GpuContext>,
+        lf: &LightField,
+        surface: vk::SurfaceKHR,
+        extent: vk::Extent2D,
+        present: PresentMode,
+        storage: ViewStorage,
+    ) -> Result<Self> {
+        let swapchain = Swapchain::new(&ctx, surface, extent, present)?;
+        let mut g = ViewerGpu {
+            frames: None,
+            readback: None,
+            overlay: None,
+            scene: None,
+            scene_pass: None,
+            targets: None,
+            pass: None,
+            texture: None,
+            staging: None,
+            timestamps: Vec::new(),
+            slot_work: vec![None; FRAMES_IN_FLIGHT],
+            next_slot: 0,
+            compositor: None,
+            swapchain: Some(swapchain),
+            ctx,
+            full_size: (lf.width, lf.height),
+            strategy: Strategy::default(),
+        };
+        // Each step stores what it made, so `Drop` frees it when a later step fails.
+        let ctx = Arc::clone(&g.ctx);
+        let format = g
+            .swapchain
+            .as_ref()
+            .map_or(vk::Format::UNDEFINED, |s| s.format);
+        g.compositor = Some(Compositor::new(&ctx, format)?);
+        for _ in 0..FRAMES_IN_FLIGHT {
+            g.timestamps.push(Timestamps::new(&ctx, 3)?);
+        }
+        let texture = LightFieldTexture::upload(&ctx, lf, storage)?;
+        let pass = RefocusPass::new(&ctx, &texture);
+        g.texture = Some(texture);
+        g.pass = Some(pass?);
+        g.scene_pass = Some(ScenePass::new(&ctx, FRAMES_IN_FLIGHT)?);
+        g.frames = Some(Frames::new(&ctx, FRAMES_IN_FLIGHT)?);
+        Ok(g)
+    }
+
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// The swapchain's extent and present mode.
+    pub fn swapchain_info(&self) -> (vk::Extent2D, vk::PresentModeKHR) {
+        self.swapchain
+            .as_ref()
+            .map_or((vk::Extent2D::default(), vk::PresentModeKHR::FIFO), |s| {
+                (s.extent, s.present_mode)
+            })
+    }
+
+    /// The largest point size the scene pass can draw.
+    pub fn max_point_size(&self) -> f32 {
+        self.scene_pass.as_ref().map_or(1.0, |p| p.max_point_size())
+    }
+
+    /// Uploads the scene's point cloud (waits for the frames in flight).
+    pub fn set_cloud(&mut self, vertices: &[crate::scene::ColourVertex]) -> Result<()> {
+        self.wait_idle()?;
+        let ctx = Arc::clone(&self.ctx);
+        match self.scene_pass.as_mut() {
+            Some(p) => p.set_cloud(&ctx, vertices),
+            None => Ok(()),
+        }
+    }
+
+    /// Replaces the views with those of `lf` (the next frame of a video: same grid, same size),
+    /// after the frames in flight are done with the old ones.
+    pub fn replace_views(&mut self, lf: &LightField) -> Result<()> {
+        self.wait_idle()?;
+        let ctx = Arc::clone(&self.ctx);
+        let Some(texture) = self.texture.as_mut() else {
+            return Err(Error::Vulkan("the viewer was not fully created".into()));
+        };
+        if self.staging.is_none() {
+            self.staging = Some(Staging::new(
+                &ctx,
+                texture.staging_bytes(),
+                "viewer frame staging",
+            )?);
+        }
+        match self.staging.as_mut() {
+            Some(staging) => texture.reupload(&ctx, lf, staging),
+            None => Err(Error::Vulkan("no staging buffer".into())),
+        }
+    }
+
+    /// Waits for every frame in flight.
+    pub fn wait_idle(&mut self) -> Result<()> {
+        match self.frames.as_mut() {
+            Some(f) => f.wait_all(&self.ctx),
+            None => Ok(()),
+        }
+    }
+
+    /// Rebuilds the swapchain and the window-size images for a window of `extent` (after a
+    /// resize or an out-of-date swapchain) and the panel images for `layout`.
+    pub fn resize(&mut self, extent: vk::Extent2D, layout: &Layout) -> Result<()> {
+        self.wait_idle()?;
+        let ctx = Arc::clone(&self.ctx);
+        if let Some(sc) = self.swapchain.as_mut() {
+            let old = sc.format;
+            sc.recreate(&ctx, extent)?;
+            if sc.format != old {
+                if let Some(c) = self.compositor.take() {
+                    c.destroy(&ctx);
+                }
+                self.compositor = Some(Compositor::new(&ctx, sc.format)?);
+            }
+        }
+        self.rebuild_panels(layout)
+    }
+
+    /// (Re)creates the scene target and the overlay for `layout` (and the full-size refocus
+    /// target the first time). Callers have waited for the frames in flight.
+    pub fn rebuild_panels(&mut self, layout: &Layout) -> Result<()> {
+        let ctx = Arc::clone(&self.ctx);
+        if let Some(s) = self.scene.take() {
+            s.target.destroy(&ctx);
+        }
+        if let Some(o) = self.overlay.take() {
+            o.image.destroy(&ctx);
+            for b in o.staging {
+                b.destroy(&ctx);
+            }
+        }
+        let (sw, sh) = (
+            (layout.scene.width as u32).max(1),
+            (layout.scene.height as u32).max(1),
+        );
+        self.scene = Some(SceneImage {
+            target: SceneTarget::new(&ctx, sw, sh)?,
+            set: vk::DescriptorSet::null(),
+            ready: false,
+        });
+        let (ww, wh) = (layout.window.0.max(1), layout.window.1.max(1));
+        let image = Image::new(
+            &ctx,
+            ImageDesc::new_2d(
+                OVERLAY_FORMAT,
+                ww,
+                wh,
+                vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+            ),
+            &[OVERLAY_FORMAT],
+            "text overlay",
+        )?;
+        let mut overlay = Overlay {
+            image,
+            set: vk::DescriptorSet::null(),
+            staging: Vec::new(),
+            ready: false,
+        };
+        for i in 0..FRAMES_IN_FLIGHT {
+            match Buffer::new(
+                &ctx,
+                ww as u64 * wh as u64 * 4,
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                true,
+                &format!("overlay staging {i}"),
+            ) {
+                Ok(b) => overlay.staging.push(b),
+                Err(e) => {
+                    overlay.image.destroy(&ctx);
+                    for b in overlay.staging {
+                        b.destroy(&ctx);
+                    }
+                    return Err(e);
+                }
+            }
+        }
+        self.overlay = Some(overlay);
+        if self.targets.is_none() {
+            let Some(pass) = self.pass.as_mut() else {
+                return Err(Error::Vulkan("the viewer was not fully created".into()));
+            };
+            let (w, h) = self.full_size;
+            self.targets = Some(RefocusTargets {
+                full: pass.create_target(&ctx, w, h)?,
+                full_set: vk::DescriptorSet::null(),
+                full_ready: false,
+                preview: None,
+                preview_ready: false,
+                shown: None,
+            });
+        }
+        self.make_sets()
+    }
+
+    /// Resets the compositor's pool and makes the descriptor sets of every panel image. No
+    /// frame in flight may use the old sets.
+    fn make_sets(&mut self) -> Result<()> {
+        let ctx = Arc::clone(&self.ctx);
+        let Some(compositor) = self.compositor.as_ref() else {
+            return Err(Error::Vulkan("the viewer was not fully created".into()));
+        };
+        compositor.reset(&ctx)?;
+        if let Some(s) = self.scene.as_mut() {
+            s.set = compositor.source(&ctx, s.target.color.views[0])?;
+        }
+        if let Some(o) = self.overlay.as_mut() {
+            o.set = compositor.source(&ctx, o.image.views[0])?;
+        }
+        if let Some(t) = self.targets.as_mut() {
+            t.full_set = compositor.source(&ctx, t.full.out8.views[0])?;
+            if let Some((_, target, set)) = t.preview.as_mut() {
+                *set = compositor.source(&ctx, target.out8.views[0])?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Makes sure a preview target of `divisor` exists (waits for the frames in flight when
+    /// it has to be replaced).
+    fn ensure_preview(&mut self, divisor: u32) -> Result<()> {
+        let current = self
+            .targets
+            .as_ref()
+            .and_then(|t| t.preview.as_ref().map(|p| p.0));
+        if divisor <= 1 || current == Some(divisor) {
+            return Ok(());
+        }
+        self.wait_idle()?;
+        let ctx = Arc::clone(&self.ctx);
+        let (Some(pass), Some(targets)) = (self.pass.as_mut(), self.targets.as_mut()) else {
+            return Err(Error::Vulkan("the viewer was not fully created".into()));
+        };
+        if let Some((_, t, _)) = targets.preview.take() {
+            t.destroy(&ctx);
+        }
+        targets.preview_ready = false;
+        if targets.shown.is_some_and(|d| d > 1) {
+            targets.shown = None;
+        }
+        let (w, h) = out_size(self.full_size, divisor);
+        let target = pass.create_target(&ctx, w, h)?;
+        targets.preview = Some((divisor, target, vk::DescriptorSet::null()));
+        self.make_sets()
+    }
+
+    /// Records, submits and presents one frame.
+    pub fn frame(&mut self, req: FrameRequest) -> Result<FrameResult> {
+        if let Some(b) = &req.batch {
+            self.ensure_preview(b.divisor)?;
+        }
+        // The warps are read by frames in flight: wait for them before rewriting.
+        if self.pass.as_ref().is_some_and(|p| p.views_differ(req.plan)) {
+            self.wait_idle()?;
+            if let Some(p) = self.pass.as_mut() {
+                p.set_views(req.plan)?;
+            }
+        }
+        let ctx = Arc::clone(&self.ctx);
+        let d = &ctx.device;
+        let (
+            Some(frames),
+            Some(swapchain),
+            Some(compositor),
+            Some(pass),
+            Some(targets),
+            Some(scene),
+            Some(scene_pass),
+            Some(overlay),
+        ) = (
+            self.frames.as_mut(),
+            self.swapchain.as_ref(),
+            self.compositor.as_ref(),
+            self.pass.as_mut(),
+            self.targets.as_mut(),
+            self.scene.as_mut(),
+            self.scene_pass.as_mut(),
+            self.overlay.as_mut(),
+        )
+        else {
+            return Err(Error::Vulkan("the viewer was not fully created".into()));
+        };
+        let frame = frames.begin(&ctx)?;
+        let mut result = FrameResult::default();
+        self.next_slot = (frame.slot + 1) % FRAMES_IN_FLIGHT;
+        let ts = self.timestamps[frame.slot].as_ref();
+        result.timing = read_timing(&ctx, ts, self.slot_work[frame.slot].take())?;
+        let index = match swapchain.acquire(frame.image_available)? {
+            Acquire::Image { index, .. } => index,
+            Acquire::OutOfDate => {
+                // Nothing was recorded: submit the empty buffer so the slot's fence signals.
+                frames.submit(&ctx, &[], &[])?;
+                result.skipped = true;
+                return Ok(result);
+            }
+        };
+        let cmd = frame.cmd;
+        let all = vk::PipelineStageFlags2::ALL_COMMANDS;
+        let global = [vk::MemoryBarrier2::default()
+            .src_stage_mask(all)
+            .src_access_mask(vk::AccessFlags2::MEMORY_WRITE | vk::AccessFlags2::MEMORY_READ)
+            .dst_stage_mask(all)
+            .dst_access_mask(vk::AccessFlags2::MEMORY_WRITE | vk::AccessFlags2::MEMORY_READ)];
+        // SAFETY: recording outside a rendering instance.
+        unsafe {
+            d.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&global))
+        };
+        if let Some(ts) = ts {
+            ts.reset(d, cmd);
+            ts.write(d, cmd, all, 0);
+        }
+
+        // 1. Refocus: the next batch of views into the target of its size, then resolve.
+        if let Some(batch) = &req.batch {
+            let m = req.plan.m.as_vec3();
+            let accumulate = Accumulate {
+                m: [m.x, m.y, m.z],
+                views: batch.views.clone(),
+                clear: batch.clear,
+                strategy: self.strategy,
+                filter: Default::default(),
+                averaging: req.averaging,
+            };
+            let target = if batch.divisor > 1 {
+                match targets.preview.as_mut() {
+                    Some((_, t, _)) => t,
+                    None => return Err(Error::Vulkan("no preview target".into())),
+                }
+            } else {
+                &mut targets.full
+            };
+            pass.record_accumulate(&ctx, cmd, target, &accumulate)?;
+            pass.record_resolve(&ctx, cmd, target, OutputFormat::Srgb8, req.averaging)?;
+            image_barrier(
+                d,
+                cmd,
+                target.out8.image,
+                1,
+                ImageTransition {
+                    from: stage::COLOR_WRITE,
+                    to: stage::FRAGMENT_READ,
+                },
+            );
+            if batch.divisor > 1 {
+                targets.preview_ready = true;
+            } else {
+                targets.full_ready = true;
+            }
+            targets.shown = Some(batch.divisor.max(1));
+            self.slot_work[frame.slot] = Some((batch.views.len(), batch.divisor.max(1), req.tag));
+        }
+        if let Some(ts) = ts {
+            ts.write(d, cmd, all, 1);
+        }
+
+        // 2. The scene view, when it changed.
+        if let Some((view, geometry, cloud_changed)) = req.scene {
+            scene_pass.record(
+                &ctx,
+                cmd,
+                frame.slot,
+                &mut scene.target,
+                &view,
+                geometry,
+                cloud_changed,
+            )?;
+            image_barrier(
+                d,
+                cmd,
+                scene.target.color.image,
+                1,
+                ImageTransition {
+                    from: stage::COLOR_WRITE,
+                    to: stage::FRAGMENT_READ,
+                },
+            );
+            scene.ready = true;
+        }
+
+        // 3. The overlay rows that changed.
+        if let Some((y0, y1)) = req.canvas.take_dirty() {
+            let y1 = y1.min(overlay.image.desc.height);
+            if y0 < y1 && req.canvas.width == overlay.image.desc.width {
+                let rows = req.canvas.rows(y0, y1);
+                let staging = &mut overlay.staging[frame.slot];
+                staging.bytes_mut()[..rows.len()].copy_from_slice(rows);
+                image_barrier(
+                    d,
+                    cmd,
+                    overlay.image.image,
+                    1,
+                    ImageTransition {
+                        from: if overlay.ready {
+                            stage::FRAGMENT_READ
+                        } else {
+                            stage::UNDEFINED
+                        },
+                        to: stage::TRANSFER_DST,
+                    },
+                );
+                let region =
+                    color_copy(0, req.canvas.width, y1 - y0, 1).image_offset(vk::Offset3D {
+                        x: 0,
+                        y: y0 as i32,
+                        z: 0,
+                    });
+                // SAFETY: recording; the staging buffer holds the rows, the image is in
+                // TRANSFER_DST (barrier above).
+                unsafe {
+                    d.cmd_copy_buffer_to_image(
+                        cmd,
+                        staging.buffer,
+                        overlay.image.image,
+                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                        &[region],
+                    )
+                };
+                image_barrier(
+                    d,
+                    cmd,
+                    overlay.image.image,
+                    1,
+                    ImageTransition {
+                        from: stage::TRANSFER_DST,
+                        to: stage::FRAGMENT_READ,
+                    },
+                );
+                overlay.ready = true;
+            }
+        }
+
+        // 4. Compose the window.
+        let image = swapchain.images[index as usize];
+        image_barrier(
+            d,
+            cmd,
+            image,
+            1,
+            ImageTransition {
+                from: stage::ACQUIRED,
+                to: stage::COLOR_WRITE,
+            },
+        );
+        let extent = swapchain.extent;
+        begin_rendering(
+            d,
+            cmd,
+            extent,
+            swapchain.views[index as usize],
+            vk::AttachmentLoadOp::CLEAR,
+            None,
+        );
+        let shown = match targets.shown {
+            Some(1) if targets.full_ready => Some(targets.full_set),
+            Some(_) if targets.preview_ready => targets.preview.as_ref().map(|p| p.2),
+            _ if targets.full_ready => Some(targets.full_set),
+            _ => None,
+        };
+        if let Some(set) = shown {
+            compositor.draw(
+                &ctx,
+                cmd,
+                set,
+                req.layout.refocus,
+                extent,
+                PanelMode::Encoded,
+            );
+        }
+        if scene.ready {
+            compositor.draw(
+                &ctx,
+                cmd,
+                scene.set,
+                req.layout.scene,
+                extent,
+                PanelMode::Linear,
+            );
+        }
+        if overlay.ready {
+            let full = Rect::new(
+                0.0,
+                0.0,
+                overlay.image.desc.width as f32,
+                overlay.image.desc.height as f32,
+            );
+            for part in req.overlay_parts {
+                compositor.draw_part(
+                    &ctx,
+                    cmd,
+                    overlay.set,
+                    full,
+                    *part,
+                    extent,
+                    PanelMode::Overlay,
+                );
+            }
+        }
+        // SAFETY: inside the rendering instance begun above.
+        unsafe { d.cmd_end_rendering(cmd) };
+        if let Some(ts) = ts {
+            ts.write(d, cmd, all, 2);
+        }
+        if req.capture_window {
+            let bytes = extent.width as u64 * extent.height as u64 * 4;
+            if self.readback.as_ref().map_or(true, |b| b.size < bytes) {
+                if let Some(b) = self.readback.take() {
+                    // The last capture waited for its frame: the buffer is idle.
+                    b.destroy(&ctx);
+                }
+                self.readback = Some(Buffer::readback(&ctx, bytes, "window readback")?);
+            }
+            let buffer = self.readback.as_ref().map(|b| b.buffer).unwrap_or_default();
+            image_barrier(
+                d,
+                cmd,
+                image,
+                1,
+                ImageTransition {
+                    from: stage::COLOR_WRITE,
+                    to: stage::TRANSFER_SRC,
+                },
+            );
+            // SAFETY: recording; the image is in TRANSFER_SRC, the buffer is large enough.
+            unsafe {
+                d.cmd_copy_image_to_buffer(
+                    cmd,
+                    image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    buffer,
+                    &[color_copy(0, extent.width, extent.height, 1)],
+                )
+            };
+            host_read_barrier(d, cmd);
+            image_barrier(
+                d,
+                cmd,
+                image,
+                1,
+                ImageTransition {
+                    from: stage::TRANSFER_SRC,
+                    to: stage::PRESENT,
+                },
+            );
+        } else {
+            image_barrier(
+                d,
+                cmd,
+                image,
+                1,
+                ImageTransition {
+                    from: stage::COLOR_WRITE,
+                    to: stage::PRESENT,
+                },
+            );
+        }
+        frames.submit(
+            &ctx,
+            &[(
+                frame.image_available,
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+            )],
+            &[swapchain.render_finished[index as usize]],
+        )?;
+        let recreate = swapchain.present(&ctx, index)?;
+        result.skipped = recreate;
+        if req.capture_window {
+            frames.wait_all(&ctx)?;
+            let format = swapchain.format;
+            if let Some(b) = self.readback.as_mut() {
+                b.invalidate(&ctx)?;
+                let n = extent.width as usize * extent.height as usize * 4;
+                let mut raw = b.bytes_mut()[..n].to_vec();
+                if matches!(
+                    format,
+                    vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB
+                ) {
+                    for p in raw.chunks_exact_mut(4) {
+                        p.swap(0, 2);
+                    }
+                }
+                for p in raw.chunks_exact_mut(4) {
+                    p[3] = 255;
+                }
+                result.window = RgbaImage::from_raw(extent.width, extent.height, raw);
+            }
+        }
+        Ok(result)
+    }
+
+    /// Waits for the frames in flight and returns the timings not yet reported, oldest first.
+    pub fn drain_timings(&mut self) -> Result<Vec<FrameTiming>> {
+        self.wait_idle()?;
+        let mut out = Vec::new();
+        for k in 0..FRAMES_IN_FLIGHT {
+            let slot = (self.next_slot + k) % FRAMES_IN_FLIGHT;
+            let work = self.slot_work[slot].take();
+            out.extend(read_timing(
+                &self.ctx,
+                self.timestamps[slot].as_ref(),
+                work,
+            )?);
+        }
+        Ok(out)
+    }
+
+    /// The refocus image of `plan` (render order) at full quality and `size`, exactly as
+    /// `render` computes it: one accumulation over all views in plan order, then the 8-bit
+    /// resolve. Waits for the frames in flight; the next frame re-uploads its own warps.
+    pub fn capture_refocus(
+        &mut self,
+        plan: &RefocusPlan,
+        averaging: Averaging,
+        size: (u32, u32),
+    ) -> Result<RgbaImage> {
+        self.wait_idle()?;
+        let ctx = Arc::clone(&self.ctx);
+        let Some(pass) = self.pass.as_mut() else {
+            return Err(Error::Vulkan("the viewer was not fully created".into()));
+        };
+        pass.set_views(plan)?;
+        let (w, h) = size;
+        let mut target = pass.create_target(&ctx, w, h)?;
+        let captured = (|| -> Result<RgbaImage> {
+            let mut readback = Buffer::readback(&ctx, w as u64 * h as u64 * 4, "capture")?;
+            let submission = Submission::new(&ctx, "refocus capture");
+            let submission = match submission {
+                Ok(s) => s,
+                Err(e) => {
+                    readback.destroy(&ctx);
+                    return Err(e);
+                }
+            };
+            let m = plan.m.as_vec3();
+            let accumulate = Accumulate {
+                m: [m.x, m.y, m.z],
+                views: 0..plan.views.len(),
+                clear: true,
+                strategy: self.strategy,
+                filter: Default::default(),
+                averaging,
+            };
+            let mut recorded = Ok(());
+            let ran = submission.run(&ctx, |d, cmd| {
+                recorded = pass
+                    .record_accumulate(&ctx, cmd, &mut target, &accumulate)
+                    .and_then(|()| {
+                        pass.record_resolve(&ctx, cmd, &target, OutputFormat::Srgb8, averaging)
+                    });
+                if recorded.is_ok() {
+                    image_barrier(
+                        d,
+                        cmd,
+                        target.out8.image,
+                        1,
+                        ImageTransition {
+                            from: stage::COLOR_WRITE,
+                            to: stage::TRANSFER_SRC,
+                        },
+                    );
+                    // SAFETY: recording; the buffer holds w·h·4 bytes.
+                    unsafe {
+                        d.cmd_copy_image_to_buffer(
+                            cmd,
+                            target.out8.image,
+                            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                            readback.buffer,
+                            &[color_copy(0, w, h, 1)],
+                        )
+                    };
+                    host_read_barrier(d, cmd);
+                }
+            });
+            submission.destroy(&ctx);
+            let out = ran.and(recorded).and_then(|()| {
+                readback.invalidate(&ctx)?;
+                let raw = readback.bytes_mut()[..(w * h * 4) as usize].to_vec();
+                RgbaImage::from_raw(w, h, raw)
+                    .ok_or_else(|| Error::Vulkan("capture size mismatch".into()))
+            });
+            readback.destroy(&ctx);
+            out
+        })();
+        target.destroy(&ctx);
+        captured
+    }
+
+    /// The scene panel as last drawn (sRGB-encoded RGBA).
+    pub fn capture_scene(&mut self) -> Result<RgbaImage> {
+        self.wait_idle()?;
+        match self.scene.as_ref().filter(|s| s.ready) {
+            Some(scene) => scene.target.read(&self.ctx, stage::FRAGMENT_READ),
+            None => Err(Error::Vulkan("the scene has not been drawn yet".into())),
+        }
+    }
+}
+
+/// The timings of a completed slot that accumulated `work`.
+fn read_timing(
+    ctx: &GpuContext,
+    ts: Option<&Timestamps>,
+    work: Option<SlotWork>,
+) -> Result<Option<FrameTiming>> {
+    let (Some(ts), Some((views, divisor, tag))) = (ts, work) else {
+        return Ok(None);
+    };
+    Ok(ts.read_ms(ctx)?.map(|ms| FrameTiming {
+        views,
+        divisor,
+        accumulate_ms: ms[0],
+        frame_ms: ms[0] + ms[1],
+        tag,
+    }))
+}
+
+impl Drop for ViewerGpu {
+    fn drop(&mut self) {
+        let ctx = Arc::clone(&self.ctx);
+        // SAFETY: waiting has no preconditions; afterwards nothing below is in use.
+        unsafe {
+            let _ = ctx.device.device_wait_idle();
+        }
+        if let Some(f) = self.frames.take() {
+            f.destroy(&ctx);
+        }
+        if let Some(b) = self.readback.take() {
+            b.destroy(&ctx);
+        }
+        if let Some(o) = self.overlay.take() {
+            for b in o.staging {
+                b.destroy(&ctx);
+            }
+            o.image.destroy(&ctx);
+        }
+        if let Some(s) = self.scene.take() {
+            s.target.destroy(&ctx);
+        }
+        if let Some(p) = self.scene_pass.take() {
+            p.destroy(&ctx);
+        }
+        if let Some(t) = self.targets.take() {
+            t.full.destroy(&ctx);
+            if let Some((_, p, _)) = t.preview {
+                p.destroy(&ctx);
+            }
+        }
+        if let Some(p) = self.pass.take() {
+            p.destroy(&ctx);
+        }
+        if let Some(t) = self.texture.take() {
+            t.destroy(&ctx);
+        }
+        if let Some(s) = self.staging.take() {
+            s.destroy(&ctx);
+        }
+        for t in self.timestamps.drain(..).flatten() {
+            t.destroy(&ctx);
+        }
+        if let Some(c) = self.compositor.take() {
+            c.destroy(&ctx);
+        }
+        if let Some(s) = self.swapchain.take() {
+            s.destroy(&ctx);
+        }
+    }
+}

@@ -1,0 +1,294 @@
+//! Progressive refinement: after any change the accumulation restarts and every frame adds the
+//! next batch of views, presenting the normalised partial sum, until the whole aperture is in.
+//!
+//! - Order ([`spread_order`]): views are taken so that each next one is the farthest (in grid
+//!   units) from those already taken, starting at the view nearest the reference. The first few
+//!   views already span the aperture, so early frames show the right amount of blur (with some
+//!   ghosting), not a sharp pinhole image that suddenly blurs.
+//! - Batch size: a cost model fitted to the GPU timestamps of earlier frames — milliseconds per
+//!   view and output pixel, plus a per-frame overhead — gives how many views fit the frame
+//!   budget. While the user interacts the budget is the frame budget; once the view is still,
+//!   refinement frames may take [`STILL_BUDGET_FACTOR`] budgets, and more where needed to
+//!   keep the per-frame overhead (resolve, scene, compositing, present) under
+//!   [`STILL_OVERHEAD_FRACTION`] of the frame, up to [`MAX_STILL_FRAME_MS`]: fewer, larger
+//!   batches reach full quality sooner, and a new input is answered after at most one such
+//!   frame.
+//! - Preview size: while interacting on a device too slow for [`PREVIEW_VIEWS`] views per frame
+//!   at full size, the output shrinks by an integer factor (up to [`MAX_PREVIEW_DIVISOR`]) so
+//!   the batch gets there; full size resumes as soon as the input stops.
+
+use std::ops::Range;
+
+use glam::DVec2;
+
+/// Views per interactive frame the preview size aims for.
+pub const PREVIEW_VIEWS: usize = 12;
+/// Largest preview shrink factor (per axis).
+pub const MAX_PREVIEW_DIVISOR: u32 = 4;
+/// Budgets a refinement frame may take once the input has stopped.
+pub const STILL_BUDGET_FACTOR: f64 = 3.0;
+/// Once still, batches grow until the per-frame overhead is at most this fraction of a frame,
+/// so refinement reaches full quality in little more than the one-pass time…
+pub const STILL_OVERHEAD_FRACTION: f64 = 0.1;
+/// …but no still frame is planned longer than this (the next input waits for it).
+pub const MAX_STILL_FRAME_MS: f64 = 400.0;
+
+/// The order in which to accumulate views at grid `positions` for a reference at `centre`.
+pub fn spread_order(positions: &[DVec2], centre: DVec2) -> Vec<usize> {
+    let n = positions.len();
+    let mut order = Vec::with_capacity(n);
+    if n == 0 {
+        return order;
+    }
+    let first = (0..n)
+        .min_by(|&a, &b| {
+            (positions[a] - centre)
+                .length()
+                .total_cmp(&(positions[b] - centre).length())
+        })
+        .expect("n > 0");
+    let mut nearest = vec![f64::INFINITY; n];
+    let mut taken = vec![false; n];
+    let mut next = first;
+    for _ in 0..n {
+        taken[next] = true;
+        order.push(next);
+        for i in 0..n {
+            nearest[i] = nearest[i].min((positions[i] - positions[next]).length());
+        }
+        // Farthest from everything taken; ties go to the lower index (deterministic).
+        let mut best: Option<usize> = None;
+        for i in (0..n).filter(|&i| !taken[i]) {
+            if best.map_or(true, |b| nearest[i] > nearest[b]) {
+                best = Some(i);
+            }
+        }
+        match best {
+            Some(b) => next = b,
+            None => break,
+        }
+    }
+    order
+}
+
+/// One frame's share of the refinement.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Batch {
+    /// Views (positions in the refinement order) to add.
+    pub views: Range<usize>,
+    /// Start from zero (first batch after a restart).
+    pub clear: bool,
+    /// Output shrink factor (1 = full size).
+    pub divisor: u32,
+}
+
+/// The refinement schedule and its cost model.
+#[derive(Debug, Clone)]
+pub struct Refiner {
+    budget_ms: f64,
+    total: usize,
+    done: usize,
+    divisor: u32,
+    /// GPU ms per view per million output pixels (the accumulation).
+    per_view_mpx_ms: Option<f64>,
+    /// GPU ms per frame besides the accumulation (resolve, scene, compositing).
+    overhead_ms: f64,
+    full_pixels: f64,
+}
+
+impl Refiner {
+    /// A schedule for `budget_ms` frames and outputs of `full_pixels` at full size.
+    pub fn new(budget_ms: f64, full_pixels: u64) -> Self {
+        Refiner {
+            budget_ms,
+            total: 0,
+            done: 0,
+            divisor: 1,
+            per_view_mpx_ms: None,
+            overhead_ms: 0.0,
+            full_pixels: full_pixels.max(1) as f64,
+        }
+    }
+
+    /// Starts again with `total` views; `interactive` allows a preview size.
+    pub fn restart(&mut self, total: usize, interactive: bool) {
+        self.total = total;
+        self.done = 0;
+        self.divisor = if interactive {
+            self.preview_divisor()
+        } else {
+            1
+        };
+    }
+
+    /// Views accumulated so far, and the aperture's total.
+    pub fn progress(&self) -> (usize, usize) {
+        (self.done, self.total)
+    }
+
+    /// The current output shrink factor.
+    pub fn divisor(&self) -> u32 {
+        self.divisor
+    }
+
+    /// Whether every view is in at full size.
+    pub fn converged(&self) -> bool {
+        self.done >= self.total && self.divisor == 1
+    }
+
+    /// Whether every view is in at the current size.
+    pub fn complete(&self) -> bool {
+        self.done >= self.total
+    }
+
+    /// Predicted GPU ms of one view at `divisor`, once measured.
+    fn per_view_ms(&self, divisor: u32) -> Option<f64> {
+        let mpx = self.full_pixels / (divisor * divisor) as f64 / 1e6;
+        self.per_view_mpx_ms.map(|c| (c * mpx).max(1e-6))
+    }
+
+    fn views_within(&self, budget_ms: f64, divisor: u32) -> usize {
+        let Some(per_view) = self.per_view_ms(divisor) else {
+            // No measurement yet: one view, which measures the device.
+            return 1;
+        };
+        (((budget_ms - self.overhead_ms).max(0.0) / per_view).floor() as usize).max(1)
+    }
+
+    fn preview_divisor(&self) -> u32 {
+        let want = PREVIEW_VIEWS.min(self.total.max(1));
+        (1..=MAX_PREVIEW_DIVISOR)
+            .find(|&d| self.views_within(self.budget_ms, d) >= want)
+            .unwrap_or(MAX_PREVIEW_DIVISOR)
+    }
+
+    /// The next batch, or `None` when complete. `interactive`: the user is giving input now
+    /// (the frame budget applies); otherwise the longer still budget does.
+    pub fn next_batch(&mut self, interactive: bool) -> Option<Batch> {
+        if self.complete() {
+            return None;
+        }
+        let mut n = if interactive {
+            self.views_within(self.budget_ms, self.divisor)
+        } else {
+            let by_budget = self.views_within(self.budget_ms * STILL_BUDGET_FACTOR, self.divisor);
+            match self.per_view_ms(self.divisor) {
+                Some(per_view) => {
+                    let by_overhead = (self.overhead_ms * (1.0 - STILL_OVERHEAD_FRACTION)
+                        / STILL_OVERHEAD_FRACTION
+                        / per_view)
+                        .ceil() as usize;
+                    let cap = ((MAX_STILL_FRAME_MS / per_view).floor() as usize).max(1);
+                    by_budget.max(by_overhead.min(cap))
+                }
+                None => by_budget,
+            }
+        };
+        n = n.min(self.total - self.done);
+        let batch = Batch {
+            views: self.done..self.done + n,
+            clear: self.done == 0,
+            divisor: self.divisor,
+        };
+        self.done += n;
+        Some(batch)
+    }
+
+    /// Feeds the GPU times of a finished frame that accumulated `views` views at `divisor`
+    /// (`accumulate_ms`) and took `frame_ms` in all.
+    pub fn measured(&mut self, views: usize, divisor: u32, accumulate_ms: f64, frame_ms: f64) {
+        if views == 0 || !(accumulate_ms.is_finite() && frame_ms.is_finite()) {
+            return;
+        }
+        let mpx = self.full_pixels / (divisor * divisor) as f64 / 1e6;
+        let c = accumulate_ms / (views as f64 * mpx);
+        // Exponential averages: follow the device (thermal, load) without jumping on one frame.
+        self.per_view_mpx_ms = Some(match self.per_view_mpx_ms {
+            Some(old) => 0.7 * old + 0.3 * c,
+            None => c,
+        });
+        let overhead = (frame_ms - accumulate_ms).max(0.0);
+        self.overhead_ms = 0.7 * self.overhead_ms + 0.3 * overhead;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(n: usize) -> Vec<DVec2> {
+        (0..n * n)
+            .map(|i| DVec2::new((i % n) as f64, (i / n) as f64))
+            .collect()
+    }
+
+    #[test]
+    fn the_order_is_a_permutation_that_spreads_early() {
+        let g = grid(9);
+        let order = spread_order(&g, DVec2::new(4.0, 4.0));
+        let mut sorted = order.clone();
+        sorted.sort();
+        assert_eq!(sorted, (0..81).collect::<Vec<_>>());
+        assert_eq!(order[0], 40, "starts at the centre view");
+        // The first five views reach the corners: they span the whole aperture.
+        let first: Vec<DVec2> = order[..5].iter().map(|&i| g[i]).collect();
+        let (min, max) = first
+            .iter()
+            .fold((DVec2::splat(9.0), DVec2::splat(-1.0)), |(a, b), p| {
+                (a.min(*p), b.max(*p))
+            });
+        assert_eq!((min, max), (DVec2::ZERO, DVec2::splat(8.0)), "{first:?}");
+        // Their mean is near the centre: no early bias to one side.
+        let mean = first.iter().copied().sum::<DVec2>() / 5.0;
+        assert!((mean - DVec2::splat(4.0)).length() < 1.0, "{mean}");
+        assert!(spread_order(&[], DVec2::ZERO).is_empty());
+    }
+
+    #[test]
+    fn batches_fill_the_budget_and_cover_every_view_once() {
+        let mut r = Refiner::new(33.0, 512 * 512);
+        r.restart(81, false);
+        // Unmeasured: one view.
+        assert_eq!(r.next_batch(true).unwrap().views, 0..1);
+        // 4 ms per view at full size, 5 ms overhead.
+        r.measured(1, 1, 4.0, 9.0);
+        let b = r.next_batch(true).unwrap();
+        assert_eq!(b.views.len(), 7, "(33 − 5·0.3) / 4 → 7");
+        assert!(!b.clear);
+        let mut covered = 1 + b.views.len();
+        // Still frames with a cheap overhead: three budgets' worth of views.
+        let still = r.next_batch(false).unwrap();
+        assert_eq!(still.views, covered..covered + 24, "(99 − 1.5) / 4 → 24");
+        covered = still.views.end;
+        // An expensive overhead (40 ms per frame) makes still batches long enough to keep it
+        // at 10 % of a frame: 360 ms of views (90), more than the 49 left.
+        r.measured(1, 1, 4.0, 4.0 + (40.0 - 1.05) / 0.3);
+        let rest = r.next_batch(false).unwrap();
+        assert_eq!(rest.views, covered..81);
+        covered = rest.views.end;
+        assert_eq!(r.next_batch(false), None);
+        assert_eq!(covered, 81);
+        assert!(r.converged());
+    }
+
+    #[test]
+    fn slow_devices_preview_at_a_smaller_size_while_interacting() {
+        let mut r = Refiner::new(33.0, 512 * 512);
+        r.restart(81, true);
+        r.measured(1, 1, 17.0, 20.0); // lavapipe-like: 17 ms per full-size view
+        r.restart(81, true);
+        assert!(r.divisor() > 1, "preview shrinks");
+        let b = r.next_batch(true).unwrap();
+        assert!(b.clear && b.views.len() >= PREVIEW_VIEWS, "{b:?}");
+        assert!(!r.converged());
+        // When the input stops, refinement restarts at full size.
+        r.restart(81, false);
+        assert_eq!(r.divisor(), 1);
+        // A fast device keeps the full size and the whole aperture in one frame.
+        let mut fast = Refiner::new(33.0, 512 * 512);
+        fast.measured(81, 1, 2.0, 3.0);
+        fast.restart(81, true);
+        assert_eq!(fast.divisor(), 1);
+        assert_eq!(fast.next_batch(true).unwrap().views, 0..81);
+    }
+}

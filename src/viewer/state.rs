@@ -1,0 +1,640 @@
+//! What the viewer shows, as plain data: the focus, the aperture, the viewpoint, the averaging,
+//! the picks in progress — and how every user action changes it. No window and no GPU here:
+//! the event loop turns input into [`Action`]s, applies them, and renders the resulting
+//! [`RefocusPlan`].
+//!
+//! Rules:
+//! - an action that cannot be applied (a click without usable depth, collinear points, a tilt
+//!   of a plane-less classic shift, an aperture with no view) changes nothing and leaves its
+//!   reason in [`ViewerState::message`], shown on screen;
+//! - the refocus plane is a world plane: moving the viewpoint keeps it where it is in the scene
+//!   (a focus given relative to the reference camera is first turned into its world plane);
+//! - keyboard adjustments (tilt, swing, distance) act on the plane as seen from the current
+//!   reference camera, exactly as `render`'s `--nudge-*` options, and leave a world plane;
+//! - every change of what is rendered increments [`ViewerState::version`]; changes that only
+//!   affect markers increment [`ViewerState::marks_version`].
+
+use glam::{DVec2, DVec3};
+
+use crate::error::{Error, Result};
+use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::geometry::normals::NormalParams;
+use crate::geometry::picking::{nudge_plane, KeyboardPlane, Nudge};
+use crate::geometry::plane::Plane;
+use crate::lightfield::LightField;
+use crate::refocus::{
+    self, resolve_focus, Averaging, FocusRequest, FocusSpec, FocusTarget, RefocusPlan,
+    RefocusRequest, ResolvedFocus,
+};
+
+/// One user action, whatever input produced it (key, mouse, script).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Action {
+    /// Tilt the plane by degrees (as `--nudge-tilt`).
+    Tilt(f64),
+    /// Swing the plane by degrees (as `--nudge-swing`).
+    Swing(f64),
+    /// Move the plane along the reference optical axis by this fraction of its distance.
+    Distance(f64),
+    /// Frontoparallel focus, this many disparity steps nearer (negative: farther).
+    DisparitySteps(f64),
+    /// Change the aperture radius by grid steps.
+    ApertureRadius(f64),
+    /// Disk → square → gaussian → disk.
+    CycleAperture,
+    /// Move the virtual viewpoint by grid steps (the aperture follows).
+    MoveView(DVec2),
+    /// Viewpoint back to the grid centre.
+    Recentre,
+    /// Linear ↔ encoded averaging.
+    ToggleAveraging,
+    /// Back to the state the viewer started in.
+    Reset,
+    /// Single-click plane at a pixel of the depth view (as `render --click`).
+    Click(DVec2),
+    /// One of three clicks at pixels of the depth view (as `render --points`).
+    ThreeClick(DVec2),
+    /// One of three picked world points (as `render --points-3d`).
+    ScenePick(DVec3),
+    ToggleHelp,
+    Screenshot,
+    Quit,
+}
+
+/// What applying an action did.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Effect {
+    /// The rendered state changed (restart refinement).
+    Changed,
+    /// Only markers or on-screen text changed.
+    Marked,
+    /// Nothing changed; the reason is in [`ViewerState::message`].
+    Refused(String),
+    Screenshot,
+    Quit,
+}
+
+/// The parts of the state that define the image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Core {
+    focus: FocusRequest,
+    /// Where the plane quad is centred (the first picked point), if anywhere particular.
+    anchor: Option<DVec3>,
+    aperture: Aperture,
+    reference: DVec2,
+    averaging: Averaging,
+}
+
+/// The viewer's state.
+#[derive(Debug, Clone)]
+pub struct ViewerState {
+    core: Core,
+    initial: Core,
+    excluded: Vec<bool>,
+    /// The current focus, resolved.
+    pub resolved: ResolvedFocus,
+    /// The current plan (views in plan order, as `render` uses them).
+    pub plan: RefocusPlan,
+    /// Depth-view pixels of the three-click plane in progress.
+    pub pending_clicks: Vec<DVec2>,
+    /// World points of the three-pick plane in progress.
+    pub pending_points: Vec<DVec3>,
+    pub show_help: bool,
+    /// Why the last action was refused, or a hint about a pick in progress.
+    pub message: Option<String>,
+    pub version: u64,
+    pub marks_version: u64,
+}
+
+/// Disparity change of one scroll step: 1/64 of the data's disparity range, else 0.05 px.
+pub fn disparity_step(lf: &LightField) -> f64 {
+    lf.disparity_range
+        .map(|(a, b)| ((b - a) / 64.0).max(1e-3))
+        .unwrap_or(0.05)
+}
+
+/// The radius (grid steps) an aperture without one behaves as: covering the grid (disk,
+/// square), σ of half the larger extent (gaussian).
+pub fn effective_radius(aperture: &Aperture, lf: &LightField) -> f64 {
+    aperture.radius.unwrap_or_else(|| {
+        let hx = (lf.grid.cols as f64 - 1.0) / 2.0;
+        let hy = (lf.grid.rows as f64 - 1.0) / 2.0;
+        match aperture.shape {
+            ApertureShape::Disk => hx.hypot(hy),
+            ApertureShape::Square => hx.max(hy),
+            ApertureShape::Gaussian => hx.max(hy).max(0.5),
+        }
+    })
+}
+
+impl ViewerState {
+    /// The state for `focus`, `aperture`, `reference` (default: grid centre) and `averaging`;
+    /// `excluded[i]` leaves view i out (dark views). Fails when that state cannot be rendered.
+    pub fn new(
+        lf: &LightField,
+        focus: FocusRequest,
+        aperture: Aperture,
+        reference: Option<DVec2>,
+        averaging: Averaging,
+        excluded: Vec<bool>,
+    ) -> Result<Self> {
+        let core = Core {
+            focus,
+            anchor: None,
+            aperture,
+            reference: reference.unwrap_or_else(|| lf.grid.centre()),
+            averaging,
+        };
+        let (resolved, plan) = resolve(lf, &core, &excluded)?;
+        let anchor = anchor_of(&resolved);
+        let core = Core { anchor, ..core };
+        Ok(ViewerState {
+            core,
+            initial: core,
+            excluded,
+            resolved,
+            plan,
+            pending_clicks: Vec::new(),
+            pending_points: Vec::new(),
+            show_help: false,
+            message: None,
+            version: 0,
+            marks_version: 0,
+        })
+    }
+
+    pub fn focus(&self) -> &FocusRequest {
+        &self.core.focus
+    }
+
+    pub fn aperture(&self) -> Aperture {
+        self.core.aperture
+    }
+
+    pub fn reference(&self) -> DVec2 {
+        self.core.reference
+    }
+
+    pub fn averaging(&self) -> Averaging {
+        self.core.averaging
+    }
+
+    /// Where the plane quad is centred.
+    pub fn anchor(&self) -> Option<DVec3> {
+        self.core.anchor
+    }
+
+    pub fn excluded(&self) -> &[bool] {
+        &self.excluded
+    }
+
+    /// Applies `action`. Refused actions leave the state as it was (see the module docs).
+    pub fn apply(&mut self, lf: &LightField, action: Action) -> Effect {
+        let effect = match action {
+            Action::ToggleHelp => {
+                self.show_help = !self.show_help;
+                self.marks_version += 1;
+                return Effect::Marked;
+            }
+            Action::Screenshot => return Effect::Screenshot,
+            Action::Reset => {
+                self.pending_clicks.clear();
+                self.pending_points.clear();
+                let initial = self.initial;
+                self.change(lf, |_, core| {
+                    *core = initial;
+                    Ok(())
+                })
+            }
+            Action::Quit => return Effect::Quit,
+            Action::ThreeClick(pixel) => {
+                self.pending_points.clear();
+                self.pending_clicks.push(pixel);
+                if self.pending_clicks.len() < 3 {
+                    return self.mark_pending(self.pending_clicks.len(), "Shift+click");
+                }
+                let p: Vec<DVec2> = std::mem::take(&mut self.pending_clicks);
+                self.change(lf, |_, core| {
+                    core.focus = FocusRequest {
+                        target: FocusTarget::ThreeClicks([p[0], p[1], p[2]]),
+                        nudge: None,
+                    };
+                    Ok(())
+                })
+            }
+            Action::ScenePick(point) => {
+                self.pending_clicks.clear();
+                self.pending_points.push(point);
+                if self.pending_points.len() < 3 {
+                    return self.mark_pending(self.pending_points.len(), "click in the scene");
+                }
+                let p: Vec<DVec3> = std::mem::take(&mut self.pending_points);
+                self.change(lf, |_, core| {
+                    core.focus = FocusRequest {
+                        target: FocusTarget::ThreePoints([p[0], p[1], p[2]]),
+                        nudge: None,
+                    };
+                    Ok(())
+                })
+            }
+            Action::Click(pixel) => {
+                self.pending_clicks.clear();
+                self.pending_points.clear();
+                self.change(lf, |_, core| {
+                    core.focus = FocusRequest {
+                        target: FocusTarget::Click {
+                            pixel,
+                            normals: NormalParams::default(),
+                        },
+                        nudge: None,
+                    };
+                    Ok(())
+                })
+            }
+            _ => {
+                let resolved = self.resolved.clone();
+                let plan = self.plan.clone();
+                self.change(lf, |lf, core| modify(lf, core, action, &resolved, &plan))
+            }
+        };
+        if matches!(effect, Effect::Changed) {
+            self.marks_version += 1;
+        }
+        effect
+    }
+
+    fn mark_pending(&mut self, n: usize, how: &str) -> Effect {
+        self.message = Some(format!(
+            "three-point plane: point {n} of 3 ({how} {} more)",
+            3 - n
+        ));
+        self.marks_version += 1;
+        Effect::Marked
+    }
+
+    /// Applies `f` to a copy of the core; commits when the result resolves, else keeps the
+    /// old state and reports why.
+    fn change(
+        &mut self,
+        lf: &LightField,
+        f: impl FnOnce(&LightField, &mut Core) -> Result<()>,
+    ) -> Effect {
+        let mut core = self.core;
+        let attempt = f(lf, &mut core).and_then(|()| resolve(lf, &core, &self.excluded));
+        match attempt {
+            Ok((resolved, plan)) => {
+                if resolved.pick.is_some() {
+                    core.anchor = anchor_of(&resolved);
+                }
+                let changed = core != self.core || plan != self.plan;
+                self.core = core;
+                self.resolved = resolved;
+                self.plan = plan;
+                self.message = None;
+                if changed {
+                    self.version += 1;
+                    Effect::Changed
+                } else {
+                    Effect::Marked
+                }
+            }
+            Err(e) => {
+                let reason = e.to_string();
+                self.message = Some(reason.clone());
+                self.marks_version += 1;
+                Effect::Refused(reason)
+            }
+        }
+    }
+
+    /// The `RefocusRequest` of the current state (what `render` would be given).
+    pub fn request(&self) -> RefocusRequest {
+        RefocusRequest {
+            focus: self.resolved.spec,
+            aperture: self.core.aperture,
+            reference: Some(self.core.reference),
+        }
+    }
+}
+
+fn anchor_of(resolved: &ResolvedFocus) -> Option<DVec3> {
+    resolved
+        .pick
+        .as_ref()
+        .and_then(|p| p.points.first().copied())
+}
+
+fn resolve(
+    lf: &LightField,
+    core: &Core,
+    excluded: &[bool],
+) -> Result<(ResolvedFocus, RefocusPlan)> {
+    core.aperture.validate()?;
+    let resolved = resolve_focus(lf, &core.focus, core.reference)?;
+    let req = RefocusRequest {
+        focus: resolved.spec,
+        aperture: core.aperture,
+        reference: Some(core.reference),
+    };
+    let plan = refocus::plan(lf, &req, excluded)?;
+    Ok((resolved, plan))
+}
+
+/// The focus as a world plane that no longer depends on the reference camera (before the
+/// viewpoint moves). Classic shift-and-sum and disparities on parallel rigs are already
+/// independent of the viewpoint and stay as they are.
+fn world_fixed(core: &mut Core, resolved: &ResolvedFocus) {
+    let relative = match core.focus.target {
+        FocusTarget::Spec(FocusSpec::FocusTiltSwing { .. }) => true,
+        FocusTarget::Spec(_) => false,
+        _ => core.focus.nudge.is_some(),
+    };
+    if let (true, Some(plane)) = (relative, resolved.plane) {
+        core.focus = FocusSpec::Plane(plane).into();
+    }
+}
+
+fn no_plane() -> Error {
+    Error::Geometry(
+        "this light field has no calibrated cameras, so its classic shift-and-sum focus has no \
+         plane to tilt, swing or move; scroll over the refocus image to change the disparity"
+            .into(),
+    )
+}
+
+fn modify(
+    lf: &LightField,
+    core: &mut Core,
+    action: Action,
+    resolved: &ResolvedFocus,
+    plan: &RefocusPlan,
+) -> Result<()> {
+    let camera = &plan.reference_camera;
+    let mut nudge = |n: Nudge| -> Result<()> {
+        let plane = resolved.plane.ok_or_else(no_plane)?;
+        let (plane, _) = nudge_plane(&plane, camera, n)?;
+        core.focus = FocusSpec::Plane(plane).into();
+        Ok(())
+    };
+    match action {
+        Action::Tilt(deg) => nudge(Nudge {
+            tilt_deg: deg,
+            ..Nudge::default()
+        }),
+        Action::Swing(deg) => nudge(Nudge {
+            swing_deg: deg,
+            ..Nudge::default()
+        }),
+        Action::Distance(fraction) => {
+            let plane = resolved.plane.ok_or_else(no_plane)?;
+            let kb = KeyboardPlane::of(&plane, camera)?;
+            nudge(Nudge {
+                distance: fraction * kb.distance,
+                ..Nudge::default()
+            })
+        }
+        Action::DisparitySteps(n) => {
+            let step = disparity_step(lf) * n;
+            let current = match (core.focus.target, resolved.plane) {
+                (FocusTarget::Spec(FocusSpec::Disparity(d)), _) => Some(d),
+                (_, Some(plane)) => {
+                    let z = KeyboardPlane::of(&plane, camera)?.distance;
+                    lf.rig.as_ref().map(|rig| rig.disparity_of_depth(z))
+                }
+                (_, None) => Some(0.0),
+            };
+            match current {
+                Some(d) => core.focus = FocusSpec::Disparity(d + step).into(),
+                None => {
+                    // A calibrated rig without the parallel-rig disparity: step the plane's
+                    // inverse depth by 1/64 of itself per step, frontoparallel to the camera.
+                    let plane = resolved.plane.ok_or_else(no_plane)?;
+                    let z = KeyboardPlane::of(&plane, camera)?.distance;
+                    let inv = (1.0 / z) * (1.0 + n / 64.0);
+                    if !(inv.is_finite() && inv > 0.0) {
+                        return Err(Error::Geometry(
+                            "the focus cannot move farther than infinity".into(),
+                        ));
+                    }
+                    let p = Plane::from_focus_tilt_swing(camera, 1.0 / inv, 0.0, 0.0)?;
+                    core.focus = FocusSpec::Plane(p).into();
+                }
+            }
+            core.anchor = None;
+            Ok(())
+        }
+        Action::ApertureRadius(delta) => {
+            let min = if core.aperture.shape == ApertureShape::Gaussian {
+                0.5
+            } else {
+                0.0
+            };
+            let r = (effective_radius(&core.aperture, lf) + delta).max(min);
+            core.aperture.radius = Some(r);
+            Ok(())
+        }
+        Action::CycleAperture => {
+            core.aperture.shape = match core.aperture.shape {
+                ApertureShape::Disk => ApertureShape::Square,
+                ApertureShape::Square => ApertureShape::Gaussian,
+                ApertureShape::Gaussian => ApertureShape::Disk,
+            };
+            if core.aperture.shape == ApertureShape::Gaussian {
+                core.aperture.radius = core.aperture.radius.map(|r| r.max(0.5));
+            }
+            Ok(())
+        }
+        Action::MoveView(d) => {
+            world_fixed(core, resolved);
+            let max = DVec2::new(lf.grid.cols as f64 - 1.0, lf.grid.rows as f64 - 1.0);
+            core.reference = (core.reference + d).clamp(DVec2::ZERO, max);
+            Ok(())
+        }
+        Action::Recentre => {
+            world_fixed(core, resolved);
+            core.reference = lf.grid.centre();
+            Ok(())
+        }
+        Action::ToggleAveraging => {
+            core.averaging = match core.averaging {
+                Averaging::Linear => Averaging::Encoded,
+                Averaging::Encoded => Averaging::Linear,
+            };
+            Ok(())
+        }
+        // Handled by `ViewerState::apply` before the core is copied.
+        _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::plane::tilt_swing_normal;
+
+    fn lf(name: &str) -> LightField {
+        crate::synth::builtin(name).unwrap().light_field(1)
+    }
+
+    fn state(lf: &LightField, focus: FocusSpec) -> ViewerState {
+        ViewerState::new(
+            lf,
+            focus.into(),
+            Aperture::default(),
+            None,
+            Averaging::Linear,
+            Vec::new(),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn keys_tilt_swing_and_move_the_plane_as_the_nudge_options_do() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        let camera = s.plan.reference_camera;
+        let before = KeyboardPlane::of(&s.resolved.plane.unwrap(), &camera).unwrap();
+        assert_eq!(s.apply(&lf, Action::Tilt(1.0)), Effect::Changed);
+        assert_eq!(s.apply(&lf, Action::Swing(-2.0)), Effect::Changed);
+        assert_eq!(s.apply(&lf, Action::Distance(0.01)), Effect::Changed);
+        assert_eq!(s.version, 3);
+        let after = KeyboardPlane::of(&s.plan.plane.unwrap(), &camera).unwrap();
+        assert!((after.tilt_deg - 1.0).abs() < 1e-9, "{after:?}");
+        assert!((after.swing_deg + 2.0).abs() < 1e-9, "{after:?}");
+        assert!((after.distance / before.distance - 1.01).abs() < 1e-9);
+        let n = camera.r * s.plan.plane.unwrap().normal;
+        assert!((n - tilt_swing_normal(1.0, -2.0)).length() < 1e-9);
+        // Reset brings back the initial plan.
+        assert_eq!(s.apply(&lf, Action::Reset), Effect::Changed);
+        assert_eq!(s.resolved.spec, FocusSpec::Disparity(0.0));
+    }
+
+    #[test]
+    fn moving_the_viewpoint_keeps_the_plane_fixed_in_the_world() {
+        let lf = lf("planes");
+        let mut s = state(
+            &lf,
+            FocusSpec::FocusTiltSwing {
+                distance: 3.0,
+                tilt_deg: 20.0,
+                swing_deg: 0.0,
+            },
+        );
+        let plane = s.plan.plane.unwrap();
+        assert_eq!(
+            s.apply(&lf, Action::MoveView(DVec2::new(0.75, -0.5))),
+            Effect::Changed
+        );
+        assert_eq!(s.reference(), DVec2::new(2.75, 1.5));
+        let moved = s.plan.plane.unwrap();
+        assert!((moved.normal - plane.normal).length() < 1e-12);
+        assert!(moved.signed_distance(plane.point).abs() < 1e-12);
+        // The viewpoint is clamped to the grid and the aperture follows it.
+        s.apply(&lf, Action::MoveView(DVec2::new(10.0, 10.0)));
+        assert_eq!(s.reference(), DVec2::new(4.0, 4.0));
+        assert_eq!(s.apply(&lf, Action::Recentre), Effect::Changed);
+        assert_eq!(s.reference(), lf.grid.centre());
+    }
+
+    #[test]
+    fn refused_actions_keep_the_state_and_say_why() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        // Three collinear clicks.
+        for x in [10.0, 20.0] {
+            assert_eq!(
+                s.apply(&lf, Action::ThreeClick(DVec2::new(x, 30.0))),
+                Effect::Marked
+            );
+            assert!(s.message.as_deref().unwrap().contains("of 3"));
+        }
+        let e = s.apply(&lf, Action::ThreeClick(DVec2::new(30.0, 30.0)));
+        assert!(matches!(e, Effect::Refused(_)), "{e:?}");
+        assert_eq!(s.version, 0);
+        assert!(s.pending_clicks.is_empty());
+        // A click outside the view.
+        let e = s.apply(&lf, Action::Click(DVec2::new(500.0, 3.0)));
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("outside")),
+            "{e:?}"
+        );
+        // An aperture of radius 0 around a viewpoint between views holds no view.
+        s.apply(&lf, Action::MoveView(DVec2::new(0.5, 0.0)));
+        let v = s.version;
+        for _ in 0..10 {
+            s.apply(&lf, Action::ApertureRadius(-0.5));
+        }
+        assert!(
+            s.message.as_deref().unwrap().contains("no usable view"),
+            "{:?}",
+            s.message
+        );
+        assert!(!s.plan.views.is_empty());
+        assert!(s.version > v, "the radius shrank as far as it could");
+        // Classic shift-and-sum has no plane to tilt.
+        let mut classic_lf = lf.clone();
+        classic_lf.rig = None;
+        let mut c = state(&classic_lf, FocusSpec::Disparity(0.5));
+        let e = c.apply(&classic_lf, Action::Tilt(1.0));
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("no plane")),
+            "{e:?}"
+        );
+        assert_eq!(c.resolved.spec, FocusSpec::Disparity(0.5));
+        // But scrolling changes its disparity.
+        assert_eq!(
+            c.apply(&classic_lf, Action::DisparitySteps(2.0)),
+            Effect::Changed
+        );
+        match c.resolved.spec {
+            FocusSpec::Disparity(d) => {
+                assert!((d - 0.5 - 2.0 * disparity_step(&classic_lf)).abs() < 1e-12)
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn clicks_and_scene_picks_set_the_plane_through_the_library() {
+        let lf = lf("tilted");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        assert_eq!(
+            s.apply(&lf, Action::Click(DVec2::new(32.0, 40.0))),
+            Effect::Changed
+        );
+        assert_eq!(s.resolved.how, "click");
+        let expected = resolve_focus(
+            &lf,
+            &FocusRequest {
+                target: FocusTarget::Click {
+                    pixel: DVec2::new(32.0, 40.0),
+                    normals: NormalParams::default(),
+                },
+                nudge: None,
+            },
+            lf.grid.centre(),
+        )
+        .unwrap();
+        assert_eq!(s.resolved.plane, expected.plane);
+        assert_eq!(s.anchor(), expected.pick.unwrap().points.first().copied());
+        // Three scene picks give the plane through them.
+        let pts = [
+            DVec3::new(0.0, 0.0, 3.0),
+            DVec3::new(1.0, 0.0, 3.0),
+            DVec3::new(0.0, 1.0, 4.0),
+        ];
+        for p in pts {
+            s.apply(&lf, Action::ScenePick(p));
+        }
+        assert_eq!(s.resolved.how, "three-points-3d");
+        let plane = s.resolved.plane.unwrap();
+        for p in pts {
+            assert!(plane.signed_distance(p).abs() < 1e-9);
+        }
+        // Aperture shape cycles and averaging toggles.
+        s.apply(&lf, Action::CycleAperture);
+        assert_eq!(s.aperture().shape, ApertureShape::Square);
+        s.apply(&lf, Action::ToggleAveraging);
+        assert_eq!(s.averaging(), Averaging::Encoded);
+    }
+}

@@ -1,0 +1,371 @@
+//! The real viewer window on lavapipe under `xvfb-run`, with the validation layer: scripts
+//! press keys, click, drag, scroll and resize; every screenshot's refocus image equals what
+//! `render` writes for the state the screenshot recorded; the process exits 0 with zero
+//! validation errors. A machine without xvfb fails these tests (tools/setup.sh installs it).
+
+mod common;
+mod realworld_rig;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use common::{fails_with, stderr, tiltfield};
+use glam::DVec3;
+use tiltfield::viewer::layout::Layout;
+
+/// Runs `tiltfield view ARGS` in a virtual X server with validation on.
+fn view_in_xvfb(args: &[&str]) -> Output {
+    let out = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1600x1200x24"])
+        .arg(env!("CARGO_BIN_EXE_tiltfield"))
+        .arg("view")
+        .args(args)
+        .env("TILTFIELD_VALIDATION", "1")
+        .env_remove("RUST_LOG")
+        .output();
+    match out {
+        Ok(o) => o,
+        Err(e) => panic!("cannot run xvfb-run ({e}); install xvfb (tools/setup.sh does)"),
+    }
+}
+
+fn json_file(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap()
+}
+
+fn numbers(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+/// `render`'s PNG of the state a screenshot recorded.
+fn render_state(lf: &str, state: &serde_json::Value, focus: &[String], out: &Path) -> Vec<u8> {
+    let aperture = &state["aperture"];
+    let view = numbers(&state["reference_view"]);
+    let mut args: Vec<String> = vec![
+        "render".into(),
+        lf.into(),
+        "-o".into(),
+        out.display().to_string(),
+        "--aperture".into(),
+        aperture["shape"].as_str().unwrap().into(),
+        format!("--view={},{}", view[0], view[1]),
+        "--average".into(),
+        state["averaging"].as_str().unwrap().into(),
+        "--storage".into(),
+        "linear16".into(),
+    ];
+    if let Some(r) = aperture["radius"].as_f64() {
+        args.push(format!("--aperture-radius={r:?}"));
+    }
+    args.extend(focus.iter().cloned());
+    let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = tiltfield(&refs);
+    assert!(o.status.success(), "render {refs:?}: {}", stderr(&o));
+    std::fs::read(out).unwrap()
+}
+
+fn plane_args(state: &serde_json::Value) -> Vec<String> {
+    let p = &state["plane"];
+    let v: Vec<String> = numbers(&p["point"])
+        .into_iter()
+        .chain(numbers(&p["normal"]))
+        .map(|x| format!("{x:?}"))
+        .collect();
+    vec![format!("--plane={}", v.join(","))]
+}
+
+fn decoded(path: &Path) -> image::RgbaImage {
+    image::open(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_rgba8()
+}
+
+#[test]
+fn scripted_session_matches_render_and_has_no_validation_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lf = "builtin:tilted";
+    let script = format!(
+        "# initial state, then keyboard, click, scene navigation and a resize\n\
+         wait-converged\n\
+         screenshot {d}/a\n\
+         key UP 3\n\
+         key shift+W 2\n\
+         key LEFT_BRACKET 3\n\
+         key A\n\
+         wait-converged\n\
+         screenshot {d}/b\n\
+         click refocus 32 40\n\
+         wait-converged\n\
+         screenshot {d}/c\n\
+         key P\n\
+         resize 640 400\n\
+         drag scene 100 100 140 110\n\
+         scroll scene 1\n\
+         scroll refocus 2\n\
+         wait-converged\n\
+         screenshot {d}/d\n\
+         quit\n",
+        d = d.display()
+    );
+    let script_path = d.join("session.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let prefix = d.join("key");
+    let o = view_in_xvfb(&[
+        lf,
+        "--script",
+        script_path.to_str().unwrap(),
+        "--screenshot-prefix",
+        prefix.to_str().unwrap(),
+        "--json",
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "viewer failed: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
+    assert_eq!(report["validation_errors"], 0, "{report}");
+    assert!(report["frames"]["count"].as_u64().unwrap() >= 4, "{report}");
+    assert!(report["frames"]["full_quality_gpu_ms_median"]
+        .as_f64()
+        .is_some());
+
+    // a: the initial focus is disparity 0 (the scene's focus distance).
+    let a = json_file(&d.join("a.json"));
+    assert_eq!(a["focus_how"], "disparity");
+    let want = render_state(lf, &a, &["--disparity=0".into()], &d.join("ra.png"));
+    assert_eq!(
+        std::fs::read(d.join("a_refocus.png")).unwrap(),
+        want,
+        "a: viewer ≠ render"
+    );
+
+    // b: three degrees of tilt, 0.2 % farther, a smaller square aperture.
+    let b = json_file(&d.join("b.json"));
+    assert_eq!(b["aperture"]["shape"], "square");
+    let r = b["aperture"]["radius"].as_f64().unwrap();
+    let start = 2f64.hypot(2.0); // the disk covering the 5×5 grid
+    assert!((r - (start - 1.5)).abs() < 1e-9, "radius {r}");
+    let n = numbers(&b["plane"]["normal"]);
+    let tilt = n[1].atan2(n[2]).to_degrees();
+    assert!((tilt - 3.0).abs() < 1e-6, "tilt {tilt}");
+    let want = render_state(lf, &b, &plane_args(&b), &d.join("rb.png"));
+    assert_eq!(
+        std::fs::read(d.join("b_refocus.png")).unwrap(),
+        want,
+        "b: viewer ≠ render"
+    );
+    assert!(b["views_used"].as_u64().unwrap() < 25);
+
+    // c: a click on the tilted floor finds its normal (40° about x) and matches render --click.
+    let c = json_file(&d.join("c.json"));
+    assert_eq!(c["focus_how"], "click");
+    let n = numbers(&c["plane"]["normal"]);
+    let n = DVec3::new(n[0], n[1], n[2]);
+    let floor = DVec3::new(0.0, 40f64.to_radians().sin(), 40f64.to_radians().cos());
+    let angle = n
+        .angle_between(floor)
+        .to_degrees()
+        .min(n.angle_between(-floor).to_degrees());
+    assert!(angle < 2.0, "click normal {n} is {angle}° from the floor's");
+    let want = render_state(lf, &c, &["--click=32,40".into()], &d.join("rc.png"));
+    assert_eq!(
+        std::fs::read(d.join("c_refocus.png")).unwrap(),
+        want,
+        "c: viewer ≠ render"
+    );
+
+    // The P key wrote the same set of files with the prefix and a counter.
+    for suffix in ["_refocus.png", "_scene.png", "_window.png", ".json"] {
+        assert!(d.join(format!("key-1{suffix}")).exists(), "key-1{suffix}");
+    }
+
+    // d: after the resize the window and the scene panel have the new sizes; the scene view
+    // moved (drag, zoom) and the plane moved nearer (scroll).
+    let window = decoded(&d.join("d_window.png"));
+    assert_eq!(window.dimensions(), (640, 400));
+    let layout = Layout::new(640, 400, (64, 64));
+    let scene = decoded(&d.join("d_scene.png"));
+    assert_eq!(
+        scene.dimensions(),
+        (layout.scene.width as u32, layout.scene.height as u32)
+    );
+    assert_ne!(
+        decoded(&d.join("a_scene.png")),
+        decoded(&d.join("b_scene.png")),
+        "tilt moves the quad"
+    );
+    let dj = json_file(&d.join("d.json"));
+    assert_eq!(dj["focus_how"], "disparity");
+    let want = render_state(lf, &dj, &plane_args(&dj), &d.join("rd.png"));
+    let got = decoded(&d.join("d_refocus.png"));
+    let want_img = image::load_from_memory(&want).unwrap().to_rgba8();
+    // A disparity focus re-rendered through its plane: equal up to rounding of m.
+    let differing = got
+        .pixels()
+        .zip(want_img.pixels())
+        .filter(|(a, b)| a.0.iter().zip(b.0.iter()).any(|(x, y)| x.abs_diff(*y) > 1))
+        .count();
+    assert_eq!(differing, 0);
+    // The plane quad is visible in the scene panel: some pixels are tinted with its blue.
+    let blueish = scene
+        .pixels()
+        .filter(|p| p.0[2] > 60 && p.0[2] as i32 > p.0[0] as i32 + 40)
+        .count();
+    assert!(blueish > 100, "{blueish} plane-coloured pixels");
+}
+
+#[test]
+fn an_idle_viewer_renders_nothing_and_present_modes_fall_back_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let script = d.join("idle.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "wait-converged\nscreenshot {d}/a\nwait 1.0\nscreenshot {d}/b\nquit\n",
+            d = d.display()
+        ),
+    )
+    .unwrap();
+    for mode in ["immediate", "mailbox"] {
+        let o = view_in_xvfb(&[
+            "builtin:planes",
+            "--present",
+            mode,
+            "--script",
+            script.to_str().unwrap(),
+            "--json",
+        ]);
+        assert!(o.status.success(), "{mode}: {}", stderr(&o));
+        let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        assert_eq!(report["validation_errors"], 0);
+        let used = report["present_mode"].as_str().unwrap();
+        assert!(used == mode || used == "fifo", "{mode} → {used}");
+        // A second of idling between the screenshots: only the second screenshot's own frame.
+        let a = json_file(&d.join("a.json"))["frames_presented"]
+            .as_u64()
+            .unwrap();
+        let b = json_file(&d.join("b.json"))["frames_presented"]
+            .as_u64()
+            .unwrap();
+        assert_eq!(b, a + 1, "{mode}: frames while idle");
+    }
+}
+
+#[test]
+fn video_frames_step_with_comma_and_period_and_match_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let video = d.join("video");
+    std::fs::create_dir_all(&video).unwrap();
+    let rig = realworld_rig::rig(tiltfield::lightfield::GridSize { cols: 4, rows: 4 }, 64, 48);
+    realworld_rig::write_video(&video, &rig, "Birthday", &[1, 2, 3]);
+    let (p, n) = rig.wall_plane();
+    let plane: Vec<String> = [p.x, p.y, p.z, n.x, n.y, n.z]
+        .iter()
+        .map(|v| format!("{v:?}"))
+        .collect();
+    let plane = format!("--plane={}", plane.join(","));
+    let script = d.join("frames.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "wait-converged\nscreenshot {d}/f1\nkey PERIOD\nwait-converged\nscreenshot {d}/f2\n\
+             key PERIOD 2\nwait-converged\nscreenshot {d}/f3\nkey COMMA\nwait-converged\n\
+             screenshot {d}/g2\nquit\n",
+            d = d.display()
+        ),
+    )
+    .unwrap();
+    let v = video.to_str().unwrap();
+    let o = view_in_xvfb(&[v, &plane, "--script", script.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0);
+    // Each screenshot shows the frame it names, exactly as render --frame draws it; the
+    // period at the last frame stays there.
+    for (shot, frame) in [("f1", 1), ("f2", 2), ("f3", 3), ("g2", 2)] {
+        let state = json_file(&d.join(format!("{shot}.json")));
+        assert_eq!(state["frame"], frame, "{shot}");
+        let out = d.join(format!("r{shot}.png"));
+        let frame_arg = format!("--frame={frame}");
+        let o = tiltfield(&["render", v, &plane, &frame_arg, "-o", out.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(
+            std::fs::read(d.join(format!("{shot}_refocus.png"))).unwrap(),
+            std::fs::read(&out).unwrap(),
+            "{shot}: viewer ≠ render --frame {frame}"
+        );
+    }
+    assert_ne!(
+        std::fs::read(d.join("f1_refocus.png")).unwrap(),
+        std::fs::read(d.join("f2_refocus.png")).unwrap(),
+        "frames differ"
+    );
+}
+
+#[test]
+fn bad_scripts_are_refused_with_the_line_before_any_window_opens() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = dir.path().join("bad.txt");
+    let s_arg = s.to_str().unwrap();
+    for (text, needles) in [
+        ("wait 1\nfly 3\n", &["line 2", "unknown command 'fly'"][..]),
+        ("key UP many\n", &["line 1", "count"][..]),
+        (
+            "click refocus 64 3\n",
+            &["line 1", "outside the 64×64 view"][..],
+        ),
+        (
+            "resize 800 600\nclick scene 700 10\n",
+            &["line 2", "outside the scene panel"][..],
+        ),
+    ] {
+        std::fs::write(&s, text).unwrap();
+        // No display is needed to be told: the script is checked before the window opens.
+        let o = Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+            .args(["view", "builtin:planes", "--script", s_arg])
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .unwrap();
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{text}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "{text}: expected '{n}' in {err}");
+        }
+    }
+    fails_with(
+        &["view", "builtin:planes", "--script", "/no/such/script.txt"],
+        &["/no/such/script.txt"],
+    );
+    fails_with(
+        &["view", "builtin:planes", "--window", "10x10"],
+        &["--window", "64"],
+    );
+    fails_with(
+        &["view", "builtin:planes", "--frame-budget-ms", "0"],
+        &["--frame-budget-ms"],
+    );
+    fails_with(&["view", "builtin:nope"], &["no built-in scene 'nope'"]);
+}
+
+#[test]
+fn without_a_display_the_viewer_says_so() {
+    let o = Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+        .args(["view", "builtin:planes"])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(err.contains("display") && err.contains("xvfb-run"), "{err}");
+}
