@@ -224,6 +224,10 @@ fn bad_bench_options_fail_clearly() {
         &["bench", "--quick", "--disparity", "1", "--out", out],
         &["focus options need a light field"],
     );
+    fails_with(
+        &["bench", "--quick", "--frame", "3", "--out", out],
+        &["--frame needs a camera-array video"],
+    );
 }
 
 #[test]

@@ -26,6 +26,9 @@ pub struct BenchArgs {
     /// Grid folders only: distance between neighbouring views in world units.
     #[arg(long, value_name = "B", default_value_t = 1.0)]
     pub baseline: f64,
+    /// Camera-array videos: the frame numbered N (default: the first).
+    #[arg(long, value_name = "N")]
+    pub frame: Option<u64>,
     #[command(flatten)]
     pub focus: FocusArgs,
     /// Timed frames per variant (after discarded warm-up frames); default 20 (--quick: 3).
@@ -91,13 +94,18 @@ fn scene(args: &BenchArgs, ctx: &Arc<GpuContext>) -> Result<BenchScene> {
                     .into(),
             ));
         }
+        if args.frame.is_some() {
+            return Err(Error::Invalid(
+                "--frame needs a camera-array video light field".into(),
+            ));
+        }
         return bench::synthetic_scene(Arc::clone(ctx), args.quick);
     };
     let lf_args = LightFieldArgs {
         light_field: path.clone(),
         focal_px: args.focal_px,
         baseline: args.baseline,
-        frame: None,
+        frame: args.frame,
     };
     let lf = load_light_field_within(&lf_args, &device_load_limits(ctx))?;
     let (spec, text) = match request {

@@ -42,12 +42,12 @@ pub enum Command {
     /// Write the point cloud of the depth map's view as binary PLY (positions, colours,
     /// normals), optionally with the refocus plane and the camera centres.
     Cloud(Box<cloud::CloudArgs>),
-    /// Interactive tilt-shift refocus in a window: refocus image and 3-D scene with the plane.
-    View(Box<view::ViewArgs>),
     /// Measure GPU time and accuracy of every refocus variant (strategy, filter, storage,
     /// accumulation, aperture, output size), a scaling sweep, and chart speed against
     /// accuracy (JSON, CSV, SVG and PNG).
     Bench(Box<bench::BenchArgs>),
+    /// Interactive tilt-shift refocus in a window: refocus image and 3-D scene with the plane.
+    View(Box<view::ViewArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -178,8 +178,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render(a) => render::run(&a),
         Command::Synth(a) => synth::run(&a),
         Command::Cloud(a) => cloud::run(&a),
-        Command::View(a) => view::run(&a),
         Command::Bench(a) => bench::run(&a),
+        Command::View(a) => view::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }
