@@ -89,11 +89,52 @@ pub struct Refiner {
     total: usize,
     done: usize,
     divisor: u32,
-    /// GPU ms per view per million output pixels (the accumulation).
-    per_view_mpx_ms: Option<f64>,
+    /// Accumulation time against view·megapixels: a fixed cost per batch (clearing and
+    /// reading back the float target, the draw itself) plus a cost per view·Mpx.
+    fit: CostFit,
     /// GPU ms per frame besides the accumulation (resolve, scene, compositing).
-    overhead_ms: f64,
+    overhead_ms: Option<f64>,
     full_pixels: f64,
+}
+
+/// Least-squares line through recent (x, y) samples, older ones forgotten geometrically, so
+/// the model follows a device whose speed changes (load, clocks).
+#[derive(Debug, Clone, Copy, Default)]
+struct CostFit {
+    n: f64,
+    sx: f64,
+    sy: f64,
+    sxx: f64,
+    sxy: f64,
+}
+
+impl CostFit {
+    const KEEP: f64 = 0.85;
+
+    fn add(&mut self, x: f64, y: f64) {
+        let k = Self::KEEP;
+        self.n = k * self.n + 1.0;
+        self.sx = k * self.sx + x;
+        self.sy = k * self.sy + y;
+        self.sxx = k * self.sxx + x * x;
+        self.sxy = k * self.sxy + x * y;
+    }
+
+    /// (fixed, slope); through the origin while the samples do not spread in x.
+    fn line(&self) -> Option<(f64, f64)> {
+        if self.n <= 0.0 || self.sx <= 0.0 {
+            return None;
+        }
+        let var = self.sxx - self.sx * self.sx / self.n;
+        if var > 1e-3 * self.sxx {
+            let slope = (self.sxy - self.sx * self.sy / self.n) / var;
+            let fixed = (self.sy - slope * self.sx) / self.n;
+            if slope > 0.0 && fixed >= 0.0 {
+                return Some((fixed, slope));
+            }
+        }
+        Some((0.0, (self.sy / self.sx).max(1e-9)))
+    }
 }
 
 impl Refiner {
@@ -104,8 +145,8 @@ impl Refiner {
             total: 0,
             done: 0,
             divisor: 1,
-            per_view_mpx_ms: None,
-            overhead_ms: 0.0,
+            fit: CostFit::default(),
+            overhead_ms: None,
             full_pixels: full_pixels.max(1) as f64,
         }
     }
@@ -141,10 +182,16 @@ impl Refiner {
         self.done >= self.total
     }
 
-    /// Predicted GPU ms of one view at `divisor`, once measured.
+    /// Predicted GPU ms of one more view at `divisor`, once measured.
     fn per_view_ms(&self, divisor: u32) -> Option<f64> {
         let mpx = self.full_pixels / (divisor * divisor) as f64 / 1e6;
-        self.per_view_mpx_ms.map(|c| (c * mpx).max(1e-6))
+        self.fit.line().map(|(_, b)| (b * mpx).max(1e-6))
+    }
+
+    /// Predicted GPU ms of a frame besides its views: the batch's fixed cost and the rest.
+    fn frame_overhead_ms(&self) -> f64 {
+        let fixed = self.fit.line().map_or(0.0, |(a, _)| a);
+        fixed + self.overhead_ms.unwrap_or(0.0)
     }
 
     fn views_within(&self, budget_ms: f64, divisor: u32) -> usize {
@@ -152,7 +199,7 @@ impl Refiner {
             // No measurement yet: one view, which measures the device.
             return 1;
         };
-        (((budget_ms - self.overhead_ms).max(0.0) / per_view).floor() as usize).max(1)
+        (((budget_ms - self.frame_overhead_ms()).max(0.0) / per_view).floor() as usize).max(1)
     }
 
     fn preview_divisor(&self) -> u32 {
@@ -174,7 +221,7 @@ impl Refiner {
             let by_budget = self.views_within(self.budget_ms * STILL_BUDGET_FACTOR, self.divisor);
             match self.per_view_ms(self.divisor) {
                 Some(per_view) => {
-                    let by_overhead = (self.overhead_ms * (1.0 - STILL_OVERHEAD_FRACTION)
+                    let by_overhead = (self.frame_overhead_ms() * (1.0 - STILL_OVERHEAD_FRACTION)
                         / STILL_OVERHEAD_FRACTION
                         / per_view)
                         .ceil() as usize;
@@ -201,14 +248,13 @@ impl Refiner {
             return;
         }
         let mpx = self.full_pixels / (divisor * divisor) as f64 / 1e6;
-        let c = accumulate_ms / (views as f64 * mpx);
-        // Exponential averages: follow the device (thermal, load) without jumping on one frame.
-        self.per_view_mpx_ms = Some(match self.per_view_mpx_ms {
-            Some(old) => 0.7 * old + 0.3 * c,
-            None => c,
-        });
+        self.fit.add(views as f64 * mpx, accumulate_ms);
+        // An exponential average: follows the device without jumping on one frame.
         let overhead = (frame_ms - accumulate_ms).max(0.0);
-        self.overhead_ms = 0.7 * self.overhead_ms + 0.3 * overhead;
+        self.overhead_ms = Some(match self.overhead_ms {
+            Some(old) => 0.7 * old + 0.3 * overhead,
+            None => overhead,
+        });
     }
 }
 
@@ -253,22 +299,36 @@ mod tests {
         // 4 ms per view at full size, 5 ms overhead.
         r.measured(1, 1, 4.0, 9.0);
         let b = r.next_batch(true).unwrap();
-        assert_eq!(b.views.len(), 7, "(33 − 5·0.3) / 4 → 7");
+        assert_eq!(b.views.len(), 7, "(33 − 5) / 4 → 7");
         assert!(!b.clear);
         let mut covered = 1 + b.views.len();
         // Still frames with a cheap overhead: three budgets' worth of views.
         let still = r.next_batch(false).unwrap();
-        assert_eq!(still.views, covered..covered + 24, "(99 − 1.5) / 4 → 24");
+        assert_eq!(still.views, covered..covered + 23, "(99 − 5) / 4 → 23");
         covered = still.views.end;
-        // An expensive overhead (40 ms per frame) makes still batches long enough to keep it
-        // at 10 % of a frame: 360 ms of views (90), more than the 49 left.
-        r.measured(1, 1, 4.0, 4.0 + (40.0 - 1.05) / 0.3);
+        // An expensive overhead makes still batches long enough to keep it at 10 % of a
+        // frame (here more than the views left).
+        r.measured(1, 1, 4.0, 404.0);
         let rest = r.next_batch(false).unwrap();
         assert_eq!(rest.views, covered..81);
         covered = rest.views.end;
         assert_eq!(r.next_batch(false), None);
         assert_eq!(covered, 81);
         assert!(r.converged());
+    }
+
+    #[test]
+    fn the_cost_model_separates_a_fixed_batch_cost_from_the_cost_per_view() {
+        // A batch costs 10 ms plus 2.3 ms per view (lavapipe-like, 512² output).
+        let mut r = Refiner::new(33.0, 512 * 512);
+        for n in [1usize, 10, 4, 20] {
+            r.measured(n, 1, 10.0 + 2.3 * n as f64, 12.0 + 10.0 + 2.3 * n as f64);
+        }
+        assert!((r.per_view_ms(1).unwrap() - 2.3).abs() < 1e-6);
+        assert!((r.frame_overhead_ms() - 22.0).abs() < 1e-6);
+        // Still: the overhead rule wants 22·9/2.3 → 87 views: all 81 in one frame.
+        r.restart(81, false);
+        assert_eq!(r.next_batch(false).unwrap().views, 0..81);
     }
 
     #[test]
