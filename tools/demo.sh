@@ -12,3 +12,6 @@ echo "demo: building tiltfield in $CARGO_TARGET_DIR (the first build compiles sh
 cargo build --bin tiltfield
 echo "demo: rendering the built-in demo scene" >&2
 "$CARGO_TARGET_DIR/debug/tiltfield" demo -o "${1:-tiltfield-demo}"
+# The interactive window needs a display; say how to open it rather than failing on a server.
+echo "demo: for the interactive viewer run: $CARGO_TARGET_DIR/debug/tiltfield view" \
+  "(on a machine without a display: xvfb-run -a … view --script FILE)" >&2
