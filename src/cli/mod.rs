@@ -2,6 +2,7 @@
 
 mod cloud;
 mod demo;
+mod depth;
 mod focus;
 mod info;
 mod render;
@@ -39,6 +40,9 @@ pub enum Command {
     /// Write the point cloud of the depth map's view as binary PLY (positions, colours,
     /// normals), optionally with the refocus plane and the camera centres.
     Cloud(Box<cloud::CloudArgs>),
+    /// Estimate the reference view's disparity or depth from the light field (GPU plane sweep)
+    /// and write it as PFM or EXR.
+    Depth(Box<depth::DepthArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -160,6 +164,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render(a) => render::run(&a),
         Command::Synth(a) => synth::run(&a),
         Command::Cloud(a) => cloud::run(&a),
+        Command::Depth(a) => depth::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }

@@ -18,6 +18,9 @@ pub const RESOLVE_FRAG: &[u8] = spirv!("resolve.frag");
 pub const MESH_VERT: &[u8] = spirv!("mesh.vert");
 pub const MESH_ACCUM_FRAG: &[u8] = spirv!("mesh_accum.frag");
 pub const MESH_GEOM_FRAG: &[u8] = spirv!("mesh_geom.frag");
+pub const DEPTH_COST_COMP: &[u8] = spirv!("depth_cost.comp");
+pub const DEPTH_BOX_COMP: &[u8] = spirv!("depth_box.comp");
+pub const DEPTH_WTA_COMP: &[u8] = spirv!("depth_wta.comp");
 
 /// A shader module; destroy it once the pipelines using it are created.
 pub fn module(ctx: &GpuContext, spirv: &[u8], name: &str) -> Result<vk::ShaderModule> {
