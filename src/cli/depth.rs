@@ -290,7 +290,8 @@ pub(crate) fn ensure_for(
             &DepthOptions::default(),
             &indicatif::ProgressBar::hidden(),
         )?;
-        return Ok((origin, super::focus::GIVEN_DEPTH_WINDOW));
+        let window = origin.normal_window();
+        return Ok((origin, window));
     }
     let bar = indicatif::ProgressBar::new(0).with_style(
         indicatif::ProgressStyle::with_template(
@@ -322,7 +323,8 @@ pub(crate) fn ensure_for(
             "{errors} validation errors while estimating depth (see the log above)"
         )));
     }
-    Ok((origin, super::focus::ESTIMATED_DEPTH_WINDOW))
+    let window = origin.normal_window();
+    Ok((origin, window))
 }
 
 /// The `depth` object of a command's `--json`: where the depth came from.

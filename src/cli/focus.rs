@@ -140,10 +140,7 @@ pub struct FocusArgs {
     pub normal_method: NormalMethod,
 }
 
-/// Default `--normal-window` on a depth map the light field carries.
-pub const GIVEN_DEPTH_WINDOW: u32 = 9;
-/// Default `--normal-window` on estimated depth (docs/depth.md: the click study).
-pub const ESTIMATED_DEPTH_WINDOW: u32 = 31;
+pub use crate::geometry::normals::GIVEN_DEPTH_WINDOW;
 
 impl FocusArgs {
     /// True when the options pick pixels of the depth view (`--click`, `--points`).

@@ -47,6 +47,17 @@ pub enum DepthOrigin {
     },
 }
 
+impl DepthOrigin {
+    /// The default window of a click's normal on this depth: 9 px on the light field's own
+    /// map, 31 px on an estimate ([`crate::geometry::normals::ESTIMATED_DEPTH_WINDOW`]).
+    pub fn normal_window(&self) -> u32 {
+        match self {
+            DepthOrigin::Given { .. } => crate::geometry::normals::GIVEN_DEPTH_WINDOW,
+            DepthOrigin::Estimated { .. } => crate::geometry::normals::ESTIMATED_DEPTH_WINDOW,
+        }
+    }
+}
+
 /// The cache folder (see the module docs).
 pub fn cache_dir() -> Option<PathBuf> {
     let env = |k: &str| {

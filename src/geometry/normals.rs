@@ -57,6 +57,13 @@ use rayon::prelude::*;
 
 use super::depth::{DepthProblem, ViewDepth};
 
+/// Default window (px) of a click's normal on a depth map the light field carries (exact or
+/// nearly: HCI ground truth, generated scenes).
+pub const GIVEN_DEPTH_WINDOW: u32 = 9;
+/// Default window (px) of a click's normal on depth estimated from the views, whose errors are
+/// larger and correlated over the estimate's aggregation window (docs/depth.md).
+pub const ESTIMATED_DEPTH_WINDOW: u32 = 31;
+
 /// How a normal is fitted (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
