@@ -14,14 +14,14 @@ use std::time::Instant;
 use glam::{DMat3, DVec2, DVec3};
 use tiltfield::geometry::camera::{intrinsics, Camera};
 use tiltfield::geometry::depth::ViewDepth;
-use tiltfield::geometry::normals::{estimate_normal, estimate_normals, NormalParams};
+use tiltfield::geometry::normals::{estimate_normal, estimate_normals, NormalMethod, NormalParams};
 use tiltfield::geometry::picking::{self, triangle_min_angle_deg, Nudge};
 use tiltfield::geometry::plane::{tilt_swing_normal, Plane};
 use tiltfield::lightfield::{DepthKind, DepthMap, ParallelRig};
 use tiltfield::synth::surfaces::{angle_deg, depth_edge, quantile, AnalyticView, Rng, Surface};
 
 const NOISES: [f64; 5] = [0.0, 0.005, 0.01, 0.02, 0.05];
-const WINDOWS: [u32; 4] = [5, 9, 15, 21];
+const WINDOWS: [u32; 5] = [5, 9, 15, 21, 31];
 const SAMPLES: usize = 400;
 
 struct Cam {
@@ -122,82 +122,52 @@ fn normal_stats(
     }
 }
 
-/// For comparison only (not what tiltfield uses): the plane fitted by least squares to the
-/// inverse depth, 1/z = α u + β v + γ over the window, the estimator that matches noise along
-/// the rays. Normal ∝ Kᵀ (α, β, γ).
-fn inverse_depth_normal(depth: &ViewDepth, x: u32, y: u32, w: u32) -> Option<DVec3> {
-    let r = w / 2;
-    let mut m = [[0.0f64; 3]; 3];
-    let mut b = [0.0f64; 3];
-    for j in y.saturating_sub(r)..=(y + r).min(depth.height - 1) {
-        for i in x.saturating_sub(r)..=(x + r).min(depth.width - 1) {
-            let Some(z) = depth.depth(i, j) else { continue };
-            let a = [i as f64 - x as f64, j as f64 - y as f64, 1.0];
-            for p in 0..3 {
-                for q in 0..3 {
-                    m[p][q] += a[p] * a[q];
-                }
-                b[p] += a[p] / z;
-            }
-        }
-    }
-    let mm = DMat3::from_cols_array_2d(&m).transpose();
-    let sol = mm.inverse() * DVec3::from_array(b);
-    // Back to absolute pixel coordinates: γ' = γ − α x − β y.
-    let abc = DVec3::new(sol.x, sol.y, sol.z - sol.x * x as f64 - sol.y * y as f64);
-    let n = depth.camera.r.transpose() * (depth.camera.k.transpose() * abc);
-    n.try_normalize()
-}
-
 fn noise_table(out: &mut String, c: &Cam) {
     let (p, n) = test_plane(c);
     let view = AnalyticView::new(camera(c), c.size, c.size, &[Surface::plane(n, p, 50.0)]);
     let pixels = sample_pixels(c.size, SAMPLES, 1);
-    writeln!(out, "\n**{}**, plane tilted 30° and swung 20°.\n", c.label).ok();
-    write!(out, "| depth noise σ |").ok();
-    for w in WINDOWS {
-        write!(out, " window {w} |").ok();
-    }
-    writeln!(out, " inverse-depth fit, window 9 / 21 (comparison) |").ok();
-    write!(out, "|---|").ok();
-    for _ in WINDOWS {
-        write!(out, "---|").ok();
-    }
-    writeln!(out, "---|").ok();
-    for (k, sigma) in NOISES.iter().enumerate() {
-        let depth = view.noisy_depth(*sigma, 100 + k as u64);
-        write!(out, "| {:.1} % |", sigma * 100.0).ok();
+    for (method, label) in [
+        (
+            NormalMethod::InverseDepth,
+            "inverse-depth fit (the default)",
+        ),
+        (NormalMethod::Pca, "PCA (Hoppe 1992, `--normal-method pca`)"),
+    ] {
+        writeln!(
+            out,
+            "\n**{}**, plane tilted 30° and swung 20°: **{label}**.\n",
+            c.label
+        )
+        .ok();
+        write!(out, "| depth noise σ |").ok();
         for w in WINDOWS {
-            let s = normal_stats(
-                &view,
-                &depth,
-                &pixels,
-                &NormalParams::default().with_window(w),
-            );
-            write!(
-                out,
-                " {}° / {}° · {:.0} % · {}° / {}° |",
-                fmt_deg(s.all_median),
-                fmt_deg(s.all_p95),
-                100.0 * s.refused,
-                fmt_deg(s.median),
-                fmt_deg(s.p95),
-            )
-            .ok();
+            write!(out, " window {w} |").ok();
         }
-        let inv = |w: u32| {
-            let e: Vec<f64> = pixels
-                .iter()
-                .filter_map(|&(x, y)| inverse_depth_normal(&depth, x, y, w))
-                .map(|m| angle_deg(m, n))
-                .collect();
-            format!(
-                "{}° / {}°",
-                fmt_deg(quantile(&e, 0.5)),
-                fmt_deg(quantile(&e, 0.95))
-            )
-        };
-        writeln!(out, " {} · {} |", inv(9), inv(21)).ok();
+        writeln!(out).ok();
+        write!(out, "|---|").ok();
+        for _ in WINDOWS {
+            write!(out, "---|").ok();
+        }
+        writeln!(out).ok();
+        for (k, sigma) in NOISES.iter().enumerate() {
+            let depth = view.noisy_depth(*sigma, 100 + k as u64);
+            write!(out, "| {:.1} % |", sigma * 100.0).ok();
+            for w in WINDOWS {
+                let params = NormalParams::default().with_window(w).with_method(method);
+                let s = normal_stats(&view, &depth, &pixels, &params);
+                write!(
+                    out,
+                    " {}° / {}° · {:.0} % · {}° / {}° |",
+                    fmt_deg(s.all_median),
+                    fmt_deg(s.all_p95),
+                    100.0 * s.refused,
+                    fmt_deg(s.median),
+                    fmt_deg(s.p95),
+                )
+                .ok();
+            }
+            writeln!(out).ok();
+        }
     }
 }
 
@@ -315,19 +285,19 @@ fn sphere_table(out: &mut String) {
     )
     .ok();
     write!(out, "| depth noise σ |").ok();
-    for w in WINDOWS {
+    for &w in &WINDOWS[..4] {
         write!(out, " window {w}: median / p95 · refused |").ok();
     }
     writeln!(out).ok();
     write!(out, "|---|").ok();
-    for _ in WINDOWS {
+    for _ in &WINDOWS[..4] {
         write!(out, "---|").ok();
     }
     writeln!(out).ok();
     for (k, sigma) in [0.0, 0.001, 0.005, 0.01].iter().enumerate() {
         let depth = view.noisy_depth(*sigma, 200 + k as u64);
         write!(out, "| {:.1} % |", sigma * 100.0).ok();
-        for w in WINDOWS {
+        for &w in &WINDOWS[..4] {
             let s = normal_stats(
                 &view,
                 &depth,

@@ -27,6 +27,27 @@ pub fn save_exr(width: u32, height: u32, linear: &[[f32; 4]], path: &Path) -> Re
     .map_err(|e| Error::bad_file(path, format!("cannot write EXR: {e}")))
 }
 
+/// Writes one float channel named `channel` (`width × height`, row-major, NaN allowed) as an
+/// OpenEXR file: depth maps as `Z`, disparity maps as `Y`, the names tiltfield's own manifest
+/// reader looks for.
+pub fn save_exr_channel(
+    width: u32,
+    height: u32,
+    channel: &str,
+    values: &[f32],
+    path: &Path,
+) -> Result<()> {
+    use exr::prelude::{AnyChannel, AnyChannels, FlatSamples, Image, SmallVec, WritableImage};
+    let list = SmallVec::from_vec(vec![AnyChannel::new(
+        channel,
+        FlatSamples::F32(values.to_vec()),
+    )]);
+    Image::from_channels((width as usize, height as usize), AnyChannels::sort(list))
+        .write()
+        .to_file(path)
+        .map_err(|e| Error::bad_file(path, format!("cannot write EXR: {e}")))
+}
+
 /// Output file kind, from the extension.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum OutputKind {

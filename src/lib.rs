@@ -10,6 +10,8 @@
 //!   plane picking — pure f64 maths, no GPU;
 //! - [`lightfield`]: the data model and the loaders (HCI, manifest, grid folders, PFM,
 //!   Technicolor-layout camera-array video and its frame sequence), PLY output;
+//! - [`depth`]: depth from the light field itself — the plane sweep's maths, the CPU reference,
+//!   the cache and `ensure_depth` (the GPU sweep is [`passes::depth`]);
 //! - [`refocus`]: focus requests → the refocus plane (focus), → per-view warps (plan), the f64
 //!   CPU reference renderer;
 //! - [`scene`]: scene geometry as CPU data — the point cloud, the plane quad, camera markers,
@@ -40,6 +42,7 @@ pub mod batch;
 pub mod bench;
 pub mod cli;
 pub mod color;
+pub mod depth;
 pub mod error;
 pub mod geometry;
 pub mod gpu;

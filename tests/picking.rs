@@ -351,7 +351,7 @@ fn click_refusals_exit_with_one_clear_message() {
 }
 
 #[test]
-fn a_light_field_without_depth_refuses_clicks_but_renders_plane_options() {
+fn a_light_field_without_depth_estimates_it_for_clicks_and_clouds() {
     let tmp = tempfile::tempdir().unwrap();
     let mut lf = two_planes(-1.0, 2.0);
     lf.depth.clear();
@@ -361,19 +361,47 @@ fn a_light_field_without_depth_refuses_clicks_but_renders_plane_options() {
     let lf_arg = path.to_str().unwrap();
     let out = tmp.path().join("x.png");
     let out = out.to_str().unwrap();
-    fails_with(
-        &["render", lf_arg, "--click", "20,20", "-o", out],
-        &["nodepth", "no depth or disparity map", "--click"],
+    // The depth cache goes to the test's folder, not the user's.
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+            .args(args)
+            .env("TILTFIELD_VALIDATION", "1")
+            .env("TILTFIELD_CACHE_DIR", tmp.path().join("cache"))
+            .env_remove("RUST_LOG")
+            .output()
+            .expect("run tiltfield")
+    };
+    // Clicks and three clicks: depth estimated from the views (HCI convention: the manifest
+    // declares its rig), reported as such, and the back plane (disparity −1) found.
+    let v = json_of(&run(&[
+        "render", lf_arg, "--click", "20,20", "-o", out, "--json",
+    ]));
+    assert_eq!(v["depth"]["origin"], "estimated");
+    assert!(
+        angle_deg(v3(&v["plane"]["normal"]), DVec3::Z) < 10.0,
+        "{}",
+        v["plane"]
     );
-    fails_with(
-        &["render", lf_arg, "--points", "1,1,20,20,40,1", "-o", out],
-        &["nodepth", "no depth or disparity map"],
-    );
+    let o = run(&[
+        "render",
+        lf_arg,
+        "--points",
+        "4,4,30,6,6,30",
+        "-o",
+        out,
+        "--json",
+    ]);
+    let v = json_of(&o);
+    assert_eq!(v["depth"]["cached"], true);
     let ply = tmp.path().join("c.ply");
-    fails_with(
-        &["cloud", lf_arg, "-o", ply.to_str().unwrap()],
-        &["nodepth", "no point cloud"],
-    );
+    let v = json_of(&run(&[
+        "cloud",
+        lf_arg,
+        "-o",
+        ply.to_str().unwrap(),
+        "--json",
+    ]));
+    assert_eq!(v["depth"]["origin"], "estimated");
     for args in [
         vec!["--plane", "0,0,4,0,0,1"],
         vec!["--focus", "4", "--tilt", "10"],

@@ -21,6 +21,10 @@ fn view_in_xvfb(args: &[&str]) -> Output {
         .arg("view")
         .args(args)
         .env("TILTFIELD_VALIDATION", "1")
+        .env(
+            "TILTFIELD_CACHE_DIR",
+            std::env::temp_dir().join("tiltfield-viewer-test-cache"),
+        )
         .env_remove("RUST_LOG")
         .output();
     match out {
@@ -287,6 +291,12 @@ fn video_frames_step_with_comma_and_period_and_match_render() {
     assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(report["validation_errors"], 0);
+    // A video carries no depth map: the viewer estimated one (for clicks and the cloud).
+    assert_eq!(
+        report["depth"]["origin"], "estimated",
+        "{}",
+        report["depth"]
+    );
     // Each screenshot shows the frame it names, exactly as render --frame draws it; the
     // period at the last frame stays there.
     for (shot, frame) in [("f1", 1), ("f2", 2), ("f3", 3), ("g2", 2)] {

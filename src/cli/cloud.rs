@@ -14,7 +14,7 @@ use super::focus::{focus_json, FocusArgs, FOCUS_OPTIONS};
 use super::{ensure_parent, load_light_field, parse_numbers, LightFieldArgs};
 use crate::error::{Error, Result};
 use crate::geometry::depth::ViewDepth;
-use crate::geometry::normals::{estimate_normals, NormalParams};
+use crate::geometry::normals::estimate_normals;
 use crate::lightfield::ply::{PlyMesh, PlyVertex};
 use crate::scene::{PointCloud, SceneBuilder, PLANE_COLOUR};
 
@@ -73,15 +73,21 @@ pub fn run(args: &CloudArgs) -> Result<()> {
             )));
         }
     }
-    let lf = load_light_field(&args.lf)?;
-    if lf.depth.is_empty() {
-        return Err(Error::Invalid(format!(
-            "light field '{}' has no depth or disparity map, so it has no point cloud",
-            lf.name
-        )));
-    }
+    let mut lf = load_light_field(&args.lf)?;
+    // Without a depth map of its own the light field's depth is estimated from its views (on
+    // the GPU; cached).
+    let (origin, window) = if lf.depth.is_empty() {
+        let ctx = crate::gpu::GpuContext::new(&crate::gpu::GpuOptions::from_env())?;
+        super::depth::ensure_for(&ctx, &mut lf)?
+    } else {
+        let source = lf.depth[0].1.source.clone();
+        (
+            crate::depth::DepthOrigin::Given { source },
+            super::focus::GIVEN_DEPTH_WINDOW,
+        )
+    };
     let depth = ViewDepth::from_light_field(&lf)?;
-    let params = NormalParams::default().with_window(args.focus.normal_window);
+    let params = args.focus.normal_params(window);
     params.validate()?;
     let t0 = Instant::now();
     let normals = estimate_normals(&depth, &params);
@@ -104,7 +110,7 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         }
         None => lf.grid.centre(),
     };
-    let focus = args.focus.resolve(&lf, reference)?;
+    let focus = args.focus.resolve(&lf, reference, window)?;
     if let Some(f) = &focus {
         if f.plane.is_none() {
             return Err(Error::Invalid(format!(
@@ -183,13 +189,14 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         0,
         format!(
             "tiltfield cloud of '{}': view ({}, {}) from {}; {} points (stride {}), normals by \
-             PCA over {}x{} px windows, quality = planarity",
+             {:?} fits over {}x{} px windows, quality = planarity",
             lf.name,
             depth.grid_position.0,
             depth.grid_position.1,
             depth.source,
             points,
             args.stride,
+            params.method,
             params.window,
             params.window
         ),
@@ -207,6 +214,7 @@ pub fn run(args: &CloudArgs) -> Result<()> {
             "output": args.output,
             "light_field": lf.name,
             "depth_map": {"source": depth.source, "view": [depth.grid_position.0, depth.grid_position.1], "kind": depth.kind},
+            "depth": super::depth::origin_json(&origin),
             "points": points,
             "points_with_normal": with_normal,
             "normal_window": params.window,

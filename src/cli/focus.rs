@@ -15,7 +15,7 @@ use serde_json::{json, Value};
 
 use super::parse_numbers;
 use crate::error::Result;
-use crate::geometry::normals::NormalParams;
+use crate::geometry::normals::{NormalMethod, NormalParams};
 use crate::geometry::picking::Nudge;
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
@@ -130,12 +130,31 @@ pub struct FocusArgs {
         allow_hyphen_values = true
     )]
     pub nudge_swing: Option<f64>,
-    /// Side of the image window (odd, pixels) of the --click normal estimate.
-    #[arg(long, value_name = "N", default_value_t = NormalParams::default().window)]
-    pub normal_window: u32,
+    /// Side of the image window (odd, pixels) of the --click normal estimate; default 9 on a
+    /// depth map the light field carries, 31 on depth estimated from its views (noisier).
+    #[arg(long, value_name = "N")]
+    pub normal_window: Option<u32>,
+    /// How the --click normal is fitted: inverse-depth (a plane fitted to 1/z, the default)
+    /// or pca (the paper's Hoppe normals).
+    #[arg(long, value_name = "METHOD", default_value = "inverse-depth")]
+    pub normal_method: NormalMethod,
 }
 
+pub use crate::geometry::normals::GIVEN_DEPTH_WINDOW;
+
 impl FocusArgs {
+    /// True when the options pick pixels of the depth view (`--click`, `--points`).
+    pub fn needs_depth(&self) -> bool {
+        self.click.is_some() || self.points.is_some()
+    }
+
+    /// The normal parameters: `--normal-method`, and `--normal-window` or `default_window`.
+    pub fn normal_params(&self, default_window: u32) -> NormalParams {
+        NormalParams::default()
+            .with_method(self.normal_method)
+            .with_window(self.normal_window.unwrap_or(default_window))
+    }
+
     /// True when any focus option is given.
     pub fn any(&self) -> bool {
         self.keyboard.disparity.is_some()
@@ -160,8 +179,13 @@ impl FocusArgs {
     }
 
     /// The focus request these options give (parsing only), or `None` when no focus option
-    /// is given.
+    /// is given; a click's window defaults to `GIVEN_DEPTH_WINDOW`.
     pub fn request(&self) -> Result<Option<FocusRequest>> {
+        self.request_with_window(GIVEN_DEPTH_WINDOW)
+    }
+
+    /// [`FocusArgs::request`] with `default_window` for a click's normal.
+    pub fn request_with_window(&self, default_window: u32) -> Result<Option<FocusRequest>> {
         if let Some((_, spec)) = self.keyboard.spec()? {
             return Ok(Some(spec.into()));
         }
@@ -169,7 +193,7 @@ impl FocusArgs {
             let v = parse_numbers(text, 2, "--click")?;
             FocusTarget::Click {
                 pixel: DVec2::new(v[0], v[1]),
-                normals: NormalParams::default().with_window(self.normal_window),
+                normals: self.normal_params(default_window),
             }
         } else if let Some(text) = &self.points {
             let v = parse_numbers(text, 6, "--points")?;
@@ -196,8 +220,13 @@ impl FocusArgs {
 
     /// The focus of these options on `lf` for the reference view `reference` (grid units), or
     /// `None` when no focus option is given.
-    pub fn resolve(&self, lf: &LightField, reference: DVec2) -> Result<Option<ResolvedFocus>> {
-        self.request()?
+    pub fn resolve(
+        &self,
+        lf: &LightField,
+        reference: DVec2,
+        default_window: u32,
+    ) -> Result<Option<ResolvedFocus>> {
+        self.request_with_window(default_window)?
             .map(|req| resolve_focus(lf, &req, reference))
             .transpose()
     }
@@ -233,8 +262,11 @@ pub fn focus_json(focus: &ResolvedFocus) -> Value {
             obj.insert(
                 "normal_estimate".into(),
                 json!({
+                    "method": n.method,
                     "normal": v3(n.normal),
                     "centroid": v3(n.centroid),
+                    "confidence": n.confidence,
+                    "uncertainty_deg": n.uncertainty_deg,
                     "planarity": n.planarity,
                     "curvature": n.curvature,
                     "view_angle_deg": n.view_angle_deg,

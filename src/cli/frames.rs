@@ -7,7 +7,7 @@ use std::sync::Arc;
 use serde_json::json;
 
 use super::focus::{focus_json, focus_summary};
-use super::render::{make_plan, plan_json, render_settings, RenderArgs};
+use super::render::{make_plan_with_window, plan_json, render_settings, RenderArgs};
 use super::{check_output, device_load_limits};
 use crate::batch::{render_frames, BatchJob, OutputPattern};
 use crate::error::{Error, Result};
@@ -53,7 +53,9 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         Arc::clone(&ctx),
         &job,
         |lf| {
-            let (plan, f) = make_plan(lf, args)?;
+            // The plane is fixed from the first frame; picks use a depth map the video
+            // carries (the range does not estimate one per frame).
+            let (plan, f) = make_plan_with_window(lf, args, super::focus::GIVEN_DEPTH_WINDOW)?;
             focus = Some(f);
             Ok(plan)
         },

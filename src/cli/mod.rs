@@ -3,6 +3,7 @@
 mod bench;
 mod cloud;
 mod demo;
+mod depth;
 mod focus;
 mod frames;
 mod info;
@@ -48,6 +49,9 @@ pub enum Command {
     Bench(Box<bench::BenchArgs>),
     /// Interactive tilt-shift refocus in a window: refocus image and 3-D scene with the plane.
     View(Box<view::ViewArgs>),
+    /// Estimate the reference view's disparity or depth from the light field (GPU plane sweep)
+    /// and write it as PFM or EXR.
+    Depth(Box<depth::DepthArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -180,6 +184,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Cloud(a) => cloud::run(&a),
         Command::Bench(a) => bench::run(&a),
         Command::View(a) => view::run(&a),
+        Command::Depth(a) => depth::run(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }

@@ -107,8 +107,13 @@ pub fn dark_views(lf: &LightField, include_dark: bool) -> Vec<bool> {
     dark
 }
 
-/// The plan for `args` on `lf`, and how its focus was set.
-pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, ResolvedFocus)> {
+/// The plan for `args` on `lf`, and how its focus was set; `default_window` is a click's
+/// default normal window (larger on estimated depth).
+pub fn make_plan_with_window(
+    lf: &LightField,
+    args: &RenderArgs,
+    default_window: u32,
+) -> Result<(RefocusPlan, ResolvedFocus)> {
     let reference = match &args.view {
         Some(text) => {
             let v = parse_numbers(text, 2, "--view")?;
@@ -116,11 +121,15 @@ pub fn make_plan(lf: &LightField, args: &RenderArgs) -> Result<(RefocusPlan, Res
         }
         None => None,
     };
-    let request = args.focus.request()?.ok_or_else(|| {
-        Error::Invalid(
-            "give one of --disparity, --plane, --focus, --click, --points or --points-3d".into(),
-        )
-    })?;
+    let request = args
+        .focus
+        .request_with_window(default_window)?
+        .ok_or_else(|| {
+            Error::Invalid(
+                "give one of --disparity, --plane, --focus, --click, --points or --points-3d"
+                    .into(),
+            )
+        })?;
     let aperture = Aperture {
         shape: args.aperture,
         radius: args.aperture_radius,
@@ -201,9 +210,16 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let settings = render_settings(args, kind)?;
     // The device first, so a light field it cannot hold is refused before decoding its views.
     let ctx = GpuContext::new(&args.gpu.options())?;
-    let lf = load_light_field_within(&args.lf, &device_load_limits(&ctx))?;
+    let mut lf = load_light_field_within(&args.lf, &device_load_limits(&ctx))?;
     let t_load = t0.elapsed().as_secs_f64() * 1e3;
-    let (plan, focus) = make_plan(&lf, args)?;
+    // Clicks need depth: the light field's own map, or one estimated from its views.
+    let (depth, window) = if args.focus.needs_depth() {
+        let (origin, window) = super::depth::ensure_for(&ctx, &mut lf)?;
+        (Some(origin), window)
+    } else {
+        (None, super::focus::GIVEN_DEPTH_WINDOW)
+    };
+    let (plan, focus) = make_plan_with_window(&lf, args, window)?;
     if !args.json {
         if let Some(line) = focus_summary(&focus) {
             eprintln!("{line}");
@@ -255,6 +271,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                 "size": [lf.width, lf.height],
             },
             "focus": focus_json(&focus),
+            "depth": depth.as_ref().map(super::depth::origin_json),
             "output": args.output,
             "averaging": args.average,
             "strategy": settings.strategy.name(),

@@ -104,7 +104,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     };
     aperture.validate()?;
     let focus = args.focus.request()?;
-    let lf = load_light_field(&LightFieldArgs {
+    let mut lf = load_light_field(&LightFieldArgs {
         light_field: args
             .light_field
             .clone()
@@ -121,6 +121,22 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         }
         _ => None,
     };
+    // The scene panel and clicks need depth: the light field's own map, else an estimate from
+    // its views (cached), made on a headless context before the window opens.
+    // Without depth the viewer still works (keys, scroll, scene without points), so a failed
+    // estimate is a warning, not an error.
+    let ctx = crate::gpu::GpuContext::new(&args.gpu.options())?;
+    let (depth_origin, normal_window) = match super::depth::ensure_for(&ctx, &mut lf) {
+        Ok((origin, window)) => (Some(origin), window),
+        Err(e) => {
+            log::warn!(
+                "no depth for '{}': {e}; clicks and the point cloud are off",
+                lf.name
+            );
+            (None, super::focus::GIVEN_DEPTH_WINDOW)
+        }
+    };
+    drop(ctx);
     let opts = ViewerOptions {
         focus,
         aperture,
@@ -135,6 +151,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         storage: ViewStorage::default(),
         screenshot_prefix: args.screenshot_prefix.clone(),
         video,
+        normal_window,
     };
     let report = viewer::run(&lf, opts)?;
     let state = &report.state;
@@ -147,6 +164,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 "size": [lf.width, lf.height],
             },
             "focus": focus_json(&state.resolved),
+            "depth": depth_origin.as_ref().map(super::depth::origin_json),
             "averaging": state.averaging(),
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},
             "storage": ViewStorage::default(),

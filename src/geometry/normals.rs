@@ -20,14 +20,30 @@
 //! edge. (A second pass that re-selected pixels by their distance to a first fitted plane was
 //! measured and removed: it let noisy fits lock onto wrong planes — docs/stability.md.)
 //!
-//! Fit: the eigenvectors of the neighbours' covariance, eigenvalues λ0 ≤ λ1 ≤ λ2. The normal is
-//! the eigenvector of λ0, oriented towards the camera (n·(C − centroid) > 0). Reported quality:
+//! Fits ([`NormalMethod`]):
+//! - **inverse depth** (default): least squares of `1/z = α·Δu + β·Δv + γ` over the neighbours
+//!   (Δu, Δv their pixel offsets). A plane is exactly affine in inverse depth, and depth noise
+//!   lies along the rays, i.e. in the fitted variable alone, so ordinary least squares is the
+//!   right estimator: with `θ = (α, β, γ − α·u_c − β·v_c)` the camera-frame plane is `Kᵀθ·X = 1`
+//!   and the normal `−Kᵀθ/|Kᵀθ|` (towards the camera). Its **uncertainty** is the standard
+//!   deviation of the normal's direction propagated from the fit's residuals
+//!   (`σ² (MᵀM)⁻¹` through the Jacobian of `θ ↦ n`), in degrees; the confidence is
+//!   `1 − uncertainty / max_uncertainty_deg`. docs/stability.md measures it 2–13× more
+//!   accurate than PCA on noisy depth, and it is what estimated depth needs;
+//! - **PCA** (the paper's Hoppe normals): the eigenvectors of the neighbours' covariance,
+//!   eigenvalues λ0 ≤ λ1 ≤ λ2; the normal is the eigenvector of λ0, oriented towards the camera
+//!   (n·(C − centroid) > 0); the confidence is the planarity.
+//!
+//! Reported quality (both methods):
 //! - `planarity = 1 − λ0/λ1` (1 for a perfect plane, → 0 when depth noise or curvature is as
 //!   large as the in-plane spread): the confidence of a click;
 //! - `curvature = λ0/(λ0 + λ1 + λ2)` (surface variation, Pauly et al. 2002);
 //! - `view_angle_deg`: the angle between the normal and the line of sight.
 //!
-//! A normal is **reliable** when planarity ≥ 0.9 and the view angle ≤ 80°. Why: depth noise
+//! A PCA normal is **reliable** when planarity ≥ 0.9 and the view angle ≤ 80°; an inverse-depth
+//! normal when its uncertainty is at most `max_uncertainty_deg` (4°: the angle's p95 is then
+//! about 7°) and the view angle ≤ 80°.
+//! Why the PCA checks: depth noise
 //! lies along the rays; PCA (a total-least-squares fit) tilts the normal towards the line of
 //! sight by roughly `(1 − planarity)·sin(2θ)/2` radians (θ the view angle), ≤ 3° at planarity
 //! 0.9, and when the noise exceeds the window's lateral extent the smallest-variance direction
@@ -41,9 +57,42 @@ use rayon::prelude::*;
 
 use super::depth::{DepthProblem, ViewDepth};
 
+/// Default window (px) of a click's normal on a depth map the light field carries (exact or
+/// nearly: HCI ground truth, generated scenes).
+pub const GIVEN_DEPTH_WINDOW: u32 = 9;
+/// Default window (px) of a click's normal on depth estimated from the views, whose errors are
+/// larger and correlated over the estimate's aggregation window (docs/depth.md).
+pub const ESTIMATED_DEPTH_WINDOW: u32 = 31;
+
+/// How a normal is fitted (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NormalMethod {
+    /// A plane fitted to the inverse depth (least squares); the default.
+    #[default]
+    InverseDepth,
+    /// Local PCA of the back-projected points (Hoppe 1992).
+    Pca,
+}
+
+impl std::str::FromStr for NormalMethod {
+    type Err = crate::Error;
+    fn from_str(s: &str) -> crate::Result<Self> {
+        match s {
+            "inverse-depth" => Ok(Self::InverseDepth),
+            "pca" => Ok(Self::Pca),
+            _ => Err(crate::Error::Invalid(format!(
+                "unknown normal method '{s}': expected inverse-depth or pca"
+            ))),
+        }
+    }
+}
+
 /// Parameters of the normal estimation.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
 pub struct NormalParams {
+    /// The fit.
+    pub method: NormalMethod,
     /// Side of the square image-space window in pixels (odd, ≥ 3).
     pub window: u32,
     /// Discontinuity guard: the smallest relative jump τ of inverse depth (against the centre's,
@@ -60,24 +109,34 @@ pub struct NormalParams {
     /// along the rays exceeds the window's lateral extent and PCA returns a direction inside
     /// the surface instead of its normal (docs/stability.md).
     pub max_view_angle_deg: f64,
+    /// Largest uncertainty (degrees) of a reliable inverse-depth normal.
+    pub max_uncertainty_deg: f64,
 }
 
 impl Default for NormalParams {
-    /// Window 9, τ = 2 %, at least 20 % of the window, planarity ≥ 0.9, view angle ≤ 80°.
+    /// The inverse-depth fit, window 9, τ = 2 %, at least 20 % of the window, planarity ≥ 0.9
+    /// (PCA), uncertainty ≤ 4° (inverse depth), view angle ≤ 80°.
     /// See docs/stability.md
     /// for the measurements behind these values.
     fn default() -> Self {
         NormalParams {
+            method: NormalMethod::InverseDepth,
             window: 9,
             max_depth_jump: 0.02,
             min_fraction: 0.2,
             min_planarity: 0.9,
             max_view_angle_deg: 80.0,
+            max_uncertainty_deg: 4.0,
         }
     }
 }
 
 impl NormalParams {
+    /// The same parameters with another fit.
+    pub fn with_method(self, method: NormalMethod) -> Self {
+        NormalParams { method, ..self }
+    }
+
     /// The same parameters with another window size.
     pub fn with_window(self, window: u32) -> Self {
         NormalParams { window, ..self }
@@ -103,6 +162,12 @@ impl NormalParams {
                 self.max_depth_jump
             )));
         }
+        if !(self.max_uncertainty_deg.is_finite() && self.max_uncertainty_deg > 0.0) {
+            return Err(crate::Error::Invalid(format!(
+                "the largest normal uncertainty must be positive, got {}",
+                self.max_uncertainty_deg
+            )));
+        }
         if !(0.0..=1.0).contains(&self.min_fraction) || !(0.0..=1.0).contains(&self.min_planarity) {
             return Err(crate::Error::Invalid(format!(
                 "min_fraction ({}) and min_planarity ({}) must lie in [0, 1]",
@@ -116,6 +181,8 @@ impl NormalParams {
 /// A fitted normal.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NormalEstimate {
+    /// The fit that gave `normal`.
+    pub method: NormalMethod,
     /// Unit normal in the world frame, facing the camera of the depth view.
     pub normal: DVec3,
     /// Centroid of the neighbours used, world frame.
@@ -134,12 +201,26 @@ pub struct NormalEstimate {
     pub noise: f64,
     /// The guard threshold τ used: `max(max_depth_jump, 4·noise)`.
     pub depth_jump: f64,
+    /// Standard deviation of the inverse-depth normal's direction from its fit residuals,
+    /// degrees (computed for both methods; it decides reliability for the inverse-depth fit).
+    pub uncertainty_deg: f64,
+    /// In [0, 1]: the planarity (PCA) or `1 − uncertainty / max_uncertainty_deg` (inverse
+    /// depth); what a click reports as its confidence.
+    pub confidence: f64,
 }
 
 impl NormalEstimate {
     /// Whether this estimate is reliable under `params` (planarity and view angle).
     pub fn check(&self, params: &NormalParams) -> Result<(), NormalProblem> {
-        if self.planarity < params.min_planarity {
+        if self.method == NormalMethod::InverseDepth {
+            // NaN uncertainty is refused too.
+            if self.uncertainty_deg.is_nan() || self.uncertainty_deg > params.max_uncertainty_deg {
+                return Err(NormalProblem::Uncertain {
+                    deg: self.uncertainty_deg,
+                    max: params.max_uncertainty_deg,
+                });
+            }
+        } else if self.planarity < params.min_planarity {
             return Err(NormalProblem::LowPlanarity {
                 planarity: self.planarity,
                 min: params.min_planarity,
@@ -170,6 +251,8 @@ pub enum NormalProblem {
     LowPlanarity { planarity: f64, min: f64 },
     /// The normal is almost perpendicular to the line of sight.
     Grazing { angle_deg: f64, max: f64 },
+    /// The inverse-depth normal's direction is uncertain by more than the limit.
+    Uncertain { deg: f64, max: f64 },
 }
 
 impl fmt::Display for NormalProblem {
@@ -193,9 +276,19 @@ impl fmt::Display for NormalProblem {
                  {planarity:.3} < {min}); the depth is too noisy or the surface too curved at \
                  this window size — try a larger --normal-window or three clicks (--points)"
             ),
+            NormalProblem::Uncertain { deg, max } => write!(
+                f,
+                "the depth around it is too noisy for a reliable normal at this window size (its \
+                 direction is uncertain by ±{deg:.1}°, more than {max}°); use a larger \
+                 --normal-window, click where the surface shows more texture, or use three \
+                 clicks spread over the surface (--points)"
+            ),
             NormalProblem::Grazing { angle_deg, max } => write!(
                 f,
-                "the estimated normal is {angle_deg:.1}° from the line of sight (more than                  {max}°): either the surface is seen edge-on or the depth noise exceeds the                  window's extent, and the normal cannot be trusted — try a larger                  --normal-window or three clicks (--points)"
+                "the estimated normal is {angle_deg:.1}° from the line of sight (more than \
+                 {max}°): either the surface is seen edge-on or the depth noise exceeds the \
+                 window's extent, and the normal cannot be trusted — try a larger \
+                 --normal-window or three clicks (--points)"
             ),
         }
     }
@@ -295,6 +388,8 @@ struct Scratch {
     /// Valid window pixels: (camera-frame point, depth, pixel offset from the centre).
     window: Vec<(DVec3, f64, (f64, f64))>,
     chosen: Vec<DVec3>,
+    /// (Δu, Δv, 1/z) of the chosen neighbours.
+    inverse: Vec<(f64, f64, f64)>,
     dx: Vec<f64>,
     dy: Vec<f64>,
     diffs: Vec<f64>,
@@ -373,15 +468,14 @@ fn estimate_with(
     // along the robust local trend (exactly affine in the pixel coordinates on a plane).
     let wc = 1.0 / zc;
     s.chosen.clear();
-    s.chosen.extend(
-        s.window
-            .iter()
-            .filter(|(_, z, (du, dv))| {
-                let predicted = wc + local.gx * du + local.gy * dv;
-                (1.0 / z - predicted).abs() <= tau * wc
-            })
-            .map(|(p, _, _)| *p),
-    );
+    s.inverse.clear();
+    for (p, z, (du, dv)) in &s.window {
+        let predicted = wc + local.gx * du + local.gy * dv;
+        if (1.0 / z - predicted).abs() <= tau * wc {
+            s.chosen.push(*p);
+            s.inverse.push((*du, *dv, 1.0 / z));
+        }
+    }
     if s.chosen.len() < needed {
         return Err(NormalProblem::TooFewNeighbours {
             found: s.chosen.len(),
@@ -389,10 +483,71 @@ fn estimate_with(
         });
     }
     let f = fit(&s.chosen).ok_or(NormalProblem::Degenerate)?;
+    let inv = inverse_fit(&s.inverse, (x as f64, y as f64), depth.camera.k)
+        .ok_or(NormalProblem::Degenerate)?;
     let mut e = finish(depth, f, s.chosen.len(), s.window.len());
     e.noise = local.noise;
     e.depth_jump = tau;
+    e.uncertainty_deg = inv.1.to_degrees();
+    e.method = params.method;
+    match params.method {
+        NormalMethod::Pca => e.confidence = e.planarity,
+        NormalMethod::InverseDepth => {
+            let n = inv.0;
+            let to_eye = -f.centroid.normalize_or_zero();
+            e.view_angle_deg = n.dot(to_eye).clamp(-1.0, 1.0).acos().to_degrees();
+            e.normal = (depth.camera.r.transpose() * n).normalize();
+            e.confidence = (1.0 - e.uncertainty_deg / params.max_uncertainty_deg).clamp(0.0, 1.0);
+        }
+    }
     Ok(e)
+}
+
+/// Least-squares plane of inverse depth `w = α·Δu + β·Δv + γ` over `samples` (Δu, Δv, w)
+/// around pixel `centre` of a camera with intrinsics `k`: the camera-frame unit normal facing
+/// the camera and the standard deviation of its direction (radians). `None` when the samples
+/// span no plane.
+fn inverse_fit(samples: &[(f64, f64, f64)], centre: (f64, f64), k: DMat3) -> Option<(DVec3, f64)> {
+    if samples.len() < 3 {
+        return None;
+    }
+    let (mut m, mut rhs) = (DMat3::ZERO, DVec3::ZERO);
+    for &(du, dv, w) in samples {
+        let row = DVec3::new(du, dv, 1.0);
+        m += DMat3::from_cols(row * row.x, row * row.y, row * row.z);
+        rhs += row * w;
+    }
+    let scale = m.to_cols_array().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    if m.determinant().abs() <= 1e-12 * scale.powi(3) {
+        return None;
+    }
+    let m_inv = m.inverse();
+    let local = m_inv * rhs;
+    let rss: f64 = samples
+        .iter()
+        .map(|&(du, dv, w)| (w - local.dot(DVec3::new(du, dv, 1.0))).powi(2))
+        .sum();
+    let dof = samples.len().saturating_sub(3).max(1) as f64;
+    let cov_local = m_inv * (rss / dof);
+    // θ in absolute pixel coordinates, and the camera-frame plane Kᵀθ·X = 1.
+    let t = DMat3::from_cols(
+        DVec3::new(1.0, 0.0, -centre.0),
+        DVec3::new(0.0, 1.0, -centre.1),
+        DVec3::Z,
+    );
+    let theta = t * local;
+    let g = k.transpose() * theta;
+    let len = g.length();
+    if !(len.is_finite() && len > 0.0) {
+        return None;
+    }
+    let n = -g / len;
+    // d n / d θ = −(I − n nᵀ) Kᵀ / |g|; the sign does not matter for the covariance.
+    let proj = DMat3::IDENTITY - DMat3::from_cols(n * n.x, n * n.y, n * n.z);
+    let j = proj * k.transpose() / len;
+    let cov_n = j * t * cov_local * t.transpose() * j.transpose();
+    let var = cov_n.x_axis.x + cov_n.y_axis.y + cov_n.z_axis.z;
+    Some((n, var.max(0.0).sqrt()))
 }
 
 /// The guard's threshold is at least this many noise standard deviations.
@@ -469,9 +624,12 @@ fn finish(depth: &ViewDepth, f: Fit, used: usize, valid: usize) -> NormalEstimat
     let rt: DMat3 = depth.camera.r.transpose();
     let to_eye = -f.centroid.normalize_or_zero();
     NormalEstimate {
+        method: NormalMethod::Pca,
         view_angle_deg: n.dot(to_eye).clamp(-1.0, 1.0).acos().to_degrees(),
         noise: 0.0,
         depth_jump: 0.0,
+        uncertainty_deg: 0.0,
+        confidence: 0.0,
         normal: (rt * n).normalize(),
         centroid: depth.camera.to_world(f.centroid),
         planarity: (1.0 - l0 / l1).clamp(0.0, 1.0),

@@ -2,9 +2,10 @@
 //! world points, and keyboard fine adjustment ("click, then refine with the keyboard").
 //!
 //! - **Single click** on pixel (u, v) of the depth view ([`ViewDepth`]): p is the back-projected
-//!   pixel, n its PCA normal ([`super::normals`]). Refused (with the reason) where the depth is
-//!   invalid or the normal is unreliable (too few neighbours on the same surface, planarity
-//!   below the threshold). Confidence: the planarity `1 − λ0/λ1`.
+//!   pixel, n its normal ([`super::normals`]: the inverse-depth plane fit by default, or PCA).
+//!   Refused (with the reason) where the depth is invalid or the normal is unreliable (too few
+//!   neighbours on the same surface; an uncertainty above the limit, or for PCA a planarity
+//!   below it). Confidence: the normal's ([`NormalEstimate::confidence`]).
 //! - **Three clicks** on pixels of the depth view, or **three world points**: the plane through
 //!   them ([`Plane::from_points`], which refuses coincident and collinear points with
 //!   tolerances relative to the scene scale — here the largest distance of a point from the
@@ -114,7 +115,8 @@ pub struct Pick {
     pub plane: Plane,
     /// The plane as found, before any nudge.
     pub found: Plane,
-    /// In [0, 1]: planarity for a click, `sin(smallest angle)/sin 60°` for three points.
+    /// In [0, 1]: the normal's confidence for a click (planarity for PCA, 1 − uncertainty/limit
+    /// for the inverse-depth fit), `sin(smallest angle)/sin 60°` for three points.
     pub confidence: f64,
     /// The depth-view pixels used (empty for world points).
     pub pixels: Vec<(u32, u32)>,
@@ -220,7 +222,7 @@ pub fn click(depth: &ViewDepth, u: f64, v: f64, params: &NormalParams) -> Result
         method: PickMethod::Click,
         plane,
         found: plane,
-        confidence: normal.planarity,
+        confidence: normal.confidence,
         pixels: vec![(x, y)],
         points: vec![p],
         normal: Some(normal),

@@ -22,6 +22,9 @@ pub const MESH_GEOM_FRAG: &[u8] = spirv!("mesh_geom.frag");
 pub const SCENE_VERT: &[u8] = spirv!("scene.vert");
 pub const SCENE_FRAG: &[u8] = spirv!("scene.frag");
 pub const PANEL_FRAG: &[u8] = spirv!("panel.frag");
+pub const DEPTH_COST_COMP: &[u8] = spirv!("depth_cost.comp");
+pub const DEPTH_BOX_COMP: &[u8] = spirv!("depth_box.comp");
+pub const DEPTH_WTA_COMP: &[u8] = spirv!("depth_wta.comp");
 
 /// A shader module; destroy it once the pipelines using it are created.
 pub fn module(ctx: &GpuContext, spirv: &[u8], name: &str) -> Result<vk::ShaderModule> {

@@ -66,7 +66,7 @@ impl GridSize {
 }
 
 /// What a depth map stores per pixel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum DepthKind {
     /// Distance along the optical axis (camera z), in world units.
@@ -135,7 +135,7 @@ pub struct View {
 /// Camera (s, t) sits at ((s − s_c)·b, (t − t_c)·b, 0) in the centre camera's frame and its
 /// principal point is shifted by (s − s_c)·f·b/Z_focus, (t − t_c)·f·b/Z_focus, so a centre-view
 /// pixel x with disparity d appears in view (s, t) at x − d·(s − s_c, t − t_c).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ParallelRig {
     /// Focal length in pixels (`f_px = focal_mm · max(W, H) / sensor_mm`).
     pub focal_px: f64,

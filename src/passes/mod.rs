@@ -3,6 +3,7 @@
 //! draws images into panels ([`panel`]) and the mesh rasterizer for synthetic light fields
 //! ([`raster`]).
 
+pub mod depth;
 pub mod panel;
 pub mod raster;
 pub mod refocus;

@@ -77,6 +77,8 @@ pub struct ViewerOptions {
     pub screenshot_prefix: PathBuf,
     /// The video `lf` is a frame of, and that frame's number: `,` `.` step, Space plays.
     pub video: Option<(FrameSequence, u64)>,
+    /// Normal window of clicks (see [`crate::depth::DepthOrigin::normal_window`]).
+    pub normal_window: u32,
 }
 
 /// Frame statistics of a session.
@@ -613,6 +615,8 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         opts.averaging,
         opts.excluded.clone(),
     )?;
+    let mut state = state;
+    state.normals = state.normals.with_window(opts.normal_window);
     script::check(&opts.script, (lf.width, lf.height), opts.window).map_err(Error::Invalid)?;
     let cloud_stride = depth.as_ref().map_or(1, |d| {
         let pixels = d.width as usize * d.height as usize;

@@ -104,6 +104,9 @@ pub struct ViewerState {
     pub message: Option<String>,
     pub version: u64,
     pub marks_version: u64,
+    /// How clicks estimate the surface normal (the window suits the depth's origin: larger on
+    /// an estimated map, as `render` chooses).
+    pub normals: NormalParams,
 }
 
 /// Disparity change of one scroll step: 1/64 of the data's disparity range, else 0.05 px.
@@ -160,6 +163,7 @@ impl ViewerState {
             message: None,
             version: 0,
             marks_version: 0,
+            normals: NormalParams::default(),
         })
     }
 
@@ -240,12 +244,10 @@ impl ViewerState {
             Action::Click(pixel) => {
                 self.pending_clicks.clear();
                 self.pending_points.clear();
+                let normals = self.normals;
                 self.change(lf, |_, core| {
                     core.focus = FocusRequest {
-                        target: FocusTarget::Click {
-                            pixel,
-                            normals: NormalParams::default(),
-                        },
+                        target: FocusTarget::Click { pixel, normals },
                         nudge: None,
                     };
                     Ok(())

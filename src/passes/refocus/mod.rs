@@ -38,7 +38,7 @@ use std::ops::Range;
 
 use ash::vk;
 
-pub use interface::{as_bytes, GpuViewWarp, RefocusPush};
+pub use interface::{as_bytes, GpuViewWarp, Pod, RefocusPush};
 pub use target::{OutputFormat, RefocusTarget};
 
 use super::texture::{LightFieldTexture, ViewStorage, VIEW_SRGB, VIEW_STORED};

@@ -1,0 +1,348 @@
+//! `tiltfield depth`: estimate the reference view's disparity or depth from the light field
+//! itself (a GPU plane sweep, [`crate::depth`]) and write it as PFM or EXR, with an optional
+//! confidence image and, against a ground-truth disparity map, the HCI benchmark's scores.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use serde_json::json;
+
+use super::{
+    check_output, device_load_limits, load_light_field_within, parse_numbers, GpuArgs,
+    LightFieldArgs,
+};
+use crate::depth::metrics::{score, HCI_BORDER};
+use crate::depth::{
+    estimate, Aggregation, CostKind, DepthEstimate, DepthKind, DepthOptions, SweepParams, ViewSet,
+};
+use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
+use crate::lightfield::pfm::{read_pfm_depth, write_pfm};
+
+#[derive(Debug, Args)]
+pub struct DepthArgs {
+    #[command(flatten)]
+    pub lf: LightFieldArgs,
+    /// Output map: .pfm (one channel, rows bottom-up as HCI's) or .exr (channel Y for
+    /// disparity, Z for depth). NaN where there is no value.
+    #[arg(short, long, value_name = "OUT")]
+    pub output: PathBuf,
+    /// disparity (the light field's convention: HCI on HCI folders, rig manifests and built-in
+    /// scenes, classic shift-and-sum on grid folders) or depth (camera z, world units).
+    /// Default: disparity where the light field has a convention, else depth.
+    #[arg(long, value_name = "KIND")]
+    pub kind: Option<String>,
+    /// Number of planes, uniform in inverse depth; default: one per half pixel of motion in
+    /// the farthest matched view over the range (16 to 256).
+    #[arg(long, value_name = "N")]
+    pub planes: Option<usize>,
+    /// Swept range MIN,MAX in --kind units (depth: NEAR,FAR); default: the dataset's
+    /// disp_min,disp_max, else found by a coarse sweep.
+    #[arg(long, value_name = "MIN,MAX", allow_hyphen_values = true)]
+    pub range: Option<String>,
+    /// Views matched against the reference: all, cross (its row and column), cross:N (N steps
+    /// along them), square:N (the (2N+1)² block).
+    #[arg(long, value_name = "SET", default_value = "cross")]
+    pub views: ViewSet,
+    /// Reference view S,T (whole grid positions); default: the middle view.
+    #[arg(long, value_name = "S,T")]
+    pub view: Option<String>,
+    /// Write the confidence (0 … 1) as an 8-bit grey PNG.
+    #[arg(long, value_name = "CONF.png")]
+    pub confidence: Option<PathBuf>,
+    /// Photo-consistency cost: robust (two best half-apertures) or mean (SAD over the views).
+    #[arg(long, value_name = "COST")]
+    pub cost: Option<CostKind>,
+    /// Cost aggregation: guided (edge-aware, by the reference view), box or none.
+    #[arg(long, value_name = "AGG")]
+    pub aggregation: Option<Aggregation>,
+    /// Aggregation window radius, pixels.
+    #[arg(long, value_name = "R")]
+    pub radius: Option<u32>,
+    /// The naive baseline: SAD over the views with box aggregation (same planes and views).
+    #[arg(long, conflicts_with_all = ["cost", "aggregation"])]
+    pub naive: bool,
+    /// Match (almost) black views too (vignetted corners are left out by default).
+    #[arg(long)]
+    pub include_dark: bool,
+    /// Score the disparity against this ground-truth disparity map (PFM, e.g. HCI's
+    /// gt_disp_lowres.pfm): BadPix 0.07/0.03/0.01 and MSE×100 with a 15-px border.
+    #[arg(long, value_name = "GT.pfm")]
+    pub score: Option<PathBuf>,
+    /// Print what was estimated, the timings and any scores as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+/// Parses `--kind`.
+fn parse_kind(text: &str) -> Result<DepthKind> {
+    match text {
+        "disparity" => Ok(DepthKind::Disparity),
+        "depth" => Ok(DepthKind::Depth),
+        _ => Err(Error::Invalid(format!(
+            "unknown --kind '{text}': expected disparity or depth"
+        ))),
+    }
+}
+
+/// The library options of `args`.
+pub fn options(args: &DepthArgs) -> Result<DepthOptions> {
+    let kind = args.kind.as_deref().map(parse_kind).transpose()?;
+    let range = args
+        .range
+        .as_deref()
+        .map(|t| parse_numbers(t, 2, "--range").map(|v| (v[0], v[1])))
+        .transpose()?;
+    let reference = args
+        .view
+        .as_deref()
+        .map(|t| {
+            let v = parse_numbers(t, 2, "--view")?;
+            if v.iter().any(|x| *x < 0.0 || x.fract() != 0.0 || *x > 1e6) {
+                return Err(Error::Invalid(format!(
+                    "--view {t}: the reference of a depth estimate is a real view: give whole \
+                     grid positions S,T"
+                )));
+            }
+            Ok((v[0] as usize, v[1] as usize))
+        })
+        .transpose()?;
+    let base = if args.naive {
+        SweepParams::baseline()
+    } else {
+        SweepParams::default()
+    };
+    let params = SweepParams {
+        cost: args.cost.unwrap_or(base.cost),
+        aggregation: args.aggregation.unwrap_or(base.aggregation),
+        radius: args.radius.unwrap_or(base.radius),
+        ..base
+    };
+    let options = DepthOptions {
+        planes: args.planes,
+        range,
+        range_kind: kind.unwrap_or(DepthKind::Disparity),
+        views: args.views,
+        reference,
+        params,
+        include_dark: args.include_dark,
+    };
+    options.validate()?;
+    Ok(options)
+}
+
+/// Writes `values` as PFM or EXR by the extension of `path`.
+fn write_map(path: &Path, est: &DepthEstimate, kind: DepthKind, values: &[f32]) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    match ext.as_deref() {
+        Some("pfm") => write_pfm(path, est.width, est.height, 1, values),
+        Some("exr") => {
+            let channel = match kind {
+                DepthKind::Depth => "Z",
+                DepthKind::Disparity => "Y",
+            };
+            crate::io::save_exr_channel(est.width, est.height, channel, values, path)
+        }
+        _ => Err(Error::Invalid(format!(
+            "{}: the map is written as .pfm or .exr",
+            path.display()
+        ))),
+    }
+}
+
+/// Checks an output's extension among `allowed` before any work.
+fn check_extension(path: &Path, allowed: &[&str], what: &str) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase());
+    if ext.as_deref().is_some_and(|e| allowed.contains(&e)) {
+        return Ok(());
+    }
+    Err(Error::Invalid(format!(
+        "{}: {what} must end in {}",
+        path.display(),
+        allowed
+            .iter()
+            .map(|e| format!(".{e}"))
+            .collect::<Vec<_>>()
+            .join(" or ")
+    )))
+}
+
+pub fn run(args: &DepthArgs) -> Result<()> {
+    // Options and outputs first: bad input fails before any loading or GPU work.
+    let options = options(args)?;
+    check_extension(&args.output, &["pfm", "exr"], "the depth map")?;
+    check_output(&args.output)?;
+    if let Some(c) = &args.confidence {
+        check_extension(c, &["png"], "--confidence")?;
+        check_output(c)?;
+    }
+    let truth = args
+        .score
+        .as_deref()
+        .map(|p| read_pfm_depth(p, DepthKind::Disparity))
+        .transpose()?;
+    let ctx = GpuContext::new(&args.gpu.options())?;
+    let lf = load_light_field_within(&args.lf, &device_load_limits(&ctx))?;
+    if let Some(t) = &truth {
+        if (t.width, t.height) != (lf.width, lf.height) {
+            return Err(Error::bad_file(
+                args.score.clone().unwrap_or_default(),
+                format!(
+                    "the ground truth is {}×{}, the views {}×{}",
+                    t.width, t.height, lf.width, lf.height
+                ),
+            ));
+        }
+    }
+    let bar = indicatif::ProgressBar::new(0).with_style(
+        indicatif::ProgressStyle::with_template("sweeping {bar:30} {pos}/{len} planes {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let est = estimate(&ctx, &lf, &options, &bar)?;
+    bar.finish_and_clear();
+    let errors = ctx.validation().errors();
+    if errors > 0 {
+        return Err(Error::Vulkan(format!(
+            "{errors} validation errors during the sweep (see the log above)"
+        )));
+    }
+    let kind = match &args.kind {
+        Some(k) => parse_kind(k)?,
+        None => est.natural_kind(),
+    };
+    let values = est.values(kind)?;
+    write_map(&args.output, &est, kind, &values)?;
+    if let Some(path) = &args.confidence {
+        let img = image::GrayImage::from_fn(est.width, est.height, |x, y| {
+            let c = est.confidence[(y * est.width + x) as usize];
+            image::Luma([(c.clamp(0.0, 1.0) * 255.0).round() as u8])
+        });
+        img.save_with_format(path, image::ImageFormat::Png)
+            .map_err(|e| Error::bad_file(path, format!("cannot write PNG: {e}")))?;
+    }
+    let scores = truth.as_ref().map(|t| {
+        let disparity = est.values(DepthKind::Disparity).unwrap_or_default();
+        score(
+            &disparity, &t.values, est.width, est.height, HCI_BORDER, None,
+        )
+    });
+    if args.json {
+        let report = json!({
+            "output": args.output,
+            "kind": kind,
+            "light_field": {"name": lf.name, "grid": [lf.grid.cols, lf.grid.rows], "size": [lf.width, lf.height]},
+            "estimate": est,
+            "confidence_output": args.confidence,
+            "scores": scores,
+            "ground_truth": args.score,
+        });
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&report).map_err(|e| Error::Invalid(e.to_string()))?
+        );
+    } else {
+        let (lo, hi) = est.range;
+        eprintln!(
+            "wrote {} ({}×{} {kind:?} of view ({}, {}); {} planes over {lo:.4} … {hi:.4} ({:?}), \
+             {} views; {} on {}){}",
+            args.output.display(),
+            est.width,
+            est.height,
+            est.reference_st.0,
+            est.reference_st.1,
+            est.planes,
+            est.range_origin,
+            est.views.len(),
+            est.timings
+                .gpu_ms
+                .map_or("no GPU timer".into(), |ms| format!("GPU {ms:.0} ms")),
+            est.device,
+            scores.map_or(String::new(), |s| format!(
+                "; BadPix0.07 {:.2} %, MSE×100 {:.3}",
+                s.bad_pix_007, s.mse_x100
+            ))
+        );
+    }
+    Ok(())
+}
+
+/// For commands that need depth (`render --click/--points`, `cloud`): the light field's own map,
+/// or the estimate of its views with the default options, from the cache when there is one
+/// (a progress bar while sweeping). Returns where the depth came from and the default
+/// `--normal-window` for it.
+pub(crate) fn ensure_for(
+    ctx: &GpuContext,
+    lf: &mut crate::lightfield::LightField,
+) -> Result<(crate::depth::DepthOrigin, u32)> {
+    use crate::depth::DepthOrigin;
+    if !lf.depth.is_empty() {
+        let origin = crate::depth::ensure_depth(
+            ctx,
+            lf,
+            &DepthOptions::default(),
+            &indicatif::ProgressBar::hidden(),
+        )?;
+        let window = origin.normal_window();
+        return Ok((origin, window));
+    }
+    let bar = indicatif::ProgressBar::new(0).with_style(
+        indicatif::ProgressStyle::with_template(
+            "estimating depth {bar:30} {pos}/{len} planes {elapsed}",
+        )
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let origin = crate::depth::ensure_depth(ctx, lf, &DepthOptions::default(), &bar)?;
+    bar.finish_and_clear();
+    if let DepthOrigin::Estimated {
+        cached, estimate, ..
+    } = &origin
+    {
+        log::info!(
+            "'{}' has no depth map: {} the depth of view ({}, {}) from its views",
+            lf.name,
+            if *cached {
+                "using the cached estimate of"
+            } else {
+                "estimated"
+            },
+            estimate.reference_st.0,
+            estimate.reference_st.1
+        );
+    }
+    let errors = ctx.validation().errors();
+    if errors > 0 {
+        return Err(Error::Vulkan(format!(
+            "{errors} validation errors while estimating depth (see the log above)"
+        )));
+    }
+    let window = origin.normal_window();
+    Ok((origin, window))
+}
+
+/// The `depth` object of a command's `--json`: where the depth came from.
+pub(crate) fn origin_json(origin: &crate::depth::DepthOrigin) -> serde_json::Value {
+    use crate::depth::DepthOrigin;
+    match origin {
+        DepthOrigin::Given { source } => json!({"origin": "given", "source": source}),
+        DepthOrigin::Estimated {
+            cached,
+            cache_file,
+            estimate,
+            min_confidence,
+        } => json!({
+            "origin": "estimated",
+            "cached": cached,
+            "cache_file": cache_file,
+            "min_confidence": min_confidence,
+            "estimate": estimate,
+        }),
+    }
+}

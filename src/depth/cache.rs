@@ -1,0 +1,269 @@
+//! The depth cache and [`ensure_depth`], which gives a light field without a depth map its
+//! estimate wherever depth is needed (clicks, point clouds, the viewer's scene).
+//!
+//! Estimates are cached in the user's cache folder — `$TILTFIELD_CACHE_DIR`, else
+//! `$XDG_CACHE_HOME/tiltfield/depth`, else `~/.cache/tiltfield/depth` — not next to the light
+//! field, since data folders are often shared or read-only. The key is a 128-bit xxh3 hash of
+//! everything the estimate depends on: an algorithm version, the grid, every view's pixels and
+//! camera, the rig, the dataset's disparity range, the sweep convention and the options. Any
+//! change of content gives another key, so a stale estimate is never reused. Per key two
+//! files: `KEY.json` (what was estimated, how, on which device) and `KEY.pfm` (three channels:
+//! the sweep parameter, the confidence, 0). Both are written to temporary names and renamed,
+//! so a crash leaves no half file; an unreadable entry is recomputed with a warning, and a
+//! cache folder that cannot be written only costs the reuse.
+
+use std::path::{Path, PathBuf};
+
+use indicatif::ProgressBar;
+
+use super::{estimate, sweep, DepthEstimate, DepthOptions};
+use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
+use crate::lightfield::pfm::{read_pfm, write_pfm};
+use crate::lightfield::LightField;
+
+/// Bumped whenever the estimator's output for the same input changes.
+const ALGORITHM_VERSION: &str = "tiltfield-depth-1";
+
+/// Pixels whose confidence is below this are left out of the map installed by
+/// [`ensure_depth`] (NaN: a click there is refused naming the cause; the cloud skips them).
+pub const MIN_CONFIDENCE: f32 = 0.01;
+
+/// Where the depth used by a command came from (reported by `--json` as `depth`).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[serde(tag = "origin", rename_all = "lowercase")]
+pub enum DepthOrigin {
+    /// The light field's own map.
+    Given { source: String },
+    /// Estimated from the views now, or taken from the cache.
+    Estimated {
+        cached: bool,
+        /// The cache entry (`None` when the cache could not be written).
+        cache_file: Option<PathBuf>,
+        /// What was estimated (boxed: it is large next to the other variant).
+        estimate: Box<DepthEstimate>,
+        /// Pixels below this confidence were left out of the installed map.
+        min_confidence: f32,
+    },
+}
+
+impl DepthOrigin {
+    /// The default window of a click's normal on this depth: 9 px on the light field's own
+    /// map, 31 px on an estimate ([`crate::geometry::normals::ESTIMATED_DEPTH_WINDOW`]).
+    pub fn normal_window(&self) -> u32 {
+        match self {
+            DepthOrigin::Given { .. } => crate::geometry::normals::GIVEN_DEPTH_WINDOW,
+            DepthOrigin::Estimated { .. } => crate::geometry::normals::ESTIMATED_DEPTH_WINDOW,
+        }
+    }
+}
+
+/// The cache folder (see the module docs).
+pub fn cache_dir() -> Option<PathBuf> {
+    let env = |k: &str| {
+        std::env::var_os(k)
+            .filter(|v| !v.is_empty())
+            .map(PathBuf::from)
+    };
+    env("TILTFIELD_CACHE_DIR")
+        .or_else(|| env("XDG_CACHE_HOME").map(|d| d.join("tiltfield").join("depth")))
+        .or_else(|| env("HOME").map(|d| d.join(".cache").join("tiltfield").join("depth")))
+}
+
+/// The content key of estimating `lf` with `options` (32 hex digits).
+pub fn cache_key(lf: &LightField, options: &DepthOptions) -> String {
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    let mut text = |s: &str| {
+        h.update(&(s.len() as u64).to_le_bytes());
+        h.update(s.as_bytes());
+    };
+    text(ALGORITHM_VERSION);
+    let meta = serde_json::json!({
+        "grid": [lf.grid.cols, lf.grid.rows],
+        "size": [lf.width, lf.height],
+        "rig": lf.rig,
+        "disparity_range": lf.disparity_range,
+        "convention": sweep::convention_of(lf),
+        "options": options,
+    });
+    text(&meta.to_string());
+    for v in &lf.views {
+        let c = &v.camera;
+        for m in [c.k, c.r] {
+            for x in m.to_cols_array() {
+                h.update(&x.to_le_bytes());
+            }
+        }
+        for x in c.t.to_array() {
+            h.update(&x.to_le_bytes());
+        }
+        h.update(&(v.s as u64).to_le_bytes());
+        h.update(&(v.t as u64).to_le_bytes());
+        h.update(v.image.as_raw());
+    }
+    format!("{:032x}", h.digest128())
+}
+
+/// Reads the entry `key` from `dir`; `None` when there is none or it is unreadable (with a
+/// warning naming the file).
+pub fn load(dir: &Path, key: &str) -> Option<DepthEstimate> {
+    let meta_path = dir.join(format!("{key}.json"));
+    let data_path = dir.join(format!("{key}.pfm"));
+    if !meta_path.is_file() {
+        return None;
+    }
+    let read = || -> std::result::Result<DepthEstimate, String> {
+        let text = std::fs::read_to_string(&meta_path).map_err(|e| e.to_string())?;
+        let mut est: DepthEstimate = serde_json::from_str(&text).map_err(|e| e.to_string())?;
+        let (w, h, channels, data) = read_pfm(&data_path).map_err(|e| e.to_string())?;
+        if (w, h, channels) != (est.width, est.height, 3) {
+            return Err(format!(
+                "{} does not match its metadata",
+                data_path.display()
+            ));
+        }
+        est.param = data.iter().step_by(3).copied().collect();
+        est.confidence = data.iter().skip(1).step_by(3).copied().collect();
+        Ok(est)
+    };
+    match read() {
+        Ok(est) => Some(est),
+        Err(e) => {
+            log::warn!(
+                "depth cache entry {} is unreadable ({e}); estimating again",
+                meta_path.display()
+            );
+            None
+        }
+    }
+}
+
+/// Writes `est` as entry `key` in `dir` (creating it); returns the metadata file.
+pub fn store(dir: &Path, key: &str, est: &DepthEstimate) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let meta_path = dir.join(format!("{key}.json"));
+    let data_path = dir.join(format!("{key}.pfm"));
+    let tmp = |p: &Path| {
+        let mut name = p.as_os_str().to_owned();
+        name.push(format!(".tmp{}", std::process::id()));
+        PathBuf::from(name)
+    };
+    let data: Vec<f32> = est
+        .param
+        .iter()
+        .zip(&est.confidence)
+        .flat_map(|(&p, &c)| [p, c, 0.0])
+        .collect();
+    write_pfm(&tmp(&data_path), est.width, est.height, 3, &data)?;
+    let text = serde_json::to_string_pretty(est).map_err(|e| Error::Invalid(e.to_string()))?;
+    std::fs::write(tmp(&meta_path), text).map_err(|e| Error::io(tmp(&meta_path), e))?;
+    // Data first: a metadata file only ever names complete data.
+    for p in [&data_path, &meta_path] {
+        std::fs::rename(tmp(p), p).map_err(|e| Error::io(p, e))?;
+    }
+    Ok(meta_path)
+}
+
+/// The cached estimate of `lf` with `options` in cache folder `dir`, or a new one (stored
+/// there; `None`: no cache).
+pub fn cached_estimate(
+    ctx: &GpuContext,
+    lf: &LightField,
+    options: &DepthOptions,
+    progress: &ProgressBar,
+    dir: Option<PathBuf>,
+) -> Result<(DepthEstimate, bool, Option<PathBuf>)> {
+    options.validate()?;
+    let key = cache_key(lf, options);
+    if let Some(dir) = &dir {
+        if let Some(est) = load(dir, &key) {
+            return Ok((est, true, Some(dir.join(format!("{key}.json")))));
+        }
+    }
+    let est = estimate(ctx, lf, options, progress)?;
+    let file = match &dir {
+        Some(dir) => match store(dir, &key, &est) {
+            Ok(p) => Some(p),
+            Err(e) => {
+                log::warn!("cannot cache the depth estimate: {e}");
+                None
+            }
+        },
+        None => {
+            log::warn!(
+                "no cache folder (set TILTFIELD_CACHE_DIR or HOME); the estimate is not kept"
+            );
+            None
+        }
+    };
+    Ok((est, false, file))
+}
+
+/// Makes sure `lf` has a depth map: its own when it has one, else the estimate of its
+/// reference view (from the cache when there is one; `progress` shows the sweep otherwise).
+/// The estimate is installed as the light field's map with pixels of confidence below
+/// [`MIN_CONFIDENCE`] left out. On a grid folder the nominal cameras get the sensor shift of
+/// [`DepthEstimate::nominal_rig`], so that every estimated surface has a depth and a plane
+/// picked on it refocuses exactly there (classic `--disparity` does not use the cameras and is
+/// unchanged).
+pub fn ensure_depth(
+    ctx: &GpuContext,
+    lf: &mut LightField,
+    options: &DepthOptions,
+    progress: &ProgressBar,
+) -> Result<DepthOrigin> {
+    ensure_depth_in(ctx, lf, options, progress, cache_dir())
+}
+
+/// [`ensure_depth`] with the cache in `dir` (`None`: no cache).
+pub fn ensure_depth_in(
+    ctx: &GpuContext,
+    lf: &mut LightField,
+    options: &DepthOptions,
+    progress: &ProgressBar,
+    dir: Option<PathBuf>,
+) -> Result<DepthOrigin> {
+    if let Some((_, map)) = lf.depth.first() {
+        return Ok(DepthOrigin::Given {
+            source: map.source.clone(),
+        });
+    }
+    let (est, cached, cache_file) = cached_estimate(ctx, lf, options, progress, dir)?;
+    install(lf, &est)?;
+    Ok(DepthOrigin::Estimated {
+        cached,
+        cache_file,
+        estimate: Box::new(est),
+        min_confidence: MIN_CONFIDENCE,
+    })
+}
+
+/// Installs `est` as `lf`'s depth map (see [`ensure_depth`]).
+pub fn install(lf: &mut LightField, est: &DepthEstimate) -> Result<()> {
+    if (est.width, est.height) != (lf.width, lf.height) || est.reference >= lf.views.len() {
+        return Err(Error::Invalid(
+            "the depth estimate does not belong to this light field".into(),
+        ));
+    }
+    if let Some(rig) = est.nominal_rig() {
+        for (v, camera) in lf
+            .views
+            .iter_mut()
+            .zip(rig.cameras(lf.grid, lf.width, lf.height))
+        {
+            v.camera = camera;
+        }
+    }
+    let mut map = est.depth_map(MIN_CONFIDENCE);
+    // The sweep reaches one plane beyond a dataset's range; the map stays inside it (values
+    // outside would read as invalid).
+    if let (crate::lightfield::DepthKind::Disparity, Some((lo, hi))) =
+        (map.kind, lf.disparity_range)
+    {
+        for v in map.values.iter_mut().filter(|v| v.is_finite()) {
+            *v = v.clamp(lo as f32, hi as f32);
+        }
+    }
+    lf.depth.push((est.reference, map));
+    lf.validate()
+}

@@ -1,0 +1,743 @@
+//! Depth from the light field itself: a plane sweep on the GPU.
+//!
+//! Sweeping a family of frontoparallel planes through the scene is refocusing at many depths;
+//! where a plane passes through a surface the views agree about its colour. For the reference
+//! view (normally the middle one) and planes uniform in inverse depth ([`sweep`]), every
+//! matched view is warped by the same per-view homography the refocus uses
+//! ([`crate::geometry::homography`]), so calibrated rotated rigs work too. Per pixel and plane:
+//!
+//! 1. **cost** ([`CostKind`]): the mean absolute difference of the sRGB-encoded colours of each
+//!    matched view's sample and the reference pixel, truncated at `truncation`; `robust`
+//!    (default) averages the two best of the four half-apertures (left, right, upper, lower
+//!    views), because an occluder next to a pixel hides it from the views on one side only;
+//!    `mean` averages all views (plain SAD);
+//! 2. **aggregation** ([`Aggregation`]) over a `(2r + 1)²` window: the guided filter (He et al.
+//!    2010, guided by the reference view's colours: edge-aware, cost-volume filtering as in
+//!    Hosni et al. 2013) by default, or a box filter, or none;
+//! 3. **winner-take-all** over the planes, refined by the parabola through the winner's
+//!    neighbours (sub-plane precision), and a **confidence** `(c₂ − c₁)/(c₂ + ε)`, c₁ the
+//!    winner's cost and c₂ the best cost of the planes more than 1 px of motion (farthest
+//!    view) away from it: near 0 where the views look alike at every depth (no texture) or
+//!    another depth fits as well (repetition).
+//!
+//! The sweep parameter and the output follow the light field's convention ([`Convention`]):
+//! HCI disparity on regular parallel rigs (HCI folders, built-in scenes, rig manifests),
+//! classic shift-and-sum disparity on grid folders, inverse depth on other calibrated rigs;
+//! [`DepthEstimate::values`] gives disparity or metric depth. The range is the one given, else
+//! the dataset's `disp_min … disp_max`, else found automatically ([`RangeOrigin::Automatic`]):
+//! a coarse sweep at a quarter of the resolution over a wide range (the image centre moving by
+//! up to an eighth of the image in the farthest matched view), whose confident pixels' 1st to
+//! 99th percentiles, widened by 5 % and one coarse plane, become the range.
+//!
+//! [`ensure_depth`] gives a light field without a depth map its estimate, cached on disk keyed
+//! by content ([`cache`]); clicks, point clouds and the viewer call it.
+
+pub mod cache;
+pub mod cpu;
+pub mod guide;
+pub mod metrics;
+pub mod scenes;
+pub mod sweep;
+
+use std::time::Instant;
+
+use image::RgbaImage;
+use indicatif::ProgressBar;
+
+pub use crate::lightfield::DepthKind;
+pub use cache::{ensure_depth, ensure_depth_in, DepthOrigin};
+use sweep::SweepPlan;
+
+use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
+use crate::lightfield::images::is_dark;
+use crate::lightfield::{DepthMap, LightField, ParallelRig};
+
+/// What the sweep parameter p means (see [`sweep`]).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(tag = "convention", rename_all = "kebab-case")]
+pub enum Convention {
+    /// HCI disparity on a regular parallel rig with sensor shift (px per grid step, positive
+    /// nearer than the focus distance).
+    Hci(ParallelRig),
+    /// Classic shift-and-sum disparity of a grid folder: view (s, t) sees reference pixel x at
+    /// x + (s − s_r, t − t_r)·D. `focal_px` and `baseline` are the folder's nominal cameras.
+    Classic { focal_px: f64, baseline: f64 },
+    /// Inverse depth 1/Z of the reference camera (calibrated rigs without a regular grid).
+    InverseDepth,
+}
+
+/// Which views are matched against the reference.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum ViewSet {
+    /// Every view.
+    All,
+    /// The reference's row and column, up to N steps away (`usize::MAX`: all of them).
+    Cross(usize),
+    /// The (2N + 1)² block around the reference.
+    Square(usize),
+}
+
+impl ViewSet {
+    /// `all`, `cross`, `cross:N`, `square:N`.
+    pub fn name(&self) -> String {
+        match self {
+            ViewSet::All => "all".into(),
+            ViewSet::Cross(usize::MAX) => "cross".into(),
+            ViewSet::Cross(n) => format!("cross:{n}"),
+            ViewSet::Square(n) => format!("square:{n}"),
+        }
+    }
+}
+
+impl std::str::FromStr for ViewSet {
+    type Err = Error;
+    fn from_str(s: &str) -> Result<Self> {
+        let bad = || {
+            Error::Invalid(format!(
+                "unknown view set '{s}': expected all, cross, cross:N or square:N (N ≥ 1 grid steps)"
+            ))
+        };
+        let count = |n: &str| match n.parse::<usize>() {
+            Ok(n) if n >= 1 => Ok(n),
+            _ => Err(bad()),
+        };
+        match s.split_once(':') {
+            None if s == "all" => Ok(ViewSet::All),
+            None if s == "cross" => Ok(ViewSet::Cross(usize::MAX)),
+            Some(("cross", n)) => Ok(ViewSet::Cross(count(n)?)),
+            Some(("square", n)) => Ok(ViewSet::Square(count(n)?)),
+            _ => Err(bad()),
+        }
+    }
+}
+
+/// The photo-consistency cost (module docs, step 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CostKind {
+    /// Mean of the two best half-aperture means (occlusion-aware).
+    Robust,
+    /// Mean over all matched views (SAD).
+    Mean,
+    /// Mean of the three best half-aperture means (drops the worst side).
+    DropWorst,
+}
+
+/// The cost aggregation (module docs, step 2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Aggregation {
+    Guided,
+    Box,
+    None,
+}
+
+macro_rules! parse_enum {
+    ($ty:ty, $what:literal, $($name:literal => $v:expr),+) => {
+        impl std::str::FromStr for $ty {
+            type Err = Error;
+            fn from_str(s: &str) -> Result<Self> {
+                match s {
+                    $($name => Ok($v),)+
+                    _ => Err(Error::Invalid(format!(
+                        concat!("unknown ", $what, " '{}': expected ", $($name, " "),+), s
+                    ))),
+                }
+            }
+        }
+    };
+}
+parse_enum!(CostKind, "cost", "robust" => CostKind::Robust, "mean" => CostKind::Mean,
+    "drop-worst" => CostKind::DropWorst);
+parse_enum!(Aggregation, "aggregation", "guided" => Aggregation::Guided,
+    "box" => Aggregation::Box, "none" => Aggregation::None);
+
+/// Sub-plane refinement of the winning plane.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Refine {
+    /// The parabola through the winner and its two neighbours.
+    Parabola,
+    /// Two lines of equal and opposite slope (Shimizu & Okutomi 2001), the model of an
+    /// absolute-difference cost's V-shaped minimum.
+    Equiangular,
+}
+parse_enum!(Refine, "refinement", "parabola" => Refine::Parabola,
+    "equiangular" => Refine::Equiangular);
+
+/// Where the swept range came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RangeOrigin {
+    /// `--range`.
+    Given,
+    /// The dataset's documented disparity range (HCI `disp_min/disp_max`, built-in scenes).
+    Dataset,
+    /// A coarse sweep over a wide range (module docs).
+    Automatic,
+}
+
+/// The tunable parts of the sweep.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SweepParams {
+    pub cost: CostKind,
+    /// Largest cost of one view (mean absolute difference of encoded channels in [0, 1]).
+    pub truncation: f64,
+    pub aggregation: Aggregation,
+    /// Window radius r of the aggregation, pixels.
+    pub radius: u32,
+    /// Regulariser ε of the guided filter (squared encoded intensity).
+    pub eps: f64,
+    /// Noise floor ε of the confidence ratio.
+    pub conf_eps: f64,
+    pub refine: Refine,
+}
+
+impl Default for SweepParams {
+    fn default() -> Self {
+        SweepParams {
+            cost: CostKind::Robust,
+            truncation: 0.12,
+            aggregation: Aggregation::Guided,
+            radius: 5,
+            eps: 1e-4,
+            conf_eps: 2e-3,
+            refine: Refine::Parabola,
+        }
+    }
+}
+
+impl SweepParams {
+    /// The naive baseline tiltfield is measured against: SAD over the views, box aggregation.
+    pub fn baseline() -> Self {
+        SweepParams {
+            cost: CostKind::Mean,
+            truncation: 1.0,
+            aggregation: Aggregation::Box,
+            ..SweepParams::default()
+        }
+    }
+
+    /// Checks the parameters; the message names the offending one.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.truncation.is_finite() && self.truncation > 0.0) {
+            return Err(Error::Invalid(format!(
+                "the cost truncation must be positive, got {}",
+                self.truncation
+            )));
+        }
+        if self.radius > MAX_RADIUS {
+            return Err(Error::Invalid(format!(
+                "the aggregation radius must be at most {MAX_RADIUS} px, got {}",
+                self.radius
+            )));
+        }
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !(positive(self.eps) && positive(self.conf_eps)) {
+            return Err(Error::Invalid(format!(
+                "the guided filter's ε ({}) and the confidence floor ({}) must be positive",
+                self.eps, self.conf_eps
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Largest aggregation radius.
+pub const MAX_RADIUS: u32 = 64;
+
+/// Automatic plane count: one plane per this many pixels of motion in the farthest view.
+pub const AUTO_PLANE_MOTION: f64 = 0.5;
+/// Fewest planes of the automatic count.
+pub const AUTO_MIN_PLANES: usize = 16;
+/// Most planes of the automatic count.
+pub const AUTO_MAX_PLANES: usize = 256;
+
+/// The plane count of `options` for `plan`'s views and range.
+pub fn plane_count(plan: &SweepPlan, options: &DepthOptions) -> usize {
+    options.planes.unwrap_or_else(|| {
+        let motion = plan.centre_motion(plan.range.0, plan.range.1);
+        ((motion / AUTO_PLANE_MOTION).ceil() as usize).clamp(AUTO_MIN_PLANES, AUTO_MAX_PLANES)
+    })
+}
+
+/// Everything an estimate needs besides the light field.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DepthOptions {
+    /// Number of planes (≥ 3); `None`: one per [`AUTO_PLANE_MOTION`] px of motion of the
+    /// reference image centre over the range in the farthest matched view, at least
+    /// [`AUTO_MIN_PLANES`] and at most [`AUTO_MAX_PLANES`].
+    pub planes: Option<usize>,
+    /// The swept range, in `range_kind` units (disparity: MIN,MAX px per grid step; depth:
+    /// NEAR,FAR world units); `None`: the dataset's, else automatic.
+    pub range: Option<(f64, f64)>,
+    pub range_kind: DepthKind,
+    pub views: ViewSet,
+    /// Reference view (s, t); `None`: the middle view (cols/2, rows/2).
+    pub reference: Option<(usize, usize)>,
+    pub params: SweepParams,
+    /// Match (almost) black views too (vignetted corners are left out by default).
+    pub include_dark: bool,
+}
+
+impl Default for DepthOptions {
+    fn default() -> Self {
+        DepthOptions {
+            planes: None,
+            range: None,
+            range_kind: DepthKind::Disparity,
+            views: ViewSet::Cross(usize::MAX),
+            reference: None,
+            params: SweepParams::default(),
+            include_dark: false,
+        }
+    }
+}
+
+impl DepthOptions {
+    /// Checks the options that need no light field.
+    pub fn validate(&self) -> Result<()> {
+        if let Some(planes) = self.planes {
+            if !(sweep::MIN_PLANES..=sweep::MAX_PLANES).contains(&planes) {
+                return Err(Error::Invalid(format!(
+                    "--planes must be from {} to {}, got {planes} (sub-plane refinement needs a \
+                     neighbour on each side of the best plane)",
+                    sweep::MIN_PLANES,
+                    sweep::MAX_PLANES,
+                )));
+            }
+        }
+        self.params.validate()
+    }
+}
+
+/// The per-pixel result of a sweep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepOutput {
+    /// Winning plane, refined to a fraction (0 … planes − 1).
+    pub index: Vec<f32>,
+    /// Confidence in [0, 1] (module docs, step 3).
+    pub confidence: Vec<f32>,
+    /// Aggregated cost of the winning plane.
+    pub best_cost: Vec<f32>,
+}
+
+/// Times of an estimate.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct DepthTimings {
+    /// GPU time of the sweep (timestamps, all submissions), ms; `None` without timestamps.
+    pub gpu_ms: Option<f64>,
+    /// Of it, the automatic range's coarse sweep, ms.
+    pub coarse_gpu_ms: Option<f64>,
+    /// Wall-clock time of the whole estimate, ms.
+    pub total_ms: f64,
+}
+
+/// A depth estimate of the reference view.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DepthEstimate {
+    pub width: u32,
+    pub height: u32,
+    /// Index of the reference view in `lf.views` and its grid position.
+    pub reference: usize,
+    pub reference_st: (usize, usize),
+    pub convention: Convention,
+    /// Swept range of p and where it came from.
+    pub range: (f64, f64),
+    pub range_origin: RangeOrigin,
+    pub planes: usize,
+    /// Grid positions of the matched views.
+    pub views: Vec<(usize, usize)>,
+    pub params: SweepParams,
+    /// The sweep parameter p per pixel, row-major (see [`Convention`]).
+    #[serde(skip)]
+    pub param: Vec<f32>,
+    /// Confidence per pixel in [0, 1].
+    #[serde(skip)]
+    pub confidence: Vec<f32>,
+    pub timings: DepthTimings,
+    pub device: String,
+}
+
+impl DepthEstimate {
+    /// The kind of output the light field's convention has natively.
+    pub fn natural_kind(&self) -> DepthKind {
+        match self.convention {
+            Convention::InverseDepth => DepthKind::Depth,
+            _ => DepthKind::Disparity,
+        }
+    }
+
+    /// For grid folders: the nominal parallel rig with sensor shift under which the classic
+    /// disparity D is an HCI disparity −D. Its focus distance Z₀ puts infinity one range width
+    /// beyond the farthest swept disparity, `f·b/Z₀ = max(D_max, 0) + (D_max − D_min)`, so
+    /// every estimate has a depth; the folder carries no calibration, so any Z₀ is as true.
+    pub fn nominal_rig(&self) -> Option<ParallelRig> {
+        match self.convention {
+            Convention::Classic { focal_px, baseline } => {
+                let (lo, hi) = self.range;
+                let at_infinity = hi.max(0.0) + (hi - lo);
+                Some(ParallelRig {
+                    focal_px,
+                    baseline,
+                    focus_distance: focal_px * baseline / at_infinity,
+                })
+            }
+            _ => None,
+        }
+    }
+
+    /// Depth (camera z, world units) of sweep parameter `p`; NaN at or beyond infinity.
+    pub fn depth_of(&self, p: f64) -> f64 {
+        let z = match self.convention {
+            Convention::Hci(rig) => rig.depth_of_disparity(p),
+            Convention::Classic { .. } => self
+                .nominal_rig()
+                .and_then(|rig| rig.depth_of_disparity(-p)),
+            Convention::InverseDepth => (p > 0.0).then(|| 1.0 / p),
+        };
+        z.unwrap_or(f64::NAN)
+    }
+
+    /// The estimate as disparity (the convention's) or depth, row-major; NaN where there is
+    /// none. Disparity of a calibrated rig without a grid is an error naming why.
+    pub fn values(&self, kind: DepthKind) -> Result<Vec<f32>> {
+        match (kind, self.convention) {
+            (DepthKind::Disparity, Convention::InverseDepth) => Err(Error::Invalid(
+                "this light field is a calibrated rig without a regular grid, so it has no \
+                 disparity convention: use --kind depth"
+                    .into(),
+            )),
+            (DepthKind::Disparity, _) => Ok(self.param.clone()),
+            (DepthKind::Depth, _) => Ok(self
+                .param
+                .iter()
+                .map(|&p| self.depth_of(p as f64) as f32)
+                .collect()),
+        }
+    }
+
+    /// The map installed in a light field without one: HCI disparity on rigs (so the
+    /// dataset's range check applies), depth elsewhere. `min_confidence`: pixels below it are
+    /// left out (NaN).
+    pub fn depth_map(&self, min_confidence: f32) -> DepthMap {
+        let (kind, values) = match self.convention {
+            Convention::Hci(_) => (DepthKind::Disparity, self.param.clone()),
+            _ => (
+                DepthKind::Depth,
+                self.values(DepthKind::Depth).unwrap_or_default(),
+            ),
+        };
+        let values = values
+            .iter()
+            .zip(&self.confidence)
+            .map(|(&v, &c)| if c >= min_confidence { v } else { f32::NAN })
+            .collect();
+        DepthMap {
+            width: self.width,
+            height: self.height,
+            kind,
+            values,
+            source: format!(
+                "the estimated depth of view ({}, {}) (pixels of confidence below \
+                 {min_confidence}, where the views show too little texture, have no value)",
+                self.reference_st.0, self.reference_st.1
+            ),
+        }
+    }
+}
+
+/// The sweep plan of `options` on `lf`; with no range given or documented its range is the
+/// wide range of the automatic search ([`RangeOrigin::Automatic`]).
+pub fn plan(lf: &LightField, options: &DepthOptions) -> Result<SweepPlan> {
+    options.validate()?;
+    if lf.views.len() < 2 {
+        return Err(Error::Invalid(format!(
+            "depth from a light field needs at least two views; '{}' has {}",
+            lf.name,
+            lf.views.len()
+        )));
+    }
+    let reference = sweep::reference_view(lf, options.reference)?;
+    let excluded: Vec<bool> = if options.include_dark {
+        vec![false; lf.views.len()]
+    } else {
+        lf.views.iter().map(|v| is_dark(&v.image)).collect()
+    };
+    if excluded[reference] {
+        return Err(Error::Invalid(format!(
+            "the reference view ({}, {}) is (almost) entirely black; pick another with --view",
+            lf.views[reference].s, lf.views[reference].t
+        )));
+    }
+    let convention = sweep::convention_of(lf);
+    let chosen = sweep::select_views(lf, reference, options.views, &excluded);
+    if chosen.is_empty() {
+        return Err(Error::Invalid(format!(
+            "the view set {} around view ({}, {}) holds no other usable view",
+            options.views.name(),
+            lf.views[reference].s,
+            lf.views[reference].t
+        )));
+    }
+    let dark = excluded.iter().filter(|&&d| d).count();
+    if dark > 0 {
+        log::warn!("{dark} (almost) black views are not matched (--include-dark matches them)");
+    }
+    let views = chosen
+        .iter()
+        .map(|&i| sweep::sweep_view(lf, reference, i, convention))
+        .collect();
+    let r = &lf.views[reference];
+    let mut plan = SweepPlan {
+        reference,
+        reference_st: (r.s, r.t),
+        reference_camera: r.camera,
+        width: lf.width,
+        height: lf.height,
+        views,
+        convention,
+        range: (0.0, 1.0),
+        range_origin: RangeOrigin::Automatic,
+        planes: AUTO_MIN_PLANES,
+    };
+    match (options.range, lf.disparity_range, convention) {
+        (Some(given), _, _) => {
+            plan.range = sweep::param_range(convention, options.range_kind, given)?;
+            plan.range_origin = RangeOrigin::Given;
+        }
+        (None, Some(range), Convention::Hci(_)) if range.0 < range.1 => {
+            plan.range = sweep::param_range(convention, DepthKind::Disparity, range)?;
+            plan.range_origin = RangeOrigin::Dataset;
+        }
+        _ => plan.range = sweep::wide_range(&plan),
+    }
+    plan.planes = plane_count(&plan, options);
+    if plan.range_origin == RangeOrigin::Dataset {
+        // A dataset's range is tight (HCI: the extremes of its ground truth), and a winner on
+        // the first or last plane cannot be refined: one more plane at each end, same spacing,
+        // kept in front of infinity.
+        let step = plan.step();
+        let lo = plan.range.0 - step;
+        let in_front = match convention {
+            Convention::Hci(rig) => lo > rig.disparity_at_infinity(),
+            _ => true,
+        };
+        if in_front && plan.planes + 2 <= sweep::MAX_PLANES {
+            plan.range = (lo, plan.range.1 + step);
+            plan.planes += 2;
+        }
+    }
+    Ok(plan)
+}
+
+/// Estimates the depth of `lf`'s reference view on `ctx`'s device (see the module docs).
+/// `progress` gets the number of planes to sweep as its length and advances by planes.
+pub fn estimate(
+    ctx: &GpuContext,
+    lf: &LightField,
+    options: &DepthOptions,
+    progress: &ProgressBar,
+) -> Result<DepthEstimate> {
+    let t0 = Instant::now();
+    let mut plan = plan(lf, options)?;
+    let images: Vec<&RgbaImage> = std::iter::once(plan.reference)
+        .chain(plan.views.iter().map(|v| v.index))
+        .map(|i| &lf.views[i].image)
+        .collect();
+    let auto = plan.range_origin == RangeOrigin::Automatic;
+    let coarse = auto.then(|| coarse_plan(&plan));
+    progress.set_length((plan.planes + coarse.as_ref().map_or(0, |(c, _)| c.planes)) as u64);
+    let mut coarse_ms = None;
+    if let Some((coarse, factor)) = coarse {
+        let small: Vec<RgbaImage> = images.iter().map(|i| downscale(i, factor)).collect();
+        let small_refs: Vec<&RgbaImage> = small.iter().collect();
+        let (out, ms) =
+            crate::passes::depth::run_sweep(ctx, &coarse, &small_refs, &options.params, progress)?;
+        plan.range = range_from_coarse(&coarse, &out);
+        plan.planes = plane_count(&plan, options);
+        progress.set_length((coarse.planes + plan.planes) as u64);
+        coarse_ms = ms;
+    }
+    let (out, gpu_ms) =
+        crate::passes::depth::run_sweep(ctx, &plan, &images, &options.params, progress)?;
+    let param = out
+        .index
+        .iter()
+        .map(|&k| plan.param(k as f64) as f32)
+        .collect();
+    Ok(DepthEstimate {
+        width: plan.width,
+        height: plan.height,
+        reference: plan.reference,
+        reference_st: plan.reference_st,
+        convention: plan.convention,
+        range: plan.range,
+        range_origin: plan.range_origin,
+        planes: plan.planes,
+        views: plan.views.iter().map(|v| (v.s, v.t)).collect(),
+        params: options.params,
+        param,
+        confidence: out.confidence,
+        timings: DepthTimings {
+            gpu_ms: match (gpu_ms, coarse_ms, auto) {
+                (Some(a), Some(b), true) => Some(a + b),
+                (Some(a), _, false) => Some(a),
+                _ => None,
+            },
+            coarse_gpu_ms: coarse_ms,
+            total_ms: t0.elapsed().as_secs_f64() * 1e3,
+        },
+        device: ctx.info.name.clone(),
+    })
+}
+
+/// The coarse sweep of the automatic range: a quarter of the resolution (less for small
+/// views: at least 32 px a side), the wide range, two planes per coarse pixel of motion of the
+/// image centre in the farthest view (32 to 256 planes).
+pub fn coarse_plan(plan: &SweepPlan) -> (SweepPlan, u32) {
+    let side = plan.width.min(plan.height);
+    let factor = [4u32, 2, 1]
+        .into_iter()
+        .find(|f| side / f >= 32)
+        .unwrap_or(1);
+    let range = plan.range;
+    let motion = plan.centre_motion(range.0, range.1) / factor as f64;
+    let planes = ((2.0 * motion).ceil() as usize).clamp(32, 256);
+    (plan.scaled(factor, planes, range), factor)
+}
+
+/// The range of the fine sweep from the coarse one: the 1st to 99th percentile of the
+/// parameter over the pixels at least as confident as the median, widened by 5 % of that span
+/// and one coarse plane on each side, kept inside the wide range.
+pub fn range_from_coarse(coarse: &SweepPlan, out: &SweepOutput) -> (f64, f64) {
+    let mut conf: Vec<f32> = out.confidence.clone();
+    conf.sort_by(f32::total_cmp);
+    let median = conf.get(conf.len() / 2).copied().unwrap_or(0.0);
+    let mut values: Vec<f64> = out
+        .index
+        .iter()
+        .zip(&out.confidence)
+        .filter(|(_, &c)| c >= median)
+        .map(|(&k, _)| coarse.param(k as f64))
+        .collect();
+    if values.is_empty() {
+        return coarse.range;
+    }
+    values.sort_by(f64::total_cmp);
+    let q = |f: f64| values[((values.len() - 1) as f64 * f).round() as usize];
+    let (lo, hi) = (q(0.01), q(0.99));
+    let pad = 0.05 * (hi - lo) + coarse.step();
+    (
+        (lo - pad).max(coarse.range.0),
+        (hi + pad).min(coarse.range.1),
+    )
+}
+
+/// `img` downscaled by `factor` (box average of the encoded values, rounded); the last
+/// partial rows and columns are dropped, matching [`SweepPlan::scaled`].
+pub fn downscale(img: &RgbaImage, factor: u32) -> RgbaImage {
+    if factor <= 1 {
+        return img.clone();
+    }
+    let (w, h) = (
+        (img.width() / factor).max(1),
+        (img.height() / factor).max(1),
+    );
+    let n = factor * factor;
+    RgbaImage::from_fn(w, h, |x, y| {
+        let mut sum = [0u32; 4];
+        for j in 0..factor {
+            for i in 0..factor {
+                let sx = (x * factor + i).min(img.width() - 1);
+                let sy = (y * factor + j).min(img.height() - 1);
+                let p = img.get_pixel(sx, sy).0;
+                for c in 0..4 {
+                    sum[c] += p[c] as u32;
+                }
+            }
+        }
+        image::Rgba(sum.map(|s| ((s + n / 2) / n) as u8))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn view_sets_parse_and_name_round_trip() {
+        for s in ["all", "cross", "cross:2", "square:1"] {
+            assert_eq!(s.parse::<ViewSet>().unwrap().name(), s);
+        }
+        for bad in ["cross:0", "square", "ring:2", "cross:x"] {
+            let e = bad.parse::<ViewSet>().unwrap_err().to_string();
+            assert!(e.contains(bad), "{e}");
+        }
+        assert!("box".parse::<Aggregation>().is_ok());
+        let e = "median".parse::<Aggregation>().unwrap_err().to_string();
+        assert!(e.contains("median") && e.contains("guided"), "{e}");
+    }
+
+    #[test]
+    fn options_refuse_too_few_or_too_many_planes_and_bad_parameters() {
+        for planes in [0, 1, 2, 5000] {
+            let o = DepthOptions {
+                planes: Some(planes),
+                ..Default::default()
+            };
+            let e = o.validate().unwrap_err().to_string();
+            assert!(e.contains("--planes"), "{e}");
+        }
+        let o = DepthOptions {
+            params: SweepParams {
+                truncation: -1.0,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        assert!(o.validate().unwrap_err().to_string().contains("truncation"));
+    }
+
+    #[test]
+    fn the_nominal_rig_puts_every_swept_classic_disparity_in_front() {
+        let est = DepthEstimate {
+            width: 1,
+            height: 1,
+            reference: 0,
+            reference_st: (0, 0),
+            convention: Convention::Classic {
+                focal_px: 100.0,
+                baseline: 0.5,
+            },
+            range: (-2.0, 1.0),
+            range_origin: RangeOrigin::Given,
+            planes: 3,
+            views: vec![],
+            params: SweepParams::default(),
+            param: vec![-2.0, 1.0],
+            confidence: vec![1.0, 1.0],
+            timings: DepthTimings::default(),
+            device: String::new(),
+        };
+        let rig = est.nominal_rig().unwrap();
+        // Infinity at D = 1 + 3 = 4: f·b/Z₀ = 4.
+        assert!((rig.focal_px * rig.baseline / rig.focus_distance - 4.0).abs() < 1e-12);
+        let z = est.values(DepthKind::Depth).unwrap();
+        assert!(z.iter().all(|z| z.is_finite() && *z > 0.0));
+        // Larger classic disparity is farther (camera s to the right of the reference).
+        assert!(z[1] > z[0]);
+        // Depth 1/((4 − D)/(f b)) exactly.
+        assert!((z[0] as f64 - 50.0 / 6.0).abs() < 1e-4, "{}", z[0]);
+    }
+
+    #[test]
+    fn downscaling_averages_blocks() {
+        let img = RgbaImage::from_fn(4, 2, |x, _| image::Rgba([x as u8 * 10, 0, 255, 255]));
+        let s = downscale(&img, 2);
+        assert_eq!(s.dimensions(), (2, 1));
+        assert_eq!(s.get_pixel(0, 0).0, [5, 0, 255, 255]);
+        assert_eq!(s.get_pixel(1, 0).0, [25, 0, 255, 255]);
+    }
+}

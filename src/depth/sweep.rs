@@ -1,0 +1,571 @@
+//! The plane sweep as pure maths: which view is the reference, which views are matched against
+//! it, the per-view warps, the sweep parameter and its range, and how a swept value becomes a
+//! disparity or a depth. No GPU here; the GPU pass ([`crate::passes::depth`]) and the f64 CPU
+//! reference ([`super::cpu`]) both take a [`SweepPlan`].
+//!
+//! Planes are frontoparallel to the reference camera r. For such a plane at depth Z the refocus
+//! plane term is `m = K_r⁻ᵀ n_r / d_r = (0, 0, 1/Z)` (docs/conventions.md §3: `K_r⁻ᵀ e₃ = e₃` for
+//! every K whose last row is (0, 0, 1)), so view i samples the reference pixel x at
+//! `A_i x + b_i w` with the refocus warp `(A_i, b_i)` of [`ViewWarp::new`] and `w = 1/Z`. The
+//! sweep runs over a parameter p that is affine in w, so planes uniform in p are uniform in
+//! inverse depth, and each view's sample position is `A'_i x + b'_i p`:
+//!
+//! | light field | p | `A'_i`, `b'_i` |
+//! |---|---|---|
+//! | regular parallel rig (HCI folders, built-in scenes, manifests with `rig`) | HCI disparity d, px per grid step: `w = d/(b·f) + 1/Z_focus` | `A_i + (b_i/Z_focus) e₃ᵀ`, `b_i/(b·f)` |
+//! | grid folder (no calibration) | classic shift-and-sum disparity D, px per grid step | `I`, `(s − s_r, t − t_r, 0)` |
+//! | calibrated rig without a regular grid (rotated cameras) | inverse depth w = 1/Z of the reference camera | `A_i`, `b_i` |
+//!
+//! Half-apertures: every matched view belongs to the halves of the aperture it lies in, by its
+//! grid offset from the reference: left (Δs < 0), right (Δs > 0), up (Δt < 0), down (Δt > 0).
+//! An occluder covers a pixel in the views on one side of it only, so the robust cost
+//! ([`super::CostKind::Robust`]) keeps the two best halves.
+
+use glam::{DMat3, DVec2, DVec3};
+
+use super::{Convention, DepthKind, RangeOrigin, ViewSet};
+use crate::error::{Error, Result};
+use crate::geometry::camera::Camera;
+use crate::geometry::homography::ViewWarp;
+use crate::lightfield::{LightField, Source};
+
+/// Fewest planes of a sweep: sub-plane refinement needs a neighbour on each side.
+pub const MIN_PLANES: usize = 3;
+/// Most planes of a sweep.
+pub const MAX_PLANES: usize = 1024;
+/// Motion (px, farthest matched view) within which planes are too close to the winner to be
+/// its rival in the confidence ([`SweepPlan::confidence_gap`]).
+pub const CONF_GAP_MOTION: f64 = 1.0;
+
+/// One view matched against the reference.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SweepView {
+    /// Index in `lf.views`.
+    pub index: usize,
+    pub s: usize,
+    pub t: usize,
+    /// Sample position of reference pixel x at parameter p: `a·x + b·p` (homogeneous).
+    pub a: DMat3,
+    pub b: DVec3,
+    /// Membership of the half-apertures left, right, up, down (see the module docs).
+    pub halves: [bool; 4],
+}
+
+impl SweepView {
+    /// True when the warp moves every pixel by the same offset: `a = [I | t]` and `b.z = 0`
+    /// (parallel cameras with equal intrinsics, classic shift-and-sum).
+    /// (Within 1e-9: the warps are products of f64 matrices and inverses.)
+    pub fn is_translation(&self) -> bool {
+        let a = self.a;
+        let near = |u: DVec3, v: DVec3| (u - v).abs().max_element() <= 1e-9;
+        near(a.x_axis, DVec3::X)
+            && near(a.y_axis, DVec3::Y)
+            && (a.z_axis.z - 1.0).abs() <= 1e-9
+            && self.b.z.abs() <= 1e-9 * self.b.length().max(1e-300)
+    }
+
+    /// The (homogeneous) sample position of reference pixel position `x` at parameter `p`.
+    pub fn sample(&self, x: DVec2, p: f64) -> DVec3 {
+        self.a * x.extend(1.0) + self.b * p
+    }
+}
+
+/// A resolved sweep: reference, matched views, parameter range and plane count.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepPlan {
+    /// Index of the reference view in `lf.views`.
+    pub reference: usize,
+    /// Its grid position (s, t).
+    pub reference_st: (usize, usize),
+    pub reference_camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    pub views: Vec<SweepView>,
+    /// What p means.
+    pub convention: Convention,
+    /// p of the first and the last plane (first < last).
+    pub range: (f64, f64),
+    pub range_origin: RangeOrigin,
+    pub planes: usize,
+}
+
+impl SweepPlan {
+    /// p of plane k (k may be fractional).
+    pub fn param(&self, k: f64) -> f64 {
+        self.range.0 + k * self.step()
+    }
+
+    /// Spacing of the planes in p.
+    pub fn step(&self) -> f64 {
+        (self.range.1 - self.range.0) / (self.planes - 1) as f64
+    }
+
+    /// The same sweep on views downscaled by `factor` (pixel-index coordinates: fine position
+    /// x ↦ (x + ½)/factor − ½): the warps are conjugated by that scaling, p keeps its meaning.
+    pub fn scaled(&self, factor: u32, planes: usize, range: (f64, f64)) -> SweepPlan {
+        let f = factor as f64;
+        let c = 0.5 / f - 0.5;
+        let s = DMat3::from_cols(
+            DVec3::new(1.0 / f, 0.0, 0.0),
+            DVec3::new(0.0, 1.0 / f, 0.0),
+            DVec3::new(c, c, 1.0),
+        );
+        let s_inv = s.inverse();
+        let mut cam = self.reference_camera;
+        cam.k = s * cam.k;
+        SweepPlan {
+            reference_camera: cam,
+            width: (self.width / factor).max(1),
+            height: (self.height / factor).max(1),
+            views: self
+                .views
+                .iter()
+                .map(|v| SweepView {
+                    a: s * v.a * s_inv,
+                    b: s * v.b,
+                    ..*v
+                })
+                .collect(),
+            planes,
+            range,
+            ..self.clone()
+        }
+    }
+
+    /// Planes closer than this to the winner do not count as its rival c₂ in the confidence:
+    /// those within [`CONF_GAP_MOTION`] px of motion in the farthest view (the width of a cost
+    /// minimum), at least 2, at most a quarter of the planes.
+    pub fn confidence_gap(&self) -> usize {
+        let per_plane = self.centre_motion(self.range.0, self.range.1) / (self.planes - 1) as f64;
+        let gap = if per_plane > 0.0 && per_plane.is_finite() {
+            (CONF_GAP_MOTION / per_plane).round() as usize
+        } else {
+            2
+        };
+        gap.clamp(2, (self.planes / 4).max(2))
+    }
+
+    /// The largest grid offset of a matched view from the reference, in grid steps.
+    pub fn max_offset(&self) -> f64 {
+        let (sr, tr) = self.reference_st;
+        self.views
+            .iter()
+            .map(|v| {
+                let ds = v.s as f64 - sr as f64;
+                let dt = v.t as f64 - tr as f64;
+                ds.abs().max(dt.abs())
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// Largest motion (pixels) of the reference image centre over all matched views between
+    /// parameters `p0` and `p1`.
+    pub fn centre_motion(&self, p0: f64, p1: f64) -> f64 {
+        let x = DVec2::new(
+            (self.width as f64 - 1.0) / 2.0,
+            (self.height as f64 - 1.0) / 2.0,
+        );
+        let at = |v: &SweepView, p: f64| {
+            let y = v.sample(x, p);
+            DVec2::new(y.x / y.z, y.y / y.z)
+        };
+        self.views
+            .iter()
+            .map(|v| (at(v, p1) - at(v, p0)).length())
+            .filter(|m| m.is_finite())
+            .fold(0.0, f64::max)
+    }
+}
+
+/// The reference view: `requested` (s, t) or the grid's middle view (cols/2, rows/2, the
+/// view that carries the HCI and generated depth maps). An error outside the grid.
+pub fn reference_view(lf: &LightField, requested: Option<(usize, usize)>) -> Result<usize> {
+    let (s, t) = requested.unwrap_or((lf.grid.cols / 2, lf.grid.rows / 2));
+    if s >= lf.grid.cols || t >= lf.grid.rows {
+        return Err(Error::Invalid(format!(
+            "reference view ({s}, {t}) lies outside the {}×{} grid",
+            lf.grid.cols, lf.grid.rows
+        )));
+    }
+    Ok(lf.grid.index(s, t))
+}
+
+/// What p means on `lf` (see the module docs).
+pub fn convention_of(lf: &LightField) -> Convention {
+    match (&lf.rig, &lf.source) {
+        (Some(rig), _) => Convention::Hci(*rig),
+        (None, Source::GridFolder { .. }) => {
+            // The folder's nominal cameras: focal length and baseline from the loader.
+            let c0 = &lf.views[0].camera;
+            let next = if lf.grid.cols > 1 { 1 } else { lf.grid.cols };
+            let baseline = lf
+                .views
+                .get(next)
+                .map_or(1.0, |v| (v.camera.centre() - c0.centre()).length());
+            Convention::Classic {
+                focal_px: c0.focal_px(),
+                baseline,
+            }
+        }
+        (None, _) => Convention::InverseDepth,
+    }
+}
+
+/// The views of `set` around `reference` (the reference itself excluded), in grid order,
+/// leaving out `excluded` ones.
+pub fn select_views(
+    lf: &LightField,
+    reference: usize,
+    set: ViewSet,
+    excluded: &[bool],
+) -> Vec<usize> {
+    let r = &lf.views[reference];
+    lf.views
+        .iter()
+        .enumerate()
+        .filter(|(i, v)| {
+            let ds = v.s.abs_diff(r.s);
+            let dt = v.t.abs_diff(r.t);
+            *i != reference
+                && !excluded.get(*i).copied().unwrap_or(false)
+                && match set {
+                    ViewSet::All => true,
+                    ViewSet::Cross(n) => (ds == 0 || dt == 0) && ds.max(dt) <= n,
+                    ViewSet::Square(n) => ds.max(dt) <= n,
+                }
+        })
+        .map(|(i, _)| i)
+        .collect()
+}
+
+/// The sweep warps of view `index` against the reference for `convention`.
+pub fn sweep_view(
+    lf: &LightField,
+    reference: usize,
+    index: usize,
+    convention: Convention,
+) -> SweepView {
+    let (v, r) = (&lf.views[index], &lf.views[reference]);
+    let ds = v.s as f64 - r.s as f64;
+    let dt = v.t as f64 - r.t as f64;
+    let (a, b) = match convention {
+        Convention::Classic { .. } => (DMat3::IDENTITY, DVec3::new(ds, dt, 0.0)),
+        Convention::Hci(rig) => {
+            let w = ViewWarp::new(&v.camera, &r.camera);
+            let mut a = w.a;
+            a.z_axis += w.b / rig.focus_distance;
+            (a, w.b / (rig.baseline * rig.focal_px))
+        }
+        Convention::InverseDepth => {
+            let w = ViewWarp::new(&v.camera, &r.camera);
+            (w.a, w.b)
+        }
+    };
+    SweepView {
+        index,
+        s: v.s,
+        t: v.t,
+        a,
+        b,
+        halves: [ds < 0.0, ds > 0.0, dt < 0.0, dt > 0.0],
+    }
+}
+
+/// A range given in `kind` units (disparity px per grid step, or depth in world units) as
+/// a range of p, first < last. Errors name what is wrong with it.
+pub fn param_range(
+    convention: Convention,
+    kind: DepthKind,
+    given: (f64, f64),
+) -> Result<(f64, f64)> {
+    let (lo, hi) = given;
+    if !(lo.is_finite() && hi.is_finite()) || lo >= hi {
+        return Err(Error::Invalid(format!(
+            "--range {lo},{hi}: give two finite numbers MIN,MAX with MIN < MAX"
+        )));
+    }
+    match (kind, convention) {
+        (DepthKind::Disparity, Convention::InverseDepth) => Err(Error::Invalid(
+            "this light field is a calibrated rig without a regular grid, so it has no disparity \
+             convention: give --kind depth (and a --range in depth units)"
+                .into(),
+        )),
+        (DepthKind::Disparity, Convention::Hci(rig)) => {
+            let inf = rig.disparity_at_infinity();
+            if hi <= inf {
+                return Err(Error::Invalid(format!(
+                    "--range {lo},{hi} lies entirely at or beyond infinity: on this rig a \
+                     disparity of {inf:.4} px is infinitely far, so every disparity must be larger"
+                )));
+            }
+            if lo <= inf {
+                return Err(Error::Invalid(format!(
+                    "--range {lo},{hi} reaches beyond infinity: on this rig a disparity of \
+                     {inf:.4} px is infinitely far; give a MIN above it"
+                )));
+            }
+            Ok((lo, hi))
+        }
+        (DepthKind::Disparity, Convention::Classic { .. }) => Ok((lo, hi)),
+        (DepthKind::Depth, _) if lo <= 0.0 => Err(Error::Invalid(format!(
+            "--range {lo},{hi}: depths must be positive (MIN is the nearest, MAX the farthest \
+             distance along the optical axis)"
+        ))),
+        (DepthKind::Depth, Convention::Hci(rig)) => {
+            Ok((rig.disparity_of_depth(hi), rig.disparity_of_depth(lo)))
+        }
+        (DepthKind::Depth, Convention::InverseDepth) => Ok((1.0 / hi, 1.0 / lo)),
+        (DepthKind::Depth, Convention::Classic { .. }) => Err(Error::Invalid(
+            "a grid folder has no calibration, so a depth range means nothing to it: give \
+             --range in classic disparity (px per grid step) with --kind disparity"
+                .into(),
+        )),
+    }
+}
+
+/// The wide range searched when no range is known: the reference centre moves by up to an
+/// eighth of the smaller image side in the farthest matched view, nearer than infinity.
+pub fn wide_range(plan: &SweepPlan) -> (f64, f64) {
+    let motion = plan.width.min(plan.height) as f64 / 8.0;
+    match plan.convention {
+        Convention::Hci(rig) => {
+            let d = motion / plan.max_offset().max(1.0);
+            let inf = rig.disparity_at_infinity();
+            // Just short of infinity: its disparity has no depth.
+            let far = (-d).max(inf + 1e-3 * (d - inf).abs());
+            (far, d)
+        }
+        Convention::Classic { .. } => {
+            let d = motion / plan.max_offset().max(1.0);
+            (-d, d)
+        }
+        Convention::InverseDepth => {
+            // Motion grows monotonically with w for a view in front: bisect for the target.
+            let (mut lo, mut hi) = (0.0, 1e-9);
+            while plan.centre_motion(0.0, hi) < motion && hi < 1e12 {
+                lo = hi;
+                hi *= 2.0;
+            }
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if plan.centre_motion(0.0, mid) < motion {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            // w = 0 is infinity: start a hair in front of it.
+            (1e-3 * hi, hi)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lightfield::{GridSize, ParallelRig, View};
+
+    const RIG: ParallelRig = ParallelRig {
+        focal_px: 50.0,
+        baseline: 0.1,
+        focus_distance: 2.0,
+    };
+
+    fn lf(rig: bool) -> LightField {
+        let grid = GridSize { cols: 5, rows: 3 };
+        let views = RIG
+            .cameras(grid, 32, 24)
+            .into_iter()
+            .enumerate()
+            .map(|(i, camera)| View {
+                s: i % 5,
+                t: i / 5,
+                camera,
+                image: image::RgbaImage::new(32, 24),
+                source: format!("view {i}"),
+            })
+            .collect();
+        LightField {
+            name: "t".into(),
+            grid,
+            width: 32,
+            height: 24,
+            views,
+            depth: Vec::new(),
+            rig: rig.then_some(RIG),
+            disparity_range: None,
+            source: Source::Generated { scene: "t".into() },
+        }
+    }
+
+    #[test]
+    fn hci_sweep_moves_a_pixel_by_minus_d_per_grid_step() {
+        let lf = lf(true);
+        let r = reference_view(&lf, None).unwrap();
+        assert_eq!(lf.views[r].s, 2);
+        let conv = convention_of(&lf);
+        let x = DVec2::new(7.0, 11.0);
+        for i in select_views(&lf, r, ViewSet::All, &[]) {
+            let v = sweep_view(&lf, r, i, conv);
+            for d in [-1.5, 0.0, 0.7] {
+                let y = v.sample(x, d);
+                let expect = x - d * DVec2::new(v.s as f64 - 2.0, v.t as f64 - 1.0);
+                assert!((y.truncate() / y.z - expect).length() < 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn the_hci_sweep_is_the_refocus_homography_of_the_frontoparallel_plane() {
+        // Through the same homography as the refocus: the plane at the depth of disparity d.
+        let lf = lf(true);
+        let r = reference_view(&lf, None).unwrap();
+        let conv = convention_of(&lf);
+        let d = 0.4;
+        let z = RIG.depth_of_disparity(d).unwrap();
+        let m = DVec3::new(0.0, 0.0, 1.0 / z);
+        let x = DVec2::new(3.0, 20.0);
+        for i in select_views(&lf, r, ViewSet::All, &[]) {
+            let w = ViewWarp::new(&lf.views[i].camera, &lf.views[r].camera);
+            let h = w.homography(m) * x.extend(1.0);
+            let y = sweep_view(&lf, r, i, conv).sample(x, d);
+            assert!((h.truncate() / h.z - y.truncate() / y.z).length() < 1e-9);
+        }
+    }
+
+    #[test]
+    fn classic_sweep_is_shift_and_sum() {
+        let mut lf = lf(false);
+        lf.source = Source::GridFolder {
+            path: "grid".into(),
+        };
+        let r = reference_view(&lf, None).unwrap();
+        let conv = convention_of(&lf);
+        assert!(matches!(conv, Convention::Classic { focal_px, baseline }
+            if (focal_px - 50.0).abs() < 1e-12 && (baseline - 0.1).abs() < 1e-12));
+        let v = sweep_view(&lf, r, lf.grid.index(4, 0), conv);
+        let y = v.sample(DVec2::new(1.0, 2.0), 0.5);
+        assert_eq!(y, DVec3::new(2.0, 1.5, 1.0));
+        assert_eq!(v.halves, [false, true, true, false]);
+    }
+
+    #[test]
+    fn view_sets_select_around_the_reference() {
+        let lf = lf(true);
+        let r = lf.grid.index(2, 1);
+        let st = |set| {
+            select_views(&lf, r, set, &[])
+                .iter()
+                .map(|&i| (lf.views[i].s, lf.views[i].t))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(st(ViewSet::All).len(), 14);
+        assert_eq!(
+            st(ViewSet::Cross(usize::MAX)),
+            vec![(2, 0), (0, 1), (1, 1), (3, 1), (4, 1), (2, 2)]
+        );
+        assert_eq!(st(ViewSet::Cross(1)), vec![(2, 0), (1, 1), (3, 1), (2, 2)]);
+        assert_eq!(st(ViewSet::Square(1)).len(), 8);
+        let mut excluded = vec![false; 15];
+        excluded[lf.grid.index(2, 0)] = true;
+        assert_eq!(select_views(&lf, r, ViewSet::Cross(1), &excluded).len(), 3);
+        assert!(reference_view(&lf, Some((5, 0))).is_err());
+    }
+
+    #[test]
+    fn ranges_convert_and_bad_ones_name_the_problem() {
+        let hci = Convention::Hci(RIG);
+        assert_eq!(
+            param_range(hci, DepthKind::Disparity, (-1.0, 1.0)).unwrap(),
+            (-1.0, 1.0)
+        );
+        // Depth 1 … 4 m: nearer is the larger disparity.
+        let (lo, hi) = param_range(hci, DepthKind::Depth, (1.0, 4.0)).unwrap();
+        assert!((lo - RIG.disparity_of_depth(4.0)).abs() < 1e-12);
+        assert!((hi - RIG.disparity_of_depth(1.0)).abs() < 1e-12);
+        let inv = param_range(Convention::InverseDepth, DepthKind::Depth, (2.0, 8.0)).unwrap();
+        assert_eq!(inv, (0.125, 0.5));
+        for (conv, kind, r, needle) in [
+            (hci, DepthKind::Disparity, (1.0, 1.0), "MIN < MAX"),
+            (hci, DepthKind::Disparity, (2.0, -1.0), "MIN < MAX"),
+            (hci, DepthKind::Disparity, (f64::NAN, 1.0), "finite"),
+            (hci, DepthKind::Disparity, (-9.0, -5.0), "entirely"),
+            (hci, DepthKind::Disparity, (-9.0, 1.0), "beyond infinity"),
+            (hci, DepthKind::Depth, (0.0, 1.0), "positive"),
+            (
+                Convention::InverseDepth,
+                DepthKind::Disparity,
+                (0.0, 1.0),
+                "--kind depth",
+            ),
+        ] {
+            let e = param_range(conv, kind, r).unwrap_err().to_string();
+            assert!(e.contains(needle), "{r:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn scaling_conjugates_the_warps() {
+        let lf = lf(true);
+        let r = reference_view(&lf, None).unwrap();
+        let conv = convention_of(&lf);
+        let views = select_views(&lf, r, ViewSet::All, &[])
+            .into_iter()
+            .map(|i| sweep_view(&lf, r, i, conv))
+            .collect();
+        let plan = SweepPlan {
+            reference: r,
+            reference_st: (2, 1),
+            reference_camera: lf.views[r].camera,
+            width: 32,
+            height: 24,
+            views,
+            convention: conv,
+            range: (-1.0, 1.0),
+            range_origin: RangeOrigin::Given,
+            planes: 9,
+        };
+        let half = plan.scaled(2, 5, (-1.0, 1.0));
+        assert_eq!((half.width, half.height), (16, 12));
+        // Fine pixel x ↦ coarse (x + ½)/2 − ½, and so do the sample positions.
+        let to_coarse = |p: DVec2| (p + 0.5) / 2.0 - 0.5;
+        let x = DVec2::new(9.0, 5.0);
+        for (f, c) in plan.views.iter().zip(&half.views) {
+            let yf = f.sample(x, 0.6);
+            let yc = c.sample(to_coarse(x), 0.6);
+            let expect = to_coarse(yf.truncate() / yf.z);
+            assert!((yc.truncate() / yc.z - expect).length() < 1e-9);
+        }
+        // Half-size images move half as far.
+        let m = plan.centre_motion(-1.0, 1.0);
+        assert!((half.centre_motion(-1.0, 1.0) - m / 2.0).abs() < 1e-9);
+        assert!((m - 2.0 * 2.0_f64.hypot(1.0)).abs() < 1e-9, "{m}");
+    }
+
+    #[test]
+    fn the_wide_range_moves_the_centre_an_eighth_image() {
+        let lf = lf(false);
+        let r = reference_view(&lf, None).unwrap();
+        let conv = convention_of(&lf);
+        assert_eq!(conv, Convention::InverseDepth);
+        let views = select_views(&lf, r, ViewSet::All, &[])
+            .into_iter()
+            .map(|i| sweep_view(&lf, r, i, conv))
+            .collect();
+        let plan = SweepPlan {
+            reference: r,
+            reference_st: (2, 1),
+            reference_camera: lf.views[r].camera,
+            width: 32,
+            height: 24,
+            views,
+            convention: conv,
+            range: (0.1, 1.0),
+            range_origin: RangeOrigin::Given,
+            planes: 9,
+        };
+        let (lo, hi) = wide_range(&plan);
+        assert!(lo > 0.0 && lo < hi);
+        assert!((plan.centre_motion(0.0, hi) - 3.0).abs() < 1e-6);
+    }
+}
