@@ -438,6 +438,12 @@ mod tests {
         let mut lf = lf(false);
         lf.source = Source::GridFolder {
             path: "grid".into(),
+            naming: crate::lightfield::grid_naming::GridNaming {
+                pattern: "{row}_{col}.png".into(),
+                fields: Vec::new(),
+                files: lf.views.len(),
+                subfolder: None,
+            },
         };
         let r = reference_view(&lf, None).unwrap();
         let conv = convention_of(&lf);
