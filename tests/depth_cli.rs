@@ -202,14 +202,15 @@ fn bad_depth_input_is_a_clear_error() {
     std::fs::write(&file, "x").unwrap();
     let under = file.join("d.pfm");
     fails_with(&["depth", lf, "-o", under.to_str().unwrap()], &["file"]);
-    // A light field of one view has nothing to match.
+    // A folder of one view has nothing to match: the grid loader already refuses it, naming
+    // why (a single name gives no row and column that vary).
     let one = tempfile::tempdir().unwrap();
     image::RgbaImage::new(8, 8)
         .save(one.path().join("view_00_00.png"))
         .unwrap();
     fails_with(
         &["depth", one.path().to_str().unwrap(), "-o", o],
-        &["at least two views"],
+        &["no views found", "no two share a naming rule"],
     );
     // A grid folder has no calibration: no depth range.
     let grid = tempfile::tempdir().unwrap();

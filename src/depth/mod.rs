@@ -667,6 +667,24 @@ mod tests {
     use super::*;
 
     #[test]
+    fn a_light_field_of_one_view_is_refused() {
+        let mut lf = crate::synth::builtin("planes").unwrap().light_field(1);
+        let centre = lf.views[lf.grid.index(2, 2)].clone();
+        lf.views = vec![crate::lightfield::View {
+            s: 0,
+            t: 0,
+            ..centre
+        }];
+        lf.grid = crate::lightfield::GridSize { cols: 1, rows: 1 };
+        lf.depth.clear();
+        let e = plan(&lf, &DepthOptions::default()).unwrap_err().to_string();
+        assert!(
+            e.contains("at least two views") && e.contains("has 1"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn view_sets_parse_and_name_round_trip() {
         for s in ["all", "cross", "cross:2", "square:1"] {
             assert_eq!(s.parse::<ViewSet>().unwrap().name(), s);
