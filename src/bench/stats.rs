@@ -15,21 +15,10 @@ pub struct Summary {
 
 /// `None` for an empty set. The median of an even count is the mean of the middle two.
 pub fn summarize(values: &[f64]) -> Option<Summary> {
-    if values.is_empty() {
-        return None;
-    }
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    let median = if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    };
     Some(Summary {
-        median,
-        min: v[0],
-        max: v[n - 1],
+        median: crate::gpu::timing::median(values)?,
+        min: values.iter().copied().fold(f64::INFINITY, f64::min),
+        max: values.iter().copied().fold(f64::NEG_INFINITY, f64::max),
     })
 }
 

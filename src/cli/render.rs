@@ -14,6 +14,7 @@ use super::{
 };
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::gpu::timing::median;
 use crate::gpu::GpuContext;
 use crate::headless::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::io::OutputKind;
@@ -179,19 +180,6 @@ pub fn render_settings(args: &RenderArgs, kind: OutputKind) -> Result<RenderSett
     })
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
-}
-
 pub fn run(args: &RenderArgs) -> Result<()> {
     if let Some(spec) = &args.frames {
         return super::frames::run(args, spec);
@@ -259,7 +247,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "{errors} validation errors while rendering (see the log above)"
         )));
     }
-    let gpu_median = median(gpu_times.clone());
+    let gpu_median = median(&gpu_times);
     let (out_w, out_h) = settings.size.unwrap_or((plan.width, plan.height));
     let pixels = out_w as f64 * out_h as f64;
     if args.json {

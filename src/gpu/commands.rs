@@ -290,18 +290,37 @@ pub mod stage {
     );
 }
 
-/// Makes transfer writes (readback copies) visible to the host after the submission's fence.
-pub fn host_read_barrier(d: &ash::Device, cmd: vk::CommandBuffer) {
-    let to_host = [vk::MemoryBarrier2::default()
-        .src_stage_mask(vk::PipelineStageFlags2::COPY)
-        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-        .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+/// Records one global memory barrier: everything `src` (stages, accesses) did before it is
+/// available to `dst` after it.
+pub fn memory_barrier(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags2, vk::AccessFlags2),
+    dst: (vk::PipelineStageFlags2, vk::AccessFlags2),
+) {
+    let barrier = [vk::MemoryBarrier2::default()
+        .src_stage_mask(src.0)
+        .src_access_mask(src.1)
+        .dst_stage_mask(dst.0)
+        .dst_access_mask(dst.1)];
     // SAFETY: recording outside a rendering instance.
     unsafe {
         d.cmd_pipeline_barrier2(
             cmd,
-            &vk::DependencyInfo::default().memory_barriers(&to_host),
+            &vk::DependencyInfo::default().memory_barriers(&barrier),
         )
     };
+}
+
+/// Makes transfer writes (readback copies) visible to the host after the submission's fence.
+pub fn host_read_barrier(d: &ash::Device, cmd: vk::CommandBuffer) {
+    memory_barrier(
+        d,
+        cmd,
+        (
+            vk::PipelineStageFlags2::COPY,
+            vk::AccessFlags2::TRANSFER_WRITE,
+        ),
+        (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+    );
 }

@@ -88,3 +88,18 @@ impl Timestamps {
         unsafe { ctx.device.destroy_query_pool(self.pool, None) };
     }
 }
+
+/// The median of frame times; `None` for none. An even count gives the mean of the middle two.
+pub fn median(values: &[f64]) -> Option<f64> {
+    if values.is_empty() {
+        return None;
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}

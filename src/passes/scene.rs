@@ -40,12 +40,16 @@ use crate::gpu::commands::{
 use crate::gpu::pipeline::{graphics_pipeline, Blend, DepthTest, PipelineDesc};
 use crate::gpu::resources::{Buffer, Image, ImageDesc};
 use crate::gpu::{shaders, GpuContext};
+use crate::passes::refocus::{as_bytes, Pod};
 use crate::scene::ColourVertex;
 
 /// Colour format of scene targets (linear blending, encoded storage).
 pub const SCENE_FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 const VERTEX_BYTES: u64 = std::mem::size_of::<ColourVertex>() as u64;
+
+// SAFETY: repr(C), seven f32s (28 bytes, tested in `scene`): no padding, no pointers.
+unsafe impl Pod for ColourVertex {}
 const PUSH_BYTES: u32 = 68;
 
 /// The geometry that changes with the focus, the aperture and the picks.
@@ -327,10 +331,10 @@ impl ScenePass {
         if points.is_empty() {
             return Ok(());
         }
-        let bytes = vertex_bytes(points);
+        let bytes = as_bytes(points);
         let buffer = Buffer::with_bytes(
             ctx,
-            &bytes,
+            bytes,
             vk::BufferUsageFlags::VERTEX_BUFFER,
             "scene cloud",
         )?;
@@ -540,8 +544,8 @@ impl ScenePass {
         all.extend_from_slice(&overlay.triangles);
         all.extend_from_slice(&overlay.points);
         all.extend_from_slice(&overlay.markers);
-        let bytes = vertex_bytes(&all);
-        buffer.bytes_mut()[..bytes.len()].copy_from_slice(&bytes);
+        let bytes = as_bytes(&all);
+        buffer.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
         Ok(buffer.buffer)
     }
 
@@ -604,14 +608,4 @@ fn begin_loaded(
         d.cmd_set_viewport(cmd, 0, &viewport);
         d.cmd_set_scissor(cmd, 0, &[area]);
     }
-}
-
-fn vertex_bytes(vertices: &[ColourVertex]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(vertices.len() * VERTEX_BYTES as usize);
-    for v in vertices {
-        for f in v.position.iter().chain(v.colour.iter()) {
-            out.extend_from_slice(&f.to_ne_bytes());
-        }
-    }
-    out
 }

@@ -26,6 +26,7 @@ use crate::geometry::aperture::Aperture;
 use crate::geometry::depth::ViewDepth;
 use crate::geometry::picking::KeyboardPlane;
 use crate::gpu::swapchain::PresentMode;
+use crate::gpu::timing::median;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::video::{FrameLoader, FrameSequence};
 use crate::lightfield::{LightField, LoadLimits};
@@ -108,19 +109,6 @@ pub struct ViewerReport {
     pub window: (u32, u32),
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
-}
-
 /// The focus a viewer starts with when none is given.
 fn default_focus(lf: &LightField, depth: Option<&ViewDepth>) -> FocusRequest {
     match (&lf.rig, depth) {
@@ -155,12 +143,6 @@ struct Press {
     last: DVec2,
     shift: bool,
     moved: bool,
-}
-
-/// A script-driven or user event for the loop.
-#[derive(Debug, Clone)]
-enum Pending {
-    Key(Key, bool),
 }
 
 struct Session<'a> {
@@ -742,7 +724,8 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
     });
 
     let mut script: VecDeque<Line> = opts.script.iter().cloned().collect();
-    let mut pending: VecDeque<Pending> = VecDeque::new();
+    // Key presses (key, Shift) waiting for their frame: from the keyboard or a script.
+    let mut pending: VecDeque<(Key, bool)> = VecDeque::new();
     let mut wait_until: Option<Instant> = None;
     let mut wait_converged = false;
     let mut screenshot: Option<PathBuf> = None;
@@ -786,7 +769,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
                 Command::WaitConverged => wait_converged = true,
                 Command::Key { key, shift, count } => {
                     for _ in 0..count {
-                        pending.push_back(Pending::Key(key, shift));
+                        pending.push_back((key, shift));
                     }
                 }
                 Command::Click {
@@ -844,7 +827,6 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
             break;
         }
 
-        let interactive = s.last_input.elapsed() < INTERACTION || !pending.is_empty();
         let busy = !s.refiner.converged()
             || s.state.version != s.last_version
             || s.scene_dirty
@@ -889,7 +871,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
                 WindowEvent::Refresh => window_dirty = true,
                 WindowEvent::Key(key, _, KeyAction::Press | KeyAction::Repeat, mods) => {
                     shift = mods.contains(Modifiers::Shift);
-                    pending.push_back(Pending::Key(key, shift));
+                    pending.push_back((key, shift));
                 }
                 WindowEvent::Key(_, _, KeyAction::Release, mods) => {
                     shift = mods.contains(Modifiers::Shift);
@@ -969,7 +951,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
             quit = true;
         }
         // One key press per frame, so a held key (or a script's COUNT) is a run of frames.
-        if let Some(Pending::Key(key, sh)) = pending.pop_front() {
+        if let Some((key, sh)) = pending.pop_front() {
             if matches!(key, Key::Comma | Key::Period | Key::Space) {
                 match video.as_mut() {
                     Some(v) => {
@@ -1081,7 +1063,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         }
 
         // Restart refinement after a change; full size once the input stops.
-        let interactive = interactive || s.last_input.elapsed() < INTERACTION;
+        let interactive = s.last_input.elapsed() < INTERACTION || !pending.is_empty();
         if s.state.version != s.last_version {
             s.ordered = refinement_plan(&s.state.plan);
             s.last_version = s.state.version;
@@ -1244,11 +1226,11 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
     drop(gpu);
     let frames = FrameStats {
         count: s.frames,
-        interactive_gpu_ms_median: median(s.interactive_ms.clone()),
+        interactive_gpu_ms_median: median(&s.interactive_ms),
         interactive_fps: (s.interactive_frames > 0)
             .then(|| s.interactive_frames as f64 / s.interactive_time.as_secs_f64().max(1e-9)),
-        full_quality_gpu_ms_median: median(s.full_gpu_ms.clone()),
-        full_quality_wall_ms_median: median(s.full_wall_ms.clone()),
+        full_quality_gpu_ms_median: median(&s.full_gpu_ms),
+        full_quality_wall_ms_median: median(&s.full_wall_ms),
         fps: (s.frames > 0).then(|| s.frames as f64 / s.render_time.as_secs_f64().max(1e-9)),
     };
     Ok(ViewerReport {

@@ -23,8 +23,8 @@ use super::refine::Batch;
 use super::text::Canvas;
 use crate::error::{Error, Result};
 use crate::gpu::commands::{
-    begin_rendering, color_copy, host_read_barrier, image_barrier, stage, ImageTransition,
-    Submission,
+    begin_rendering, color_copy, host_read_barrier, image_barrier, memory_barrier, stage,
+    ImageTransition, Submission,
 };
 use crate::gpu::frames::Frames;
 use crate::gpu::resources::{Buffer, Image, ImageDesc};
@@ -447,15 +447,8 @@ impl ViewerGpu {
         };
         let cmd = frame.cmd;
         let all = vk::PipelineStageFlags2::ALL_COMMANDS;
-        let global = [vk::MemoryBarrier2::default()
-            .src_stage_mask(all)
-            .src_access_mask(vk::AccessFlags2::MEMORY_WRITE | vk::AccessFlags2::MEMORY_READ)
-            .dst_stage_mask(all)
-            .dst_access_mask(vk::AccessFlags2::MEMORY_WRITE | vk::AccessFlags2::MEMORY_READ)];
-        // SAFETY: recording outside a rendering instance.
-        unsafe {
-            d.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&global))
-        };
+        let any = vk::AccessFlags2::MEMORY_WRITE | vk::AccessFlags2::MEMORY_READ;
+        memory_barrier(d, cmd, (all, any), (all, any));
         if let Some(ts) = ts {
             ts.reset(d, cmd);
             ts.write(d, cmd, all, 0);

@@ -28,7 +28,7 @@ use crate::depth::guide::{guide_pixels, GuidePixel};
 use crate::depth::sweep::SweepPlan;
 use crate::depth::{Aggregation, CostKind, Refine, SweepOutput, SweepParams};
 use crate::error::{Error, Result};
-use crate::gpu::commands::Submission;
+use crate::gpu::commands::{memory_barrier, Submission};
 use crate::gpu::pipeline::compute_pipeline;
 use crate::gpu::resources::Buffer;
 use crate::gpu::shaders;
@@ -310,18 +310,15 @@ impl SweepPass {
         dispatch(Stage::WtaUpdate, (n.div_ceil(LINE_GROUP), 1));
         if last {
             dispatch(Stage::WtaFinish, (n.div_ceil(LINE_GROUP), 1));
-            let to_host = [vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
-                .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                .dst_access_mask(vk::AccessFlags2::HOST_READ)];
-            // SAFETY: recording outside a rendering instance.
-            unsafe {
-                d.cmd_pipeline_barrier2(
-                    cmd,
-                    &vk::DependencyInfo::default().memory_barriers(&to_host),
-                )
-            };
+            memory_barrier(
+                d,
+                cmd,
+                (
+                    vk::PipelineStageFlags2::COMPUTE_SHADER,
+                    vk::AccessFlags2::SHADER_STORAGE_WRITE,
+                ),
+                (vk::PipelineStageFlags2::HOST, vk::AccessFlags2::HOST_READ),
+            );
         }
         if let Some(ts) = &self.timestamps {
             ts.write(d, cmd, all, 1);
