@@ -2,6 +2,9 @@
 //! them with `include_bytes!`. Shader stage comes from the file extension.
 
 use std::path::{Path, PathBuf};
+// Linked for its libraries only (glslang and SPIRV-Tools beside a system shaderc, see
+// tools/shaderc-link); a crate that is never named is not linked.
+use tiltfield_shaderc_link as _;
 
 fn main() {
     let shader_dir = Path::new("shaders");

@@ -110,7 +110,21 @@ vec4 accumulate(vec2 frag) {
     vec3 sum = vec3(0.0);
     float wsum = 0.0;
     for (uint k = pc.first_view; k < pc.first_view + pc.view_count; ++k) {
-        ViewWarp w = UNIFORM_WARPS != 0u ? warps_u[k] : warps[k];
+        // Member by member, not `UNIFORM_WARPS != 0u ? warps_u[k] : warps[k]`: the two blocks'
+        // structs have different layouts (std140, std430), and glslang 12 with the SPIR-V
+        // optimizer (Debian 12's shaderc) rejects a conditional choosing between them.
+        ViewWarp w;
+        if (UNIFORM_WARPS != 0u) {
+            w.a0 = warps_u[k].a0;
+            w.a1 = warps_u[k].a1;
+            w.a2 = warps_u[k].a2;
+            w.b_weight = warps_u[k].b_weight;
+        } else {
+            w.a0 = warps[k].a0;
+            w.a1 = warps[k].a1;
+            w.a2 = warps[k].a2;
+            w.b_weight = warps[k].b_weight;
+        }
         vec3 y = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz) * x + w.b_weight.xyz * s;
         if (y.z <= 0.0) {
             continue; // behind camera i

@@ -6,9 +6,9 @@ cd "$(dirname "$0")/.."
 tools/setup.sh
 . tools/env.sh
 # Build in a step of its own with cargo's progress visible: on a fresh machine the first build
-# compiles shaderc from source and would otherwise look like a hang.
-echo "demo: building tiltfield in $CARGO_TARGET_DIR (the first build compiles shaderc from" \
-  "source: about 15 minutes on 2 cores; later builds take seconds)" >&2
+# compiles every dependency and would otherwise look like a hang.
+echo "demo: building tiltfield in $CARGO_TARGET_DIR (the first build takes about 3 minutes on" \
+  "2 cores; later builds take seconds)" >&2
 cargo build --bin tiltfield
 echo "demo: rendering the built-in demo scene" >&2
 "$CARGO_TARGET_DIR/debug/tiltfield" demo -o "${1:-tiltfield-demo}"

@@ -1,14 +1,18 @@
 #!/usr/bin/env bash
 # Installs what tiltfield needs on Debian 12 and is missing; safe to run any number of times.
 #   Vulkan: loader, lavapipe (software driver), validation layers, vulkaninfo
-#   Build:  cmake, python3, a C++ compiler (shaderc is built from source: Debian's libshaderc
-#           is under-linked), pkg-config
+#   Build:  shaderc, glslang and SPIRV-Tools as static libraries (libshaderc-dev, glslang-dev,
+#           spirv-tools: the shaders compile against the system's shaderc, no 20-minute source
+#           build; glslc, the same compiler's command line, checks every shader in the tests);
+#           cmake, python3, a C++ compiler and pkg-config (GLFW's bundled build, and shaderc's
+#           from-source fallback on systems without those packages)
 #   Window: X11 headers for GLFW's bundled build, xvfb for headless window tests
 # Needs root or sudo for apt-get; installs Rust with rustup only if cargo is missing.
 set -euo pipefail
 
 packages=(
   mesa-vulkan-drivers libvulkan1 libvulkan-dev vulkan-validationlayers vulkan-tools
+  libshaderc-dev glslang-dev spirv-tools glslc
   cmake python3 g++ pkg-config
   libx11-dev libxrandr-dev libxinerama-dev libxcursor-dev libxi-dev libxkbcommon-dev xvfb
 )

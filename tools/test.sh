@@ -8,9 +8,9 @@ tools/setup.sh
 echo "== cargo fmt --check" >&2
 cargo fmt --all -- --check
 echo "== cargo clippy --all-targets -- -D warnings" >&2
-# Not --quiet: clippy builds the dependencies first, and on a fresh machine that includes
-# shaderc from source, so the progress shows that something is happening.
-echo "   (the first build compiles shaderc from source: about 15 minutes on 2 cores)" >&2
+# Not --quiet: clippy builds the dependencies first (about 3 minutes on 2 cores the first time),
+# and the progress shows that something is happening.
+echo "   (the first build compiles the dependencies: a few minutes; later builds are incremental)" >&2
 cargo clippy --all-targets -- -D warnings
 echo "== cargo test" >&2
 # Library, binary and integration tests (examples are checked by clippy above); the closing
