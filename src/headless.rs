@@ -12,9 +12,7 @@ use ash::vk;
 use image::RgbaImage;
 
 use crate::error::{Error, Result};
-use crate::gpu::commands::{
-    color_copy, host_read_barrier, image_barrier, stage, ImageTransition, Submission,
-};
+use crate::gpu::commands::{record_readback, stage, ImageReadback, Submission};
 use crate::gpu::resources::{rgba_f32, Buffer};
 use crate::gpu::timing::Timestamps;
 use crate::gpu::upload::Staging;
@@ -262,27 +260,17 @@ impl HeadlessRenderer {
             }
             if readback && recorded.is_ok() {
                 let (out, _) = target.output(settings.output);
-                image_barrier(
-                    d,
-                    cmd,
-                    out.image,
-                    1,
-                    ImageTransition {
-                        from: stage::COLOR_WRITE,
-                        to: stage::TRANSFER_SRC,
-                    },
-                );
-                // SAFETY: recording; the readback buffer holds w·h·16 bytes.
-                unsafe {
-                    d.cmd_copy_image_to_buffer(
-                        cmd,
-                        out.image,
-                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                        readback_buffer.buffer,
-                        &[color_copy(0, w, h, 1)],
-                    );
-                }
-                host_read_barrier(d, cmd);
+                // The readback buffer holds w·h·16 bytes.
+                let copy = ImageReadback {
+                    image: out.image,
+                    from: stage::COLOR_WRITE,
+                    then: None,
+                    width: w,
+                    height: h,
+                    buffer: readback_buffer.buffer,
+                    offset: 0,
+                };
+                record_readback(d, cmd, &copy);
             }
         })?;
         recorded?;

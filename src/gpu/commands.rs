@@ -312,6 +312,54 @@ pub fn memory_barrier(
     };
 }
 
+/// One colour image → buffer readback, recorded by [`record_readback`]: the only place the
+/// crate records an image-to-buffer copy.
+#[derive(Debug, Clone, Copy)]
+pub struct ImageReadback {
+    pub image: vk::Image,
+    /// Where the image's last use left it.
+    pub from: stage::End,
+    /// Where the image goes after the copy (its next use), or None to leave it in
+    /// TRANSFER_SRC.
+    pub then: Option<stage::End>,
+    pub width: u32,
+    pub height: u32,
+    pub buffer: vk::Buffer,
+    /// Byte offset of the tightly packed rows in `buffer`.
+    pub offset: u64,
+}
+
+/// Records `r`: transition to TRANSFER_SRC, copy layer 0 into the buffer, the optional onward
+/// transition, and the barrier that makes the copy visible to the host once the submission's
+/// fence has signalled. The caller sizes the buffer (width · height · texel size from
+/// `offset`).
+pub fn record_readback(d: &ash::Device, cmd: vk::CommandBuffer, r: &ImageReadback) {
+    let to_copy = ImageTransition {
+        from: r.from,
+        to: stage::TRANSFER_SRC,
+    };
+    image_barrier(d, cmd, r.image, 1, to_copy);
+    // SAFETY: recording outside a rendering instance; the image is in TRANSFER_SRC and the
+    // caller guarantees the buffer holds the copy.
+    unsafe {
+        d.cmd_copy_image_to_buffer(
+            cmd,
+            r.image,
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            r.buffer,
+            &[color_copy(r.offset, r.width, r.height, 1)],
+        )
+    };
+    host_read_barrier(d, cmd);
+    if let Some(then) = r.then {
+        let onward = ImageTransition {
+            from: stage::TRANSFER_SRC,
+            to: then,
+        };
+        image_barrier(d, cmd, r.image, 1, onward);
+    }
+}
+
 /// Makes transfer writes (readback copies) visible to the host after the submission's fence.
 pub fn host_read_barrier(d: &ash::Device, cmd: vk::CommandBuffer) {
     memory_barrier(

@@ -16,6 +16,7 @@ pub mod commands;
 pub mod context;
 pub mod frames;
 pub mod pipeline;
+pub mod pod;
 pub mod resources;
 pub mod shaders;
 pub mod swapchain;

@@ -16,7 +16,19 @@ use ash::vk;
 
 use crate::error::Result;
 use crate::gpu::pipeline::{graphics_pipeline, Blend, PipelineDesc};
+use crate::gpu::pod::{as_bytes, Pod};
 use crate::gpu::{shaders, GpuContext};
+
+/// The push constants `Push` of shaders/panel.frag, member for member (tested).
+#[derive(Debug, Clone, Copy)]
+#[repr(C)]
+struct PanelPush {
+    /// Destination rectangle in window pixels: x, y, width, height.
+    rect: [f32; 4],
+}
+
+// SAFETY: repr(C), four f32s: no padding, no pointers.
+unsafe impl Pod for PanelPush {}
 
 /// How a source's pixels reach the destination.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -123,7 +135,7 @@ impl Compositor {
             )?;
             let push = [vk::PushConstantRange::default()
                 .stage_flags(vk::ShaderStageFlags::FRAGMENT)
-                .size(16)];
+                .size(std::mem::size_of::<PanelPush>() as u32)];
             let set_layouts = [self.set_layout];
             self.layout = d.create_pipeline_layout(
                 &vk::PipelineLayoutCreateInfo::default()
@@ -264,10 +276,9 @@ impl Compositor {
                 height: (y1.ceil() - y0.floor()) as u32,
             },
         }];
-        let push: Vec<u8> = [rect.x, rect.y, rect.width, rect.height]
-            .iter()
-            .flat_map(|v| v.to_ne_bytes())
-            .collect();
+        let push = PanelPush {
+            rect: [rect.x, rect.y, rect.width, rect.height],
+        };
         let d = &ctx.device;
         // SAFETY: recording inside a rendering instance of the compositor's format; the set
         // is valid (not reset since it was made).
@@ -283,7 +294,13 @@ impl Compositor {
                 &[set],
                 &[],
             );
-            d.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::FRAGMENT, 0, &push);
+            d.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::FRAGMENT,
+                0,
+                as_bytes(&[push]),
+            );
             d.cmd_draw(cmd, 3, 1, 0, 0);
         }
     }
@@ -301,5 +318,21 @@ impl Compositor {
                 .destroy_descriptor_set_layout(self.set_layout, None);
             ctx.device.destroy_sampler(self.sampler, None);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn push_constants_match_the_glsl_block() {
+        let glsl = include_str!("../../shaders/panel.frag");
+        let rust = vec![(
+            "rect".to_string(),
+            std::mem::offset_of!(PanelPush, rect),
+            16,
+        )];
+        assert_eq!(crate::gpu::pod::glsl_block(glsl, "uniform Push"), rust);
     }
 }

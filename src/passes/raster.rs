@@ -35,10 +35,11 @@ use glam::{DMat3, DMat4, DVec2, DVec3, DVec4};
 use crate::error::{Error, Result};
 use crate::geometry::camera::Camera;
 use crate::gpu::commands::{
-    begin_rendering, color_copy, format_barrier, host_read_barrier, image_barrier, stage,
+    begin_rendering, format_barrier, image_barrier, record_readback, stage, ImageReadback,
     ImageTransition, Submission,
 };
 use crate::gpu::pipeline::{graphics_pipeline, Blend, DepthTest, PipelineDesc};
+use crate::gpu::pod::{as_bytes, Pod};
 use crate::gpu::resources::{rgba_f32, Buffer, Image, ImageDesc};
 use crate::gpu::shaders;
 use crate::gpu::upload::{upload_images, ImageRegion};
@@ -49,16 +50,21 @@ use crate::scene::mesh::{MeshDraw, MeshScene, VERTEX_BYTES};
 /// this to a camera's image plane are clipped.
 pub const NEAR: f64 = 1e-3;
 
-const PUSH_BYTES: usize = 128;
+const PUSH_BYTES: usize = std::mem::size_of::<Projection>();
 const ACCUM_FORMAT: vk::Format = vk::Format::R32G32B32A32_SFLOAT;
 const DEPTH_FORMAT: vk::Format = vk::Format::D32_SFLOAT;
 
-/// One rasterization's matrices (f32, column-major, as the shaders read them).
+/// One rasterization's matrices (f32, column-major, as the shaders read them): the push
+/// constants `MeshPush` of shaders/mesh_interface.glsl, member for member (tested).
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[repr(C)]
 pub struct Projection {
     pub clip_from_world: [f32; 16],
     pub camera_from_world: [f32; 16],
 }
+
+// SAFETY: repr(C), two f32 arrays: no padding, no pointers.
+unsafe impl Pod for Projection {}
 
 impl Projection {
     /// From the rows of a 3×4 projection `p` (pixel-index coordinates, third row = the depth
@@ -300,7 +306,7 @@ impl RasterPass {
             };
             format_barrier(d, cmd, depth.image, DEPTH_FORMAT, to_depth);
             let draw_all = |pipeline: vk::Pipeline, p: &Projection| {
-                let push = push_bytes(p);
+                let push = as_bytes(std::slice::from_ref(p));
                 // SAFETY: recording inside a rendering instance whose formats match.
                 unsafe {
                     d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
@@ -309,7 +315,7 @@ impl RasterPass {
                         b.layout,
                         vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                         0,
-                        &push,
+                        push,
                     );
                     d.cmd_bind_vertex_buffers(cmd, 0, &[vb], &[0]);
                     d.cmd_bind_index_buffer(cmd, ib, 0, vk::IndexType::UINT32);
@@ -348,28 +354,18 @@ impl RasterPass {
                 // SAFETY: inside the rendering instance begun above.
                 unsafe { d.cmd_end_rendering(cmd) };
             }
+            // The readback buffer holds 2 · w·h·16 bytes.
             let copy = |image: vk::Image, offset: u64| {
-                image_barrier(
-                    d,
-                    cmd,
+                let copy = ImageReadback {
                     image,
-                    1,
-                    ImageTransition {
-                        from: stage::COLOR_WRITE,
-                        to: stage::TRANSFER_SRC,
-                    },
-                );
-                let region = color_copy(offset, width, height, 1);
-                // SAFETY: the readback buffer holds 2 · w·h·16 bytes.
-                unsafe {
-                    d.cmd_copy_image_to_buffer(
-                        cmd,
-                        image,
-                        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                        readback,
-                        &[region],
-                    )
+                    from: stage::COLOR_WRITE,
+                    then: None,
+                    width,
+                    height,
+                    buffer: readback,
+                    offset,
                 };
+                record_readback(d, cmd, &copy);
             };
             if let Some(g) = geometry {
                 attachments_barrier(d, cmd);
@@ -397,7 +393,6 @@ impl RasterPass {
                 copy(geom.image, pixels * 16);
             }
             copy(accum.image, 0);
-            host_read_barrier(d, cmd);
         })?;
         let bytes = t.readback.bytes_mut();
         let read = |offset: usize, scale: f32| {
@@ -423,19 +418,6 @@ impl RasterPass {
         self.indices.destroy(ctx);
         self.b.destroy(ctx);
     }
-}
-
-fn push_bytes(p: &Projection) -> [u8; PUSH_BYTES] {
-    let mut out = [0u8; PUSH_BYTES];
-    for (i, f) in p
-        .clip_from_world
-        .iter()
-        .chain(p.camera_from_world.iter())
-        .enumerate()
-    {
-        out[4 * i..4 * i + 4].copy_from_slice(&f.to_ne_bytes());
-    }
-    out
 }
 
 /// Orders one sample's attachment writes before the next sample's (additive blending reads the
@@ -754,6 +736,26 @@ fn mesh_pipeline(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn projection_matches_the_glsl_push_constants() {
+        use std::mem::offset_of;
+        let glsl = include_str!("../../shaders/mesh_interface.glsl");
+        let rust = vec![
+            (
+                "clip_from_world".to_string(),
+                offset_of!(Projection, clip_from_world),
+                64,
+            ),
+            (
+                "camera_from_world".to_string(),
+                offset_of!(Projection, camera_from_world),
+                64,
+            ),
+        ];
+        assert_eq!(crate::gpu::pod::glsl_block(glsl, "uniform MeshPush"), rust);
+        assert_eq!(PUSH_BYTES, 128);
+    }
     use crate::geometry::camera::intrinsics;
 
     /// Clip coordinates of a world point under `p`, as the GPU computes them (in f64).

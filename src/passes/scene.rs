@@ -34,13 +34,13 @@ use crate::error::{Error, Result};
 use image::RgbaImage;
 
 use crate::gpu::commands::{
-    begin_rendering, color_copy, format_barrier, host_read_barrier, image_barrier, stage,
-    ImageTransition, Submission,
+    begin_rendering, format_barrier, record_readback, stage, ImageReadback, ImageTransition,
+    Submission,
 };
 use crate::gpu::pipeline::{graphics_pipeline, Blend, DepthTest, PipelineDesc};
+use crate::gpu::pod::{as_bytes, Pod};
 use crate::gpu::resources::{Buffer, Image, ImageDesc};
 use crate::gpu::{shaders, GpuContext};
-use crate::passes::refocus::{as_bytes, Pod};
 use crate::scene::ColourVertex;
 
 /// Colour format of scene targets (linear blending, encoded storage).
@@ -50,7 +50,20 @@ const VERTEX_BYTES: u64 = std::mem::size_of::<ColourVertex>() as u64;
 
 // SAFETY: repr(C), seven f32s (28 bytes, tested in `scene`): no padding, no pointers.
 unsafe impl Pod for ColourVertex {}
-const PUSH_BYTES: u32 = 68;
+const PUSH_BYTES: u32 = std::mem::size_of::<ScenePush>() as u32;
+
+/// The push constants `Push` of shaders/scene.vert, member for member (tested).
+#[derive(Debug, Clone, Copy)]
+#[repr(C)]
+struct ScenePush {
+    /// Column-major clip-from-world matrix (reverse Z).
+    clip_from_world: [f32; 16],
+    /// Point diameter in pixels, within the device's range.
+    point_size: f32,
+}
+
+// SAFETY: repr(C), seventeen f32s: no padding, no pointers.
+unsafe impl Pod for ScenePush {}
 
 /// The geometry that changes with the focus, the aperture and the picks.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -151,27 +164,16 @@ impl SceneTarget {
             }
         };
         let ran = submission.run(ctx, |d, cmd| {
-            let to_copy = ImageTransition {
+            let copy = ImageReadback {
+                image: self.color.image,
                 from: layout,
-                to: stage::TRANSFER_SRC,
+                then: Some(layout),
+                width: w,
+                height: h,
+                buffer: readback.buffer,
+                offset: 0,
             };
-            image_barrier(d, cmd, self.color.image, 1, to_copy);
-            // SAFETY: recording; the image is in TRANSFER_SRC, the buffer holds w·h·4 bytes.
-            unsafe {
-                d.cmd_copy_image_to_buffer(
-                    cmd,
-                    self.color.image,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    readback.buffer,
-                    &[color_copy(0, w, h, 1)],
-                )
-            };
-            let back = ImageTransition {
-                from: stage::TRANSFER_SRC,
-                to: layout,
-            };
-            image_barrier(d, cmd, self.color.image, 1, back);
-            host_read_barrier(d, cmd);
+            record_readback(d, cmd, &copy);
         });
         submission.destroy(ctx);
         let image = ran.and_then(|()| {
@@ -370,13 +372,9 @@ impl ScenePass {
             width: target.width,
             height: target.height,
         };
-        let push = |size: f32| {
-            let mut bytes = [0u8; PUSH_BYTES as usize];
-            for (i, v) in view.clip_from_world.iter().enumerate() {
-                bytes[i * 4..i * 4 + 4].copy_from_slice(&v.to_ne_bytes());
-            }
-            bytes[64..68].copy_from_slice(&size.clamp(1.0, self.max_point_size).to_ne_bytes());
-            bytes
+        let push = |size: f32| ScenePush {
+            clip_from_world: view.clip_from_world,
+            point_size: size.clamp(1.0, self.max_point_size),
         };
         let draw =
             |pipeline: vk::Pipeline, buffer: vk::Buffer, first: usize, count: usize, size| {
@@ -392,7 +390,7 @@ impl ScenePass {
                         self.layout,
                         vk::ShaderStageFlags::VERTEX,
                         0,
-                        &push(size),
+                        as_bytes(&[push(size)]),
                     );
                     d.cmd_bind_vertex_buffers(cmd, 0, &[buffer], &[0]);
                     d.cmd_draw(cmd, count as u32, 1, first as u32, 0);
@@ -607,5 +605,30 @@ fn begin_loaded(
         d.cmd_begin_rendering(cmd, &info);
         d.cmd_set_viewport(cmd, 0, &viewport);
         d.cmd_set_scissor(cmd, 0, &[area]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::offset_of;
+
+    #[test]
+    fn push_constants_match_the_glsl_block() {
+        let glsl = include_str!("../../shaders/scene.vert");
+        let rust = vec![
+            (
+                "clip_from_world".to_string(),
+                offset_of!(ScenePush, clip_from_world),
+                64,
+            ),
+            (
+                "point_size".to_string(),
+                offset_of!(ScenePush, point_size),
+                4,
+            ),
+        ];
+        assert_eq!(crate::gpu::pod::glsl_block(glsl, "uniform Push"), rust);
+        assert_eq!(PUSH_BYTES, 68);
     }
 }

@@ -23,8 +23,8 @@ use super::refine::Batch;
 use super::text::Canvas;
 use crate::error::{Error, Result};
 use crate::gpu::commands::{
-    begin_rendering, color_copy, host_read_barrier, image_barrier, memory_barrier, stage,
-    ImageTransition, Submission,
+    begin_rendering, color_copy, image_barrier, memory_barrier, record_readback, stage,
+    ImageReadback, ImageTransition, Submission,
 };
 use crate::gpu::frames::Frames;
 use crate::gpu::resources::{Buffer, Image, ImageDesc};
@@ -654,37 +654,17 @@ impl ViewerGpu {
                 self.readback = Some(Buffer::readback(&ctx, bytes, "window readback")?);
             }
             let buffer = self.readback.as_ref().map(|b| b.buffer).unwrap_or_default();
-            image_barrier(
-                d,
-                cmd,
+            // The buffer was sized for this extent above.
+            let copy = ImageReadback {
                 image,
-                1,
-                ImageTransition {
-                    from: stage::COLOR_WRITE,
-                    to: stage::TRANSFER_SRC,
-                },
-            );
-            // SAFETY: recording; the image is in TRANSFER_SRC, the buffer is large enough.
-            unsafe {
-                d.cmd_copy_image_to_buffer(
-                    cmd,
-                    image,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    buffer,
-                    &[color_copy(0, extent.width, extent.height, 1)],
-                )
+                from: stage::COLOR_WRITE,
+                then: Some(stage::PRESENT),
+                width: extent.width,
+                height: extent.height,
+                buffer,
+                offset: 0,
             };
-            host_read_barrier(d, cmd);
-            image_barrier(
-                d,
-                cmd,
-                image,
-                1,
-                ImageTransition {
-                    from: stage::TRANSFER_SRC,
-                    to: stage::PRESENT,
-                },
-            );
+            record_readback(d, cmd, &copy);
         } else {
             image_barrier(
                 d,
@@ -791,27 +771,17 @@ impl ViewerGpu {
                         pass.record_resolve(&ctx, cmd, &target, OutputFormat::Srgb8, averaging)
                     });
                 if recorded.is_ok() {
-                    image_barrier(
-                        d,
-                        cmd,
-                        target.out8.image,
-                        1,
-                        ImageTransition {
-                            from: stage::COLOR_WRITE,
-                            to: stage::TRANSFER_SRC,
-                        },
-                    );
-                    // SAFETY: recording; the buffer holds w·h·4 bytes.
-                    unsafe {
-                        d.cmd_copy_image_to_buffer(
-                            cmd,
-                            target.out8.image,
-                            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                            readback.buffer,
-                            &[color_copy(0, w, h, 1)],
-                        )
+                    // The buffer holds w·h·4 bytes.
+                    let copy = ImageReadback {
+                        image: target.out8.image,
+                        from: stage::COLOR_WRITE,
+                        then: None,
+                        width: w,
+                        height: h,
+                        buffer: readback.buffer,
+                        offset: 0,
                     };
-                    host_read_barrier(d, cmd);
+                    record_readback(d, cmd, &copy);
                 }
             });
             submission.destroy(&ctx);

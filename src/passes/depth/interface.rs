@@ -5,7 +5,7 @@
 
 use crate::depth::guide::GuidePixel;
 use crate::depth::sweep::SweepView;
-use crate::passes::refocus::Pod;
+use crate::gpu::pod::Pod;
 
 /// One matched view as the shaders read it (`SweepView` in GLSL).
 #[repr(C)]

@@ -30,11 +30,11 @@ use crate::depth::{Aggregation, CostKind, Refine, SweepOutput, SweepParams};
 use crate::error::{Error, Result};
 use crate::gpu::commands::{memory_barrier, Submission};
 use crate::gpu::pipeline::compute_pipeline;
+use crate::gpu::pod::{as_bytes, Pod};
 use crate::gpu::resources::Buffer;
 use crate::gpu::shaders;
 use crate::gpu::timing::Timestamps;
 use crate::gpu::GpuContext;
-use crate::passes::refocus::{as_bytes, Pod};
 
 /// Workgroup edge of `depth_cost.comp`.
 const COST_TILE: u32 = 8;

@@ -5,6 +5,7 @@
 //! offsets.
 
 use crate::geometry::homography::ViewWarp;
+use crate::gpu::pod::Pod;
 
 /// One view's warp `H_i = A_i + b_i mᵀ` as the shaders read it (`ViewWarp` in GLSL).
 #[repr(C)]
@@ -51,73 +52,22 @@ pub struct RefocusPush {
     pub pad: u32,
 }
 
-/// Plain-old-data that may be viewed as bytes.
-///
-/// # Safety
-/// Implementors are `#[repr(C)]`, `Copy`, and have no padding bytes.
-pub unsafe trait Pod: Copy {}
 // SAFETY: repr(C), only f32 arrays: no padding.
 unsafe impl Pod for GpuViewWarp {}
 // SAFETY: repr(C), f32 arrays then u32s, 48 bytes: no padding.
 unsafe impl Pod for RefocusPush {}
 
-/// The bytes of a slice of plain-old-data values.
-pub fn as_bytes<T: Pod>(values: &[T]) -> &[u8] {
-    // SAFETY: T is Pod (no padding, no pointers); the slice is valid for its length.
-    unsafe { std::slice::from_raw_parts(values.as_ptr().cast(), std::mem::size_of_val(values)) }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gpu::pod::{as_bytes, glsl_block};
     use std::mem::{offset_of, size_of};
 
     const GLSL: &str = include_str!("../../../shaders/refocus_interface.glsl");
 
-    /// (type, name) of the members of the GLSL block whose declaration starts with `head`.
-    fn glsl_members(head: &str) -> Vec<(String, String)> {
-        let start = GLSL
-            .find(head)
-            .unwrap_or_else(|| panic!("no `{head}` in the GLSL"));
-        let body = &GLSL[start..];
-        let open = body.find('{').expect("block opens");
-        let close = body.find('}').expect("block closes");
-        body[open + 1..close]
-            .lines()
-            .map(|l| l.split("//").next().unwrap_or("").trim())
-            .filter(|l| !l.is_empty())
-            .map(|l| {
-                let mut parts = l.trim_end_matches(';').split_whitespace();
-                let ty = parts.next().expect("type").to_string();
-                let name = parts.next().expect("name").to_string();
-                (ty, name)
-            })
-            .collect()
-    }
-
-    /// std430 / push-constant offsets of GLSL members made of vec4, vec2 and uint.
-    fn glsl_offsets(members: &[(String, String)]) -> Vec<(String, usize, usize)> {
-        let mut offset = 0usize;
-        members
-            .iter()
-            .map(|(ty, name)| {
-                let (size, align): (usize, usize) = match ty.as_str() {
-                    "vec4" => (16, 16),
-                    "vec2" => (8, 8),
-                    "uint" | "float" => (4, 4),
-                    other => panic!("unexpected GLSL type {other}"),
-                };
-                offset = offset.next_multiple_of(align);
-                let here = offset;
-                offset += size;
-                (name.clone(), here, size)
-            })
-            .collect()
-    }
-
     #[test]
     fn view_warp_matches_the_glsl_struct() {
-        let glsl = glsl_offsets(&glsl_members("struct ViewWarp"));
+        let glsl = glsl_block(GLSL, "struct ViewWarp");
         let rust = [
             ("a0", offset_of!(GpuViewWarp, a0), 16),
             ("a1", offset_of!(GpuViewWarp, a1), 16),
@@ -134,7 +84,7 @@ mod tests {
 
     #[test]
     fn push_constants_match_the_glsl_block() {
-        let glsl = glsl_offsets(&glsl_members("uniform RefocusPush"));
+        let glsl = glsl_block(GLSL, "uniform RefocusPush");
         let rust = [
             ("plane", offset_of!(RefocusPush, plane), 16),
             ("view_size", offset_of!(RefocusPush, view_size), 8),

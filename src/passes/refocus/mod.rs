@@ -38,7 +38,8 @@ use std::ops::Range;
 
 use ash::vk;
 
-pub use interface::{as_bytes, GpuViewWarp, Pod, RefocusPush};
+use crate::gpu::pod::as_bytes;
+pub use interface::{GpuViewWarp, RefocusPush};
 pub use target::{OutputFormat, RefocusTarget};
 
 use super::texture::{LightFieldTexture, ViewStorage, VIEW_SRGB, VIEW_STORED};
