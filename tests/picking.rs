@@ -10,7 +10,6 @@ use std::path::Path;
 use common::*;
 use glam::{DVec2, DVec3};
 use tiltfield::geometry::aperture::Aperture;
-use tiltfield::geometry::depth::ViewDepth;
 use tiltfield::geometry::normals::NormalParams;
 use tiltfield::geometry::picking;
 use tiltfield::geometry::plane::Plane;
@@ -41,7 +40,7 @@ fn plane_pixels(name: &str) -> Vec<(String, DVec2, DVec3, DVec3)> {
 fn clicks_on_every_builtin_plane_find_it() {
     for name in ["planes", "tilted", "demo"] {
         let lf = tiltfield::synth::builtin(name).unwrap().light_field(1);
-        let depth = ViewDepth::from_light_field(&lf).unwrap();
+        let depth = lf.view_depth().unwrap();
         assert_eq!(
             depth.kind,
             DepthKind::Depth,
@@ -69,7 +68,7 @@ fn clicks_on_every_builtin_plane_find_it() {
 #[test]
 fn three_clicks_on_the_demo_painting_find_it() {
     let lf = tiltfield::synth::builtin("demo").unwrap().light_field(1);
-    let depth = ViewDepth::from_light_field(&lf).unwrap();
+    let depth = lf.view_depth().unwrap();
     let (_, c, p, n) = plane_pixels("demo").remove(2);
     let pick = picking::three_clicks(
         &depth,
@@ -94,7 +93,7 @@ fn three_clicks_on_the_demo_painting_find_it() {
 fn a_click_focused_render_matches_the_true_plane_and_sharpens_the_clicked_surface() {
     // Tilted plane: the clicked plane renders like the exact one.
     let lf = builtin("tilted");
-    let depth = ViewDepth::from_light_field(&lf).unwrap();
+    let depth = lf.view_depth().unwrap();
     let pick = picking::click(&depth, 40.0, 20.0, &NormalParams::default()).unwrap();
     let (_, _, p, n) = plane_pixels("tilted").remove(0);
     let req = |plane: Plane| RefocusRequest {
@@ -114,7 +113,7 @@ fn a_click_focused_render_matches_the_true_plane_and_sharpens_the_clicked_surfac
     // Demo: clicking the painting makes it sharper than focusing on the card does.
     let demo = builtin("demo");
     let scene = tiltfield::synth::builtin("demo").unwrap();
-    let depth = ViewDepth::from_light_field(&demo).unwrap();
+    let depth = demo.view_depth().unwrap();
     let (_, c, _, _) = plane_pixels("demo").remove(2);
     let painting = picking::click(&depth, c.x, c.y, &NormalParams::default()).unwrap();
     let (_, c, _, _) = plane_pixels("demo").remove(3);
@@ -454,7 +453,7 @@ fn cloud_writes_a_ply_that_a_ply_reader_parses() {
     };
     // Every point against the back-projection of its pixel, normals against the scene.
     let lf = tiltfield::synth::builtin("planes").unwrap().light_field(2);
-    let depth = ViewDepth::from_light_field(&lf).unwrap();
+    let depth = lf.view_depth().unwrap();
     let image = &lf.views[depth.view].image;
     let mut with_normal = 0;
     for (i, e) in vertices.iter().take(64 * 64).enumerate() {

@@ -13,7 +13,6 @@ use serde_json::json;
 use super::focus::{focus_json, FocusArgs, FOCUS_OPTIONS};
 use super::{ensure_parent, load_light_field, parse_numbers, LightFieldArgs};
 use crate::error::{Error, Result};
-use crate::geometry::depth::ViewDepth;
 use crate::geometry::normals::estimate_normals;
 use crate::lightfield::ply::{PlyMesh, PlyVertex};
 use crate::scene::{PointCloud, SceneBuilder, PLANE_COLOUR};
@@ -86,7 +85,7 @@ pub fn run(args: &CloudArgs) -> Result<()> {
             super::focus::GIVEN_DEPTH_WINDOW,
         )
     };
-    let depth = ViewDepth::from_light_field(&lf)?;
+    let depth = lf.view_depth()?;
     let params = args.focus.normal_params(window);
     params.validate()?;
     let t0 = Instant::now();

@@ -30,8 +30,58 @@ use std::fmt;
 use glam::{DMat3, DVec2, DVec3};
 
 use super::camera::Camera;
+use super::rig::ParallelRig;
 use crate::error::{Error, Result};
-use crate::lightfield::{DepthKind, DepthMap, LightField, ParallelRig};
+
+/// What a depth map stores per pixel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DepthKind {
+    /// Distance along the optical axis (camera z), in world units.
+    Depth,
+    /// HCI disparity in pixels per grid step (positive = nearer than the focus distance).
+    Disparity,
+}
+
+/// A per-pixel depth or disparity map of one view, row 0 at the top.
+/// Invalid samples are stored as NaN (never as 0 or a sentinel).
+#[derive(Debug, Clone)]
+pub struct DepthMap {
+    pub width: u32,
+    pub height: u32,
+    pub kind: DepthKind,
+    pub values: Vec<f32>,
+    /// Where it came from (file path or "generated"), for messages.
+    pub source: String,
+}
+
+impl DepthMap {
+    /// Value at pixel (x, y).
+    pub fn at(&self, x: u32, y: u32) -> f32 {
+        self.values[(y * self.width + x) as usize]
+    }
+
+    /// The HCI disparity map of this depth map on `rig` (NaN stays NaN), labelled `source`.
+    pub fn to_disparity(&self, rig: &ParallelRig, source: String) -> DepthMap {
+        DepthMap {
+            width: self.width,
+            height: self.height,
+            kind: DepthKind::Disparity,
+            values: self
+                .values
+                .iter()
+                .map(|&z| {
+                    if z.is_nan() {
+                        f32::NAN
+                    } else {
+                        rig.disparity_of_depth(z as f64) as f32
+                    }
+                })
+                .collect(),
+            source,
+        }
+    }
+}
 
 /// Why a depth sample is unusable.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -94,49 +144,6 @@ pub struct ViewDepth {
 }
 
 impl ViewDepth {
-    /// The depth of `lf`'s map-carrying view. Among the views with maps it takes the one
-    /// nearest the grid centre; for that view a depth map is preferred over a disparity map
-    /// (no conversion, no rig needed). Errors name the light field when it has no map at all,
-    /// and the map when a disparity map has no rig to convert it.
-    pub fn from_light_field(lf: &LightField) -> Result<Self> {
-        let centre = lf.grid.centre();
-        let dist = |i: usize| {
-            let v = &lf.views[i];
-            (DVec2::new(v.s as f64, v.t as f64) - centre).length_squared()
-        };
-        let best =
-            lf.depth
-                .iter()
-                .filter(|(i, _)| *i < lf.views.len())
-                .min_by(|(ia, a), (ib, b)| {
-                    dist(*ia)
-                        .total_cmp(&dist(*ib))
-                        .then_with(|| kind_rank(a.kind).cmp(&kind_rank(b.kind)))
-                });
-        let Some((index, map)) = best else {
-            return Err(Error::Invalid(format!(
-                "light field '{}' has no depth or disparity map, so a pixel cannot be turned \
-                 into a 3D point; --click and --points need one (--points-3d, --plane, --focus \
-                 and --disparity work without)",
-                lf.name
-            )));
-        };
-        Self::from_map(lf, *index, map)
-    }
-
-    /// The depth of view `index` of `lf` from `map`, with the dataset's disparity range.
-    pub fn from_map(lf: &LightField, index: usize, map: &DepthMap) -> Result<Self> {
-        let view = lf.views.get(index).ok_or_else(|| {
-            Error::LightField(format!(
-                "{}: depth map {} belongs to view {index}, which does not exist",
-                lf.name, map.source
-            ))
-        })?;
-        let mut d = Self::new(view.camera, map, lf.rig, lf.disparity_range, index)?;
-        d.grid_position = (view.s, view.t);
-        Ok(d)
-    }
-
     /// Builds the depth of a view with camera `camera` from `map`. `rig` converts disparity;
     /// `disparity_range` (min, max) marks disparities outside it as invalid (for depth maps
     /// it is applied to the disparity of the depth when `rig` is given).
@@ -308,14 +315,6 @@ impl ViewDepth {
     /// Row-major index of pixel (x, y).
     pub fn index(&self, x: u32, y: u32) -> usize {
         y as usize * self.width as usize + x as usize
-    }
-}
-
-/// Depth maps before disparity maps: no conversion, no rig needed.
-fn kind_rank(k: DepthKind) -> u8 {
-    match k {
-        DepthKind::Depth => 0,
-        DepthKind::Disparity => 1,
     }
 }
 

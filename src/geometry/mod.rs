@@ -11,3 +11,4 @@ pub mod homography;
 pub mod normals;
 pub mod picking;
 pub mod plane;
+pub mod rig;

@@ -32,88 +32,9 @@ use image::RgbaImage;
 
 use crate::error::{Error, Result};
 use crate::geometry::camera::{interpolate_cameras, Camera};
-
-/// Grid dimensions: `cols` views horizontally (s), `rows` vertically (t).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-pub struct GridSize {
-    pub cols: usize,
-    pub rows: usize,
-}
-
-impl GridSize {
-    /// Number of views.
-    pub fn len(&self) -> usize {
-        self.cols * self.rows
-    }
-
-    /// True for an empty grid.
-    pub fn is_empty(&self) -> bool {
-        self.len() == 0
-    }
-
-    /// Row-major index of view (s, t).
-    pub fn index(&self, s: usize, t: usize) -> usize {
-        t * self.cols + s
-    }
-
-    /// Grid centre in (s, t) grid units (fractional for even sizes).
-    pub fn centre(&self) -> DVec2 {
-        DVec2::new(
-            (self.cols as f64 - 1.0) / 2.0,
-            (self.rows as f64 - 1.0) / 2.0,
-        )
-    }
-}
-
-/// What a depth map stores per pixel.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum DepthKind {
-    /// Distance along the optical axis (camera z), in world units.
-    Depth,
-    /// HCI disparity in pixels per grid step (positive = nearer than the focus distance).
-    Disparity,
-}
-
-/// A per-pixel depth or disparity map of one view, row 0 at the top.
-/// Invalid samples are stored as NaN (never as 0 or a sentinel).
-#[derive(Debug, Clone)]
-pub struct DepthMap {
-    pub width: u32,
-    pub height: u32,
-    pub kind: DepthKind,
-    pub values: Vec<f32>,
-    /// Where it came from (file path or "generated"), for messages.
-    pub source: String,
-}
-
-impl DepthMap {
-    /// Value at pixel (x, y).
-    pub fn at(&self, x: u32, y: u32) -> f32 {
-        self.values[(y * self.width + x) as usize]
-    }
-
-    /// The HCI disparity map of this depth map on `rig` (NaN stays NaN), labelled `source`.
-    pub fn to_disparity(&self, rig: &ParallelRig, source: String) -> DepthMap {
-        DepthMap {
-            width: self.width,
-            height: self.height,
-            kind: DepthKind::Disparity,
-            values: self
-                .values
-                .iter()
-                .map(|&z| {
-                    if z.is_nan() {
-                        f32::NAN
-                    } else {
-                        rig.disparity_of_depth(z as f64) as f32
-                    }
-                })
-                .collect(),
-            source,
-        }
-    }
-}
+use crate::geometry::depth::ViewDepth;
+pub use crate::geometry::depth::{DepthKind, DepthMap};
+pub use crate::geometry::rig::{GridSize, ParallelRig};
 
 /// One view of the grid.
 #[derive(Debug, Clone)]
@@ -127,64 +48,6 @@ pub struct View {
     pub image: RgbaImage,
     /// Where the pixels came from (file path or "generated"), for messages.
     pub source: String,
-}
-
-/// Parameters of a regular, parallel camera grid with sensor shift, as the HCI benchmark uses.
-/// Present when `--disparity` follows the HCI convention (HCI folders, built-in scenes).
-///
-/// Camera (s, t) sits at ((s − s_c)·b, (t − t_c)·b, 0) in the centre camera's frame and its
-/// principal point is shifted by (s − s_c)·f·b/Z_focus, (t − t_c)·f·b/Z_focus, so a centre-view
-/// pixel x with disparity d appears in view (s, t) at x − d·(s − s_c, t − t_c).
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct ParallelRig {
-    /// Focal length in pixels (`f_px = focal_mm · max(W, H) / sensor_mm`).
-    pub focal_px: f64,
-    /// Baseline between neighbouring cameras, world units (metres for HCI).
-    pub baseline: f64,
-    /// Distance of the zero-disparity plane, world units.
-    pub focus_distance: f64,
-}
-
-impl ParallelRig {
-    /// Depth of disparity `d`: `1/Z = d / (b · f) + 1/Z_focus`. `None` when `d` lies at or
-    /// beyond infinity (1/Z ≤ 0).
-    pub fn depth_of_disparity(&self, d: f64) -> Option<f64> {
-        let inv = d / (self.baseline * self.focal_px) + 1.0 / self.focus_distance;
-        (inv > 0.0).then(|| 1.0 / inv)
-    }
-
-    /// Disparity of depth `z` (inverse of [`Self::depth_of_disparity`]).
-    pub fn disparity_of_depth(&self, z: f64) -> f64 {
-        self.baseline * self.focal_px * (1.0 / z - 1.0 / self.focus_distance)
-    }
-
-    /// The disparity of a point at infinity, `−f·b/Z_focus`: the most negative physical value.
-    pub fn disparity_at_infinity(&self) -> f64 {
-        -self.baseline * self.focal_px / self.focus_distance
-    }
-
-    /// The cameras of a `grid` of `width × height` views (row-major), world frame = centre
-    /// camera frame. Principal point at the image centre ((W−1)/2, (H−1)/2) plus sensor shift.
-    pub fn cameras(&self, grid: GridSize, width: u32, height: u32) -> Vec<Camera> {
-        let c = grid.centre();
-        let shift = self.focal_px * self.baseline / self.focus_distance;
-        let mut cams = Vec::with_capacity(grid.len());
-        for t in 0..grid.rows {
-            for s in 0..grid.cols {
-                let ds = s as f64 - c.x;
-                let dt = t as f64 - c.y;
-                let k = crate::geometry::camera::intrinsics(
-                    self.focal_px,
-                    self.focal_px,
-                    (width as f64 - 1.0) / 2.0 + ds * shift,
-                    (height as f64 - 1.0) / 2.0 + dt * shift,
-                );
-                let centre = glam::DVec3::new(ds * self.baseline, dt * self.baseline, 0.0);
-                cams.push(Camera::from_centre(k, glam::DMat3::IDENTITY, centre));
-            }
-        }
-        cams
-    }
 }
 
 /// Which loader produced a light field.
@@ -228,6 +91,49 @@ pub struct LightField {
 }
 
 impl LightField {
+    /// The depth of this light field's map-carrying view. Among the views with maps it takes the one
+    /// nearest the grid centre; for that view a depth map is preferred over a disparity map
+    /// (no conversion, no rig needed). Errors name the light field when it has no map at all,
+    /// and the map when a disparity map has no rig to convert it.
+    pub fn view_depth(&self) -> Result<ViewDepth> {
+        let centre = self.grid.centre();
+        let dist = |i: usize| {
+            let v = &self.views[i];
+            (DVec2::new(v.s as f64, v.t as f64) - centre).length_squared()
+        };
+        let best = self
+            .depth
+            .iter()
+            .filter(|(i, _)| *i < self.views.len())
+            .min_by(|(ia, a), (ib, b)| {
+                dist(*ia)
+                    .total_cmp(&dist(*ib))
+                    .then_with(|| kind_rank(a.kind).cmp(&kind_rank(b.kind)))
+            });
+        let Some((index, map)) = best else {
+            return Err(Error::Invalid(format!(
+                "light field '{}' has no depth or disparity map, so a pixel cannot be turned \
+                 into a 3D point; --click and --points need one (--points-3d, --plane, --focus \
+                 and --disparity work without)",
+                self.name
+            )));
+        };
+        self.view_depth_of(*index, map)
+    }
+
+    /// The depth of view `index` from `map`, with the dataset's disparity range.
+    pub fn view_depth_of(&self, index: usize, map: &DepthMap) -> Result<ViewDepth> {
+        let view = self.views.get(index).ok_or_else(|| {
+            Error::LightField(format!(
+                "{}: depth map {} belongs to view {index}, which does not exist",
+                self.name, map.source
+            ))
+        })?;
+        let mut d = ViewDepth::new(view.camera, map, self.rig, self.disparity_range, index)?;
+        d.grid_position = (view.s, view.t);
+        Ok(d)
+    }
+
     /// View (s, t).
     pub fn view(&self, s: usize, t: usize) -> &View {
         &self.views[self.grid.index(s, t)]
@@ -517,5 +423,13 @@ pub(crate) fn relative_to(base_file: &Path, rel: &str) -> PathBuf {
         rel.to_path_buf()
     } else {
         base_file.parent().unwrap_or(Path::new(".")).join(rel)
+    }
+}
+
+/// Depth maps before disparity maps of the same view: no conversion, no rig needed.
+fn kind_rank(k: DepthKind) -> u8 {
+    match k {
+        DepthKind::Depth => 0,
+        DepthKind::Disparity => 1,
     }
 }

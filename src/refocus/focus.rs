@@ -199,7 +199,7 @@ pub fn resolve_focus(
 /// The depth of the view with the depth map, refused when it has no valid sample (a click
 /// could never succeed).
 fn pick_depth(lf: &LightField) -> Result<ViewDepth> {
-    let d = ViewDepth::from_light_field(lf)?;
+    let d = lf.view_depth()?;
     if d.valid_count() == 0 {
         return Err(Error::LightField(format!(
             "{}: depth map {} has no valid sample",
@@ -409,7 +409,7 @@ mod tests {
     #[test]
     fn a_click_on_the_depth_view_finds_the_surface_there() {
         let lf = planes();
-        let depth = ViewDepth::from_light_field(&lf).unwrap();
+        let depth = lf.view_depth().unwrap();
         let (_, p, n) = crate::synth::builtin("planes").unwrap().planes()[0].clone();
         let px = depth.camera.project(p).unwrap().round();
         let req = FocusRequest {

@@ -330,7 +330,6 @@ fn optical_axis(
 mod tests {
     use super::*;
     use crate::geometry::aperture::ApertureShape;
-    use crate::geometry::depth::ViewDepth;
     use crate::geometry::normals::{estimate_normals, NormalParams};
 
     fn planes() -> LightField {
@@ -338,7 +337,7 @@ mod tests {
     }
 
     fn cloud(lf: &LightField) -> PointCloud {
-        let depth = ViewDepth::from_light_field(lf).unwrap();
+        let depth = lf.view_depth().unwrap();
         let normals = estimate_normals(&depth, &NormalParams::default());
         PointCloud::from_depth(&depth, &lf.views[depth.view].image, &normals, 4).unwrap()
     }

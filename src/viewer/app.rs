@@ -585,7 +585,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
             opts.frame_budget_ms
         )));
     }
-    let depth = ViewDepth::from_light_field(lf).ok();
+    let depth = lf.view_depth().ok();
     let focus = opts
         .focus
         .unwrap_or_else(|| default_focus(lf, depth.as_ref()));
