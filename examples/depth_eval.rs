@@ -15,8 +15,9 @@
 use std::sync::Arc;
 
 use tiltfield::depth::metrics::{score, HCI_BORDER};
-use tiltfield::depth::{estimate, DepthKind, DepthOptions};
+use tiltfield::depth::{DepthKind, DepthOptions};
 use tiltfield::gpu::{GpuContext, GpuOptions};
+use tiltfield::jobs::depth::estimate;
 use tiltfield::lightfield::pfm::read_pfm_depth;
 use tiltfield::lightfield::{open, GridCameraOptions};
 

@@ -38,7 +38,6 @@
 //! model, homographies, masks, disparity, colour) are stated in `docs/conventions.md`; the
 //! code cites its sections as `docs/conventions.md §N`.
 
-pub mod batch;
 pub mod bench;
 pub mod cli;
 pub mod color;
@@ -46,8 +45,8 @@ pub mod depth;
 pub mod error;
 pub mod geometry;
 pub mod gpu;
-pub mod headless;
 pub mod io;
+pub mod jobs;
 pub mod lightfield;
 pub mod passes;
 pub mod refocus;

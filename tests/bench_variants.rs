@@ -14,7 +14,7 @@ use common::*;
 use glam::{DVec2, DVec3};
 use tiltfield::bench::{self, variant, Variant};
 use tiltfield::gpu::GpuContext;
-use tiltfield::headless::{GpuImage, HeadlessRenderer};
+use tiltfield::jobs::refocus::{GpuImage, HeadlessRenderer};
 use tiltfield::lightfield::LightField;
 use tiltfield::passes::refocus::{Accumulation, Filter, Strategy};
 use tiltfield::passes::texture::ViewStorage;
@@ -224,7 +224,7 @@ fn exported_homographies_are_the_plans_warps() {
 
 #[test]
 fn more_views_than_the_uniform_buffer_holds_fall_back_to_the_storage_buffer() {
-    use tiltfield::headless::RenderSettings;
+    use tiltfield::jobs::refocus::RenderSettings;
     use tiltfield::lightfield::GridSize;
     use tiltfield::passes::refocus::{OutputFormat, WarpMemory, UBO_WARPS};
     use tiltfield::synth::{Quad, Scene, Texture};

@@ -6,9 +6,10 @@ mod common;
 
 use glam::{DVec2, DVec3};
 use tiltfield::depth::scenes::DepthScene;
-use tiltfield::depth::{ensure_depth_in, DepthOptions, DepthOrigin};
+use tiltfield::depth::{DepthOptions, DepthOrigin};
 use tiltfield::geometry::normals::{NormalMethod, NormalParams};
 use tiltfield::gpu::GpuContext;
+use tiltfield::jobs::depth::ensure_depth_in;
 use tiltfield::lightfield::LightField;
 use tiltfield::refocus::{resolve_focus, FocusRequest, FocusTarget};
 

@@ -90,7 +90,7 @@ fn gpu_sweep_matches_the_cpu_reference() {
 fn estimate(lf: &LightField, options: &DepthOptions) -> tiltfield::depth::DepthEstimate {
     let ctx = context();
     let bar = indicatif::ProgressBar::hidden();
-    let est = tiltfield::depth::estimate(&ctx, lf, options, &bar).unwrap();
+    let est = tiltfield::jobs::depth::estimate(&ctx, lf, options, &bar).unwrap();
     assert_eq!(
         ctx.validation().errors(),
         0,

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use common::*;
 use tiltfield::gpu::GpuContext;
-use tiltfield::headless::{GpuImage, HeadlessRenderer, RenderSettings};
+use tiltfield::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use tiltfield::lightfield::LightField;
 use tiltfield::passes::refocus::{Filter, OutputFormat, RefocusPass, Strategy};
 use tiltfield::passes::texture::{LightFieldTexture, ViewStorage};

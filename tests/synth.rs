@@ -11,9 +11,10 @@ use std::path::Path;
 use glam::{DVec2, DVec3};
 use tiltfield::geometry::aperture::{Aperture, ApertureShape};
 use tiltfield::geometry::plane::Plane;
+use tiltfield::jobs::raster::Rasterizer;
 use tiltfield::lightfield::{self, DepthKind, GridSize, LightField};
 use tiltfield::refocus::{self, Averaging, FocusSpec, RefocusRequest};
-use tiltfield::synth::{synth_scene, MeshScene, Rasterizer, RigKind, SynthRig};
+use tiltfield::synth::{synth_scene, MeshScene, RigKind, SynthRig};
 
 const EXAMPLE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/example.gltf");
 
@@ -73,7 +74,7 @@ fn rendered_depth_and_disparity_of_analytic_planes_equal_the_closed_form() {
         let s = synth_scene(name).unwrap();
         let mut r = rasterizer(&s.mesh());
         let rig = rig(name, 3, 64);
-        let out = tiltfield::synth::raster::render_light_field(&mut r, &rig, 2, true).unwrap();
+        let out = tiltfield::jobs::raster::render_light_field(&mut r, &rig, 2, true).unwrap();
         assert_clean(&r);
         let lf = &out.light_field;
         let p = rig.parallel().unwrap();
@@ -362,7 +363,7 @@ fn psnr_against_optical_gt(
     // Zero disparity on the plane's point: a frontoparallel focus plane then needs no
     // resampling in any grid, so the comparison measures the aperture sampling alone.
     rig.focus_distance = plane.point.z;
-    let lf = tiltfield::synth::raster::render_light_field(r, &rig, 3, false)
+    let lf = tiltfield::jobs::raster::render_light_field(r, &rig, 3, false)
         .unwrap()
         .light_field;
     let req = RefocusRequest {

@@ -33,7 +33,7 @@ use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::geometry::plane::Plane;
 use crate::gpu::GpuContext;
-use crate::headless::{GpuImage, HeadlessRenderer, RenderSettings};
+use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
 use crate::passes::refocus::{Accumulation, Filter, OutputFormat};
@@ -151,8 +151,9 @@ pub const SYNTHETIC_SCENE: &str = "tilted";
 /// plane — a tilt-shift refocus whose optical ground truth (a dense thin-lens aperture of
 /// pinhole renders) is the plane's texture seen sharp from the grid centre.
 pub fn synthetic_scene(ctx: Arc<GpuContext>, quick: bool) -> Result<BenchScene> {
+    use crate::jobs::raster::Rasterizer;
     use crate::lightfield::GridSize;
-    use crate::synth::{synth_scene, Rasterizer, RigKind, SynthRig};
+    use crate::synth::{synth_scene, RigKind, SynthRig};
     let scene = synth_scene(SYNTHETIC_SCENE)
         .ok_or_else(|| Error::Invalid(format!("no synth scene {SYNTHETIC_SCENE}")))?;
     let (grid, size, samples, gt_pinholes) = if quick { (5, 48, 2, 7) } else { (9, 256, 3, 9) };
@@ -177,7 +178,7 @@ pub fn synthetic_scene(ctx: Arc<GpuContext>, quick: bool) -> Result<BenchScene> 
         .ok_or_else(|| Error::Invalid(format!("the {SYNTHETIC_SCENE} scene has no plane")))?;
     let plane = Plane::new(point, normal)?;
     let mut r = Rasterizer::with_context(ctx, &scene.mesh())?;
-    let synth = crate::synth::raster::render_light_field(&mut r, &rig, samples, false)?;
+    let synth = crate::jobs::raster::render_light_field(&mut r, &rig, samples, false)?;
     let lf = synth.light_field;
     let radius = (grid as f64 - 1.0) / 2.0;
     let centre = lf.camera_at(lf.grid.centre())?;

@@ -13,10 +13,11 @@ use super::{
 };
 use crate::depth::metrics::{score, HCI_BORDER};
 use crate::depth::{
-    estimate, Aggregation, CostKind, DepthEstimate, DepthKind, DepthOptions, SweepParams, ViewSet,
+    Aggregation, CostKind, DepthEstimate, DepthKind, DepthOptions, SweepParams, ViewSet,
 };
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
+use crate::jobs::depth::estimate;
 use crate::lightfield::pfm::{read_pfm_depth, write_pfm};
 
 #[derive(Debug, Args)]
@@ -284,7 +285,7 @@ pub(crate) fn ensure_for(
 ) -> Result<(crate::depth::DepthOrigin, u32)> {
     use crate::depth::DepthOrigin;
     if !lf.depth.is_empty() {
-        let origin = crate::depth::ensure_depth(
+        let origin = crate::jobs::depth::ensure_depth(
             ctx,
             lf,
             &DepthOptions::default(),
@@ -299,7 +300,7 @@ pub(crate) fn ensure_for(
         )
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let origin = crate::depth::ensure_depth(ctx, lf, &DepthOptions::default(), &bar)?;
+    let origin = crate::jobs::depth::ensure_depth(ctx, lf, &DepthOptions::default(), &bar)?;
     bar.finish_and_clear();
     if let DepthOrigin::Estimated {
         cached, estimate, ..

@@ -1,5 +1,5 @@
 //! `tiltfield render LF --frames A..B -o 'out_{frame}.png'`: a frame range of a camera-array
-//! video with one GPU set-up ([`crate::batch`] does the work; this parses and reports).
+//! video with one GPU set-up ([`crate::jobs::batch`] does the work; this parses and reports).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -9,10 +9,10 @@ use serde_json::json;
 use super::focus::{focus_json, focus_summary};
 use super::render::{make_plan_with_window, plan_json, render_settings, RenderArgs};
 use super::{check_output, device_load_limits};
-use crate::batch::{render_frames, BatchJob, OutputPattern};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::io::OutputKind;
+use crate::jobs::batch::{render_frames, BatchJob, OutputPattern};
 use crate::lightfield::technicolor::describe_frames;
 use crate::lightfield::video::{FrameRange, FrameSequence};
 use crate::passes::texture::ViewStorage;
@@ -69,7 +69,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         )));
     }
     let (out_w, out_h) = settings.size.unwrap_or((plan.width, plan.height));
-    let mean = |f: fn(&crate::batch::FrameTimes) -> Option<f64>| report.mean(f);
+    let mean = |f: fn(&crate::jobs::batch::FrameTimes) -> Option<f64>| report.mean(f);
     // The first frame's upload includes the whole set-up; the steady state leaves it out.
     let steady_upload = report
         .frames

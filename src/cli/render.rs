@@ -16,8 +16,8 @@ use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::gpu::timing::median;
 use crate::gpu::GpuContext;
-use crate::headless::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::io::OutputKind;
+use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
 use crate::passes::refocus::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
@@ -151,7 +151,7 @@ pub use crate::refocus::plan_json;
 
 /// Writes a GPU result to `path` (PNG or EXR by extension). Returns the uncovered pixel count.
 pub fn save(image: &GpuImage, path: &std::path::Path) -> Result<usize> {
-    crate::batch::save_image(image, path)
+    crate::jobs::batch::save_image(image, path)
 }
 
 /// The GPU settings of `args` for an output of `kind`.

@@ -13,12 +13,13 @@ use super::focus::PlaneArgs;
 use super::GpuArgs;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::jobs::raster::{render_light_field, Rasterizer};
 use crate::lightfield::{hci, manifest, GridSize};
 use crate::passes::texture::{check_fits, TextureLimits};
 use crate::refocus::{self, FocusSpec, RefocusRequest};
 use crate::synth::gltf::{self, gl_to_cv};
-use crate::synth::raster::{encode, render_light_field};
-use crate::synth::{synth_scene, synth_scene_names, MeshScene, Rasterizer, RigKind, SynthRig};
+use crate::synth::rig::encode;
+use crate::synth::{synth_scene, synth_scene_names, MeshScene, RigKind, SynthRig};
 
 /// Output layout.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, serde::Serialize)]

@@ -14,11 +14,8 @@
 
 use std::path::{Path, PathBuf};
 
-use indicatif::ProgressBar;
-
-use super::{estimate, sweep, DepthEstimate, DepthOptions};
+use super::{sweep, DepthEstimate, DepthOptions};
 use crate::error::{Error, Result};
-use crate::gpu::GpuContext;
 use crate::lightfield::pfm::{read_pfm, write_pfm};
 use crate::lightfield::LightField;
 
@@ -164,14 +161,14 @@ pub fn store(dir: &Path, key: &str, est: &DepthEstimate) -> Result<PathBuf> {
     Ok(meta_path)
 }
 
-/// The cached estimate of `lf` with `options` in cache folder `dir`, or a new one (stored
-/// there; `None`: no cache).
+/// The cached estimate of `lf` with `options` in cache folder `dir`, or a new one from
+/// `estimate` (stored there; `None`: no cache). The estimator is passed in so that the cache
+/// stays GPU-free: the driver [`crate::jobs::depth`] hands it the GPU sweep.
 pub fn cached_estimate(
-    ctx: &GpuContext,
     lf: &LightField,
     options: &DepthOptions,
-    progress: &ProgressBar,
     dir: Option<PathBuf>,
+    estimate: impl FnOnce(&LightField, &DepthOptions) -> Result<DepthEstimate>,
 ) -> Result<(DepthEstimate, bool, Option<PathBuf>)> {
     options.validate()?;
     let key = cache_key(lf, options);
@@ -180,7 +177,7 @@ pub fn cached_estimate(
             return Ok((est, true, Some(dir.join(format!("{key}.json")))));
         }
     }
-    let est = estimate(ctx, lf, options, progress)?;
+    let est = estimate(lf, options)?;
     let file = match &dir {
         Some(dir) => match store(dir, &key, &est) {
             Ok(p) => Some(p),
@@ -200,35 +197,25 @@ pub fn cached_estimate(
 }
 
 /// Makes sure `lf` has a depth map: its own when it has one, else the estimate of its
-/// reference view (from the cache when there is one; `progress` shows the sweep otherwise).
-/// The estimate is installed as the light field's map with pixels of confidence below
-/// [`MIN_CONFIDENCE`] left out. On a grid folder the nominal cameras get the sensor shift of
+/// reference view from the cache in `dir` (`None`: no cache) or from `estimate`. The estimate is
+/// installed as the light field's map with pixels of confidence below [`MIN_CONFIDENCE`] left
+/// out. On a grid folder the nominal cameras get the sensor shift of
 /// [`DepthEstimate::nominal_rig`], so that every estimated surface has a depth and a plane
 /// picked on it refocuses exactly there (classic `--disparity` does not use the cameras and is
-/// unchanged).
-pub fn ensure_depth(
-    ctx: &GpuContext,
-    lf: &mut LightField,
-    options: &DepthOptions,
-    progress: &ProgressBar,
-) -> Result<DepthOrigin> {
-    ensure_depth_in(ctx, lf, options, progress, cache_dir())
-}
-
-/// [`ensure_depth`] with the cache in `dir` (`None`: no cache).
+/// unchanged). [`crate::jobs::depth::ensure_depth`] is this with the GPU sweep and the default
+/// cache folder.
 pub fn ensure_depth_in(
-    ctx: &GpuContext,
     lf: &mut LightField,
     options: &DepthOptions,
-    progress: &ProgressBar,
     dir: Option<PathBuf>,
+    estimate: impl FnOnce(&LightField, &DepthOptions) -> Result<DepthEstimate>,
 ) -> Result<DepthOrigin> {
     if let Some((_, map)) = lf.depth.first() {
         return Ok(DepthOrigin::Given {
             source: map.source.clone(),
         });
     }
-    let (est, cached, cache_file) = cached_estimate(ctx, lf, options, progress, dir)?;
+    let (est, cached, cache_file) = cached_estimate(lf, options, dir, estimate)?;
     install(lf, &est)?;
     Ok(DepthOrigin::Estimated {
         cached,

@@ -39,17 +39,13 @@ pub mod metrics;
 pub mod scenes;
 pub mod sweep;
 
-use std::time::Instant;
-
 use image::RgbaImage;
-use indicatif::ProgressBar;
 
 pub use crate::lightfield::DepthKind;
-pub use cache::{ensure_depth, ensure_depth_in, DepthOrigin};
+pub use cache::{ensure_depth_in, DepthOrigin};
 use sweep::SweepPlan;
 
 use crate::error::{Error, Result};
-use crate::gpu::GpuContext;
 use crate::lightfield::images::is_dark;
 use crate::lightfield::{DepthMap, LightField, ParallelRig};
 
@@ -530,67 +526,6 @@ pub fn plan(lf: &LightField, options: &DepthOptions) -> Result<SweepPlan> {
         }
     }
     Ok(plan)
-}
-
-/// Estimates the depth of `lf`'s reference view on `ctx`'s device (see the module docs).
-/// `progress` gets the number of planes to sweep as its length and advances by planes.
-pub fn estimate(
-    ctx: &GpuContext,
-    lf: &LightField,
-    options: &DepthOptions,
-    progress: &ProgressBar,
-) -> Result<DepthEstimate> {
-    let t0 = Instant::now();
-    let mut plan = plan(lf, options)?;
-    let images: Vec<&RgbaImage> = std::iter::once(plan.reference)
-        .chain(plan.views.iter().map(|v| v.index))
-        .map(|i| &lf.views[i].image)
-        .collect();
-    let auto = plan.range_origin == RangeOrigin::Automatic;
-    let coarse = auto.then(|| coarse_plan(&plan));
-    progress.set_length((plan.planes + coarse.as_ref().map_or(0, |(c, _)| c.planes)) as u64);
-    let mut coarse_ms = None;
-    if let Some((coarse, factor)) = coarse {
-        let small: Vec<RgbaImage> = images.iter().map(|i| downscale(i, factor)).collect();
-        let small_refs: Vec<&RgbaImage> = small.iter().collect();
-        let (out, ms) =
-            crate::passes::depth::run_sweep(ctx, &coarse, &small_refs, &options.params, progress)?;
-        plan.range = range_from_coarse(&coarse, &out);
-        plan.planes = plane_count(&plan, options);
-        progress.set_length((coarse.planes + plan.planes) as u64);
-        coarse_ms = ms;
-    }
-    let (out, gpu_ms) =
-        crate::passes::depth::run_sweep(ctx, &plan, &images, &options.params, progress)?;
-    let param = out
-        .index
-        .iter()
-        .map(|&k| plan.param(k as f64) as f32)
-        .collect();
-    Ok(DepthEstimate {
-        width: plan.width,
-        height: plan.height,
-        reference: plan.reference,
-        reference_st: plan.reference_st,
-        convention: plan.convention,
-        range: plan.range,
-        range_origin: plan.range_origin,
-        planes: plan.planes,
-        views: plan.views.iter().map(|v| (v.s, v.t)).collect(),
-        params: options.params,
-        param,
-        confidence: out.confidence,
-        timings: DepthTimings {
-            gpu_ms: match (gpu_ms, coarse_ms, auto) {
-                (Some(a), Some(b), true) => Some(a + b),
-                (Some(a), _, false) => Some(a),
-                _ => None,
-            },
-            coarse_gpu_ms: coarse_ms,
-            total_ms: t0.elapsed().as_secs_f64() * 1e3,
-        },
-        device: ctx.info.name.clone(),
-    })
 }
 
 /// The coarse sweep of the automatic range: a quarter of the resolution (less for small

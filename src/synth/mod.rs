@@ -23,16 +23,17 @@
 //! intersection, [`scene::plane_scene`]), [`raytrace`] (views and light fields), [`mod@builtin`]
 //! (the named scenes, their planes and disparity ranges); for the rasterizer [`mesh`] (quad
 //! scenes baked into textured meshes of [`crate::scene::mesh`]), [`mod@gltf`] (glTF input),
-//! [`scenes`] (the built-in scenes of `synth`) and [`raster`] (views, rigs, light fields,
-//! optical ground truth);
+//! [`scenes`] (the built-in scenes of `synth`) and [`rig`] (camera rigs, the rendered light
+//! field, sRGB encoding; the GPU rasterizer that renders views, light fields and the optical
+//! ground truth is the driver [`crate::jobs::raster`]);
 //! for the geometry studies [`surfaces`] (analytic depth views with exact normals and seeded
 //! depth noise).
 
 pub mod builtin;
 pub mod gltf;
 pub mod mesh;
-pub mod raster;
 pub mod raytrace;
+pub mod rig;
 pub mod scene;
 pub mod scenes;
 pub mod surfaces;
@@ -40,8 +41,8 @@ pub mod texture;
 
 pub use crate::scene::mesh::MeshScene;
 pub use builtin::{builtin, builtin_names, BuiltinScene};
-pub use raster::{Rasterizer, RigKind, SynthRig};
 pub use raytrace::{pixel_ray, render_light_field, render_view, trace_pixel};
+pub use rig::{RigKind, SynthLightField, SynthRig};
 pub use scene::{plane_scene, Hit, Quad, Scene};
 pub use scenes::{synth_scene, synth_scene_names, SynthScene};
 pub use texture::{Rgb, Texture};

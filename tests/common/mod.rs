@@ -4,7 +4,7 @@
 
 use tiltfield::color;
 use tiltfield::gpu::GpuOptions;
-use tiltfield::headless::{GpuImage, HeadlessRenderer, RenderSettings};
+use tiltfield::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use tiltfield::lightfield::LightField;
 use tiltfield::passes::refocus::{OutputFormat, Strategy};
 use tiltfield::refocus::{Averaging, RefocusImage, RefocusPlan};

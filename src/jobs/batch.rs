@@ -21,7 +21,7 @@ use std::time::Instant;
 
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
-use crate::headless::{GpuImage, HeadlessRenderer, RenderSettings};
+use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::video::{FrameLoader, FrameSequence};
 use crate::lightfield::{LightField, LoadLimits};
 use crate::passes::texture::ViewStorage;

@@ -1,0 +1,19 @@
+//! The driver layer: everything that runs GPU work to completion for a front end (the CLI, the
+//! benchmark, the tests, the viewer's captures) and hands back plain data.
+//!
+//! A job owns (or shares) the [`GpuContext`](crate::gpu::GpuContext), creates the targets,
+//! records the passes of [`crate::passes`] into them, submits, times with timestamp queries and
+//! reads the result back through the one readback helper
+//! ([`crate::gpu::commands::record_readback`]). Passes only record into targets their caller
+//! owns; the model modules (`geometry`, `lightfield`, `refocus`, `depth`, `scene`, `synth`)
+//! never import this layer, `gpu` or `passes`.
+//!
+//! - [`refocus`]: headless refocus images (render, frames, tests);
+//! - [`batch`]: many refocus images of one light field in one set-up (focal stacks, videos);
+//! - [`depth`]: the GPU plane sweep of [`crate::depth`]'s plan, and `ensure_depth` with its cache;
+//! - [`raster`]: synthetic light fields and optical ground truth from the mesh rasterizer.
+
+pub mod batch;
+pub mod depth;
+pub mod raster;
+pub mod refocus;
