@@ -17,7 +17,7 @@ echo "== cargo test" >&2
 # line sums every test binary's results.
 log=$(mktemp)
 set +e
-cargo test --lib --bins --tests "$@" 2>&1 | tee "$log"
+cargo test --no-fail-fast --lib --bins --tests "$@" 2>&1 | tee "$log"
 status=${PIPESTATUS[0]}
 set -e
 awk '/^test result:/ { p += $4; f += $6 } END { printf "tests: %d passed, %d failed\n", p, f }' "$log"

@@ -132,8 +132,11 @@ fn check_device(
     let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f13);
     // SAFETY: valid structures chained as the spec requires.
     unsafe { instance.get_physical_device_features2(pd, &mut f2) };
-    if f13.dynamic_rendering == vk::FALSE || f13.synchronization2 == vk::FALSE {
-        return Err("lacks dynamicRendering or synchronization2".into());
+    if f13.dynamic_rendering == vk::FALSE
+        || f13.synchronization2 == vk::FALSE
+        || f13.maintenance4 == vk::FALSE
+    {
+        return Err("lacks dynamicRendering, synchronization2 or maintenance4".into());
     }
     if swapchain {
         // SAFETY: pd comes from this instance.
@@ -345,9 +348,13 @@ impl GpuContext {
         let queue_info = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&priorities)];
+        // maintenance4 (required of every Vulkan 1.3 device): compute shaders whose workgroup
+        // size is a specialisation constant compile to the LocalSizeId execution mode with
+        // some shaderc versions (Debian 12's), which needs it.
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
-            .synchronization2(true);
+            .synchronization2(true)
+            .maintenance4(true);
         let device_extensions = if options.swapchain {
             vec![ash::khr::swapchain::NAME.as_ptr()]
         } else {
