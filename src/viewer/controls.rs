@@ -4,6 +4,7 @@
 use glam::DVec2;
 use glfw::Key;
 
+use super::session::video::VideoStep;
 use super::state::Action;
 
 /// Tilt and swing step of the arrow keys, degrees.
@@ -74,6 +75,16 @@ pub fn action_for_key(key: Key, shift: bool) -> Option<Action> {
         Key::Q | Key::Escape => Action::Quit,
         _ => return None,
     })
+}
+
+/// The video step of `key`, if it is a video key (`,` `.` Space).
+pub fn video_step_for_key(key: Key) -> Option<VideoStep> {
+    match key {
+        Key::Comma => Some(VideoStep::Previous),
+        Key::Period => Some(VideoStep::Next),
+        Key::Space => Some(VideoStep::PlayPause),
+        _ => None,
+    }
 }
 
 /// The key of a GLFW key name (`UP`, `W`, `LEFT_BRACKET`, `KP_ADD`-style names of the keys

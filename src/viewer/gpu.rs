@@ -4,10 +4,12 @@
 //! [`FrameRequest`] (what to accumulate, whether the scene or the text changed) and captures
 //! screenshots; what to draw is decided by the caller (UI state never lives here).
 //!
-//! Per frame: wait for the slot's previous frame (its timestamps are read then) → acquire →
-//! a global barrier (images reused across frames are rewritten only after earlier frames are
-//! done with them) → accumulate + resolve a batch of views → scene view (only when it changed)
-//! → overlay rows (only those that changed) → compose the window → present.
+//! Per frame ([`ViewerGpu::frame`]): wait for the slot's previous frame (its timestamps are
+//! read then) → acquire → a global barrier (images reused across frames are rewritten only
+//! after earlier frames are done with them) → the named steps: accumulate + resolve a batch of
+//! views (`RefocusTargets::record_batch`) → scene view, only when it changed
+//! (`SceneImage::record`) → overlay rows, only those that changed (`Overlay::upload_rows`) →
+//! compose the window (`compose`) → capture it for a screenshot (`record_capture`) → present.
 //!
 //! Destruction order: wait idle → frames (run deferred releases) → readback → overlay staging
 //! and image → scene target → scene pass → refocus targets → refocus pass → texture →
@@ -395,18 +397,25 @@ impl ViewerGpu {
         self.make_sets()
     }
 
-    /// Records, submits and presents one frame.
-    pub fn frame(&mut self, req: FrameRequest) -> Result<FrameResult> {
+    /// Before recording: the preview target the batch needs, and the plan's warps (the frames
+    /// in flight read the old ones: they are waited for before the rewrite).
+    fn prepare(&mut self, req: &FrameRequest) -> Result<()> {
         if let Some(b) = &req.batch {
             self.ensure_preview(b.divisor)?;
         }
-        // The warps are read by frames in flight: wait for them before rewriting.
         if self.pass.as_ref().is_some_and(|p| p.views_differ(req.plan)) {
             self.wait_idle()?;
             if let Some(p) = self.pass.as_mut() {
                 p.set_views(req.plan)?;
             }
         }
+        Ok(())
+    }
+
+    /// Records, submits and presents one frame: refocus batch → scene → overlay rows →
+    /// compose → present (or capture and present), between timestamps 0, 1 and 2.
+    pub fn frame(&mut self, req: FrameRequest) -> Result<FrameResult> {
+        self.prepare(&req)?;
         let ctx = Arc::clone(&self.ctx);
         let d = &ctx.device;
         let (
@@ -453,229 +462,45 @@ impl ViewerGpu {
             ts.reset(d, cmd);
             ts.write(d, cmd, all, 0);
         }
-
-        // 1. Refocus: the next batch of views into the target of its size, then resolve.
         if let Some(batch) = &req.batch {
-            let m = req.plan.m.as_vec3();
-            let accumulate = Accumulate {
-                m: [m.x, m.y, m.z],
-                views: batch.views.clone(),
-                clear: batch.clear,
-                strategy: self.strategy,
-                filter: Default::default(),
+            let work = RefocusWork {
+                plan: req.plan,
+                batch,
                 averaging: req.averaging,
+                strategy: self.strategy,
             };
-            let target = if batch.divisor > 1 {
-                match targets.preview.as_mut() {
-                    Some((_, t, _)) => t,
-                    None => return Err(Error::Vulkan("no preview target".into())),
-                }
-            } else {
-                &mut targets.full
-            };
-            pass.record_accumulate(&ctx, cmd, target, &accumulate)?;
-            pass.record_resolve(&ctx, cmd, target, OutputFormat::Srgb8, req.averaging)?;
-            image_barrier(
-                d,
-                cmd,
-                target.out8.image,
-                1,
-                ImageTransition {
-                    from: stage::COLOR_WRITE,
-                    to: stage::FRAGMENT_READ,
-                },
-            );
-            if batch.divisor > 1 {
-                targets.preview_ready = true;
-            } else {
-                targets.full_ready = true;
-            }
-            targets.shown = Some(batch.divisor.max(1));
+            targets.record_batch(&ctx, cmd, pass, &work)?;
             self.slot_work[frame.slot] = Some((batch.views.len(), batch.divisor.max(1), req.tag));
         }
         if let Some(ts) = ts {
             ts.write(d, cmd, all, 1);
         }
-
-        // 2. The scene view, when it changed.
         if let Some((view, geometry, cloud_changed)) = req.scene {
-            scene_pass.record(
-                &ctx,
-                cmd,
-                frame.slot,
-                &mut scene.target,
-                &view,
-                geometry,
-                cloud_changed,
-            )?;
-            image_barrier(
-                d,
-                cmd,
-                scene.target.color.image,
-                1,
-                ImageTransition {
-                    from: stage::COLOR_WRITE,
-                    to: stage::FRAGMENT_READ,
-                },
-            );
-            scene.ready = true;
+            let draw = (&view, geometry, cloud_changed);
+            scene.record(&ctx, cmd, scene_pass, frame.slot, draw)?;
         }
-
-        // 3. The overlay rows that changed.
-        if let Some((y0, y1)) = req.canvas.take_dirty() {
-            let y1 = y1.min(overlay.image.desc.height);
-            if y0 < y1 && req.canvas.width == overlay.image.desc.width {
-                let rows = req.canvas.rows(y0, y1);
-                let staging = &mut overlay.staging[frame.slot];
-                staging.bytes_mut()[..rows.len()].copy_from_slice(rows);
-                image_barrier(
-                    d,
-                    cmd,
-                    overlay.image.image,
-                    1,
-                    ImageTransition {
-                        from: if overlay.ready {
-                            stage::FRAGMENT_READ
-                        } else {
-                            stage::UNDEFINED
-                        },
-                        to: stage::TRANSFER_DST,
-                    },
-                );
-                let region =
-                    color_copy(0, req.canvas.width, y1 - y0, 1).image_offset(vk::Offset3D {
-                        x: 0,
-                        y: y0 as i32,
-                        z: 0,
-                    });
-                // SAFETY: recording; the staging buffer holds the rows, the image is in
-                // TRANSFER_DST (barrier above).
-                unsafe {
-                    d.cmd_copy_buffer_to_image(
-                        cmd,
-                        staging.buffer,
-                        overlay.image.image,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        &[region],
-                    )
-                };
-                image_barrier(
-                    d,
-                    cmd,
-                    overlay.image.image,
-                    1,
-                    ImageTransition {
-                        from: stage::TRANSFER_DST,
-                        to: stage::FRAGMENT_READ,
-                    },
-                );
-                overlay.ready = true;
-            }
-        }
-
-        // 4. Compose the window.
-        let image = swapchain.images[index as usize];
-        image_barrier(
-            d,
-            cmd,
-            image,
-            1,
-            ImageTransition {
-                from: stage::ACQUIRED,
-                to: stage::COLOR_WRITE,
-            },
-        );
-        let extent = swapchain.extent;
-        begin_rendering(
-            d,
-            cmd,
-            extent,
-            swapchain.views[index as usize],
-            vk::AttachmentLoadOp::CLEAR,
-            None,
-        );
-        let shown = match targets.shown {
-            Some(1) if targets.full_ready => Some(targets.full_set),
-            Some(_) if targets.preview_ready => targets.preview.as_ref().map(|p| p.2),
-            _ if targets.full_ready => Some(targets.full_set),
-            _ => None,
+        overlay.upload_rows(d, cmd, frame.slot, req.canvas);
+        let sources = Sources {
+            refocus: targets.shown_set(),
+            scene: scene.ready.then_some(scene.set),
+            overlay: overlay.source(),
+            layout: req.layout,
+            parts: req.overlay_parts,
         };
-        if let Some(set) = shown {
-            compositor.draw(
-                &ctx,
-                cmd,
-                set,
-                req.layout.refocus,
-                extent,
-                PanelMode::Encoded,
-            );
-        }
-        if scene.ready {
-            compositor.draw(
-                &ctx,
-                cmd,
-                scene.set,
-                req.layout.scene,
-                extent,
-                PanelMode::Linear,
-            );
-        }
-        if overlay.ready {
-            let full = Rect::new(
-                0.0,
-                0.0,
-                overlay.image.desc.width as f32,
-                overlay.image.desc.height as f32,
-            );
-            for part in req.overlay_parts {
-                compositor.draw_part(
-                    &ctx,
-                    cmd,
-                    overlay.set,
-                    full,
-                    *part,
-                    extent,
-                    PanelMode::Overlay,
-                );
-            }
-        }
-        // SAFETY: inside the rendering instance begun above.
-        unsafe { d.cmd_end_rendering(cmd) };
+        compose(&ctx, cmd, compositor, swapchain, index, &sources);
         if let Some(ts) = ts {
             ts.write(d, cmd, all, 2);
         }
+        let image = swapchain.images[index as usize];
+        let extent = swapchain.extent;
         if req.capture_window {
-            let bytes = extent.width as u64 * extent.height as u64 * 4;
-            if self.readback.as_ref().map_or(true, |b| b.size < bytes) {
-                if let Some(b) = self.readback.take() {
-                    // The last capture waited for its frame: the buffer is idle.
-                    b.destroy(&ctx);
-                }
-                self.readback = Some(Buffer::readback(&ctx, bytes, "window readback")?);
-            }
-            let buffer = self.readback.as_ref().map(|b| b.buffer).unwrap_or_default();
-            // The buffer was sized for this extent above.
-            let copy = ImageReadback {
-                image,
-                from: stage::COLOR_WRITE,
-                then: Some(stage::PRESENT),
-                width: extent.width,
-                height: extent.height,
-                buffer,
-                offset: 0,
-            };
-            record_readback(d, cmd, &copy);
+            record_capture(&ctx, cmd, &mut self.readback, image, extent)?;
         } else {
-            image_barrier(
-                d,
-                cmd,
-                image,
-                1,
-                ImageTransition {
-                    from: stage::COLOR_WRITE,
-                    to: stage::PRESENT,
-                },
-            );
+            let to_present = ImageTransition {
+                from: stage::COLOR_WRITE,
+                to: stage::PRESENT,
+            };
+            image_barrier(d, cmd, image, 1, to_present);
         }
         frames.submit(
             &ctx,
@@ -685,28 +510,10 @@ impl ViewerGpu {
             )],
             &[swapchain.render_finished[index as usize]],
         )?;
-        let recreate = swapchain.present(&ctx, index)?;
-        result.skipped = recreate;
+        result.skipped = swapchain.present(&ctx, index)?;
         if req.capture_window {
             frames.wait_all(&ctx)?;
-            let format = swapchain.format;
-            if let Some(b) = self.readback.as_mut() {
-                b.invalidate(&ctx)?;
-                let n = extent.width as usize * extent.height as usize * 4;
-                let mut raw = b.bytes_mut()[..n].to_vec();
-                if matches!(
-                    format,
-                    vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB
-                ) {
-                    for p in raw.chunks_exact_mut(4) {
-                        p.swap(0, 2);
-                    }
-                }
-                for p in raw.chunks_exact_mut(4) {
-                    p[3] = 255;
-                }
-                result.window = RgbaImage::from_raw(extent.width, extent.height, raw);
-            }
+            result.window = read_window(&ctx, self.readback.as_mut(), swapchain.format, extent)?;
         }
         Ok(result)
     }
@@ -806,6 +613,265 @@ impl ViewerGpu {
             None => Err(Error::Vulkan("the scene has not been drawn yet".into())),
         }
     }
+}
+
+/// One frame's refocus work: the batch of `plan` (refinement order) to accumulate.
+struct RefocusWork<'a> {
+    plan: &'a RefocusPlan,
+    batch: &'a Batch,
+    averaging: Averaging,
+    strategy: Strategy,
+}
+
+impl RefocusTargets {
+    /// Step 1, refocus: the next batch of views into the target of its size, then resolve; the
+    /// window shows that target from now on.
+    fn record_batch(
+        &mut self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        pass: &mut RefocusPass,
+        work: &RefocusWork,
+    ) -> Result<()> {
+        let batch = work.batch;
+        let m = work.plan.m.as_vec3();
+        let accumulate = Accumulate {
+            m: [m.x, m.y, m.z],
+            views: batch.views.clone(),
+            clear: batch.clear,
+            strategy: work.strategy,
+            filter: Default::default(),
+            averaging: work.averaging,
+        };
+        let target = if batch.divisor > 1 {
+            match self.preview.as_mut() {
+                Some((_, t, _)) => t,
+                None => return Err(Error::Vulkan("no preview target".into())),
+            }
+        } else {
+            &mut self.full
+        };
+        pass.record_accumulate(ctx, cmd, target, &accumulate)?;
+        pass.record_resolve(ctx, cmd, target, OutputFormat::Srgb8, work.averaging)?;
+        let to_read = ImageTransition {
+            from: stage::COLOR_WRITE,
+            to: stage::FRAGMENT_READ,
+        };
+        image_barrier(&ctx.device, cmd, target.out8.image, 1, to_read);
+        if batch.divisor > 1 {
+            self.preview_ready = true;
+        } else {
+            self.full_ready = true;
+        }
+        self.shown = Some(batch.divisor.max(1));
+        Ok(())
+    }
+
+    /// The set of the refocus image the window shows: the target last drawn into, else the
+    /// full-size one if it has content.
+    fn shown_set(&self) -> Option<vk::DescriptorSet> {
+        match self.shown {
+            Some(1) if self.full_ready => Some(self.full_set),
+            Some(_) if self.preview_ready => self.preview.as_ref().map(|p| p.2),
+            _ if self.full_ready => Some(self.full_set),
+            _ => None,
+        }
+    }
+}
+
+impl SceneImage {
+    /// Step 2, the scene view (only when it changed): `draw` is the view, the geometry and
+    /// whether the cloud layer is redrawn too.
+    fn record(
+        &mut self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        pass: &mut ScenePass,
+        slot: usize,
+        draw: (&SceneView, &SceneOverlay, bool),
+    ) -> Result<()> {
+        let (view, geometry, cloud_changed) = draw;
+        pass.record(
+            ctx,
+            cmd,
+            slot,
+            &mut self.target,
+            view,
+            geometry,
+            cloud_changed,
+        )?;
+        let to_read = ImageTransition {
+            from: stage::COLOR_WRITE,
+            to: stage::FRAGMENT_READ,
+        };
+        image_barrier(&ctx.device, cmd, self.target.color.image, 1, to_read);
+        self.ready = true;
+        Ok(())
+    }
+}
+
+impl Overlay {
+    /// Step 3, the overlay text: copies the canvas rows that changed through the slot's
+    /// staging buffer (a canvas of another width than the image waits for the resize).
+    fn upload_rows(
+        &mut self,
+        d: &ash::Device,
+        cmd: vk::CommandBuffer,
+        slot: usize,
+        canvas: &mut Canvas,
+    ) {
+        let Some((y0, y1)) = canvas.take_dirty() else {
+            return;
+        };
+        let y1 = y1.min(self.image.desc.height);
+        if y0 >= y1 || canvas.width != self.image.desc.width {
+            return;
+        }
+        let rows = canvas.rows(y0, y1);
+        let staging = &mut self.staging[slot];
+        staging.bytes_mut()[..rows.len()].copy_from_slice(rows);
+        let to_write = ImageTransition {
+            from: if self.ready {
+                stage::FRAGMENT_READ
+            } else {
+                stage::UNDEFINED
+            },
+            to: stage::TRANSFER_DST,
+        };
+        image_barrier(d, cmd, self.image.image, 1, to_write);
+        let region = color_copy(0, canvas.width, y1 - y0, 1).image_offset(vk::Offset3D {
+            x: 0,
+            y: y0 as i32,
+            z: 0,
+        });
+        // SAFETY: recording; the staging buffer holds the rows, the image is in
+        // TRANSFER_DST (barrier above).
+        unsafe {
+            d.cmd_copy_buffer_to_image(
+                cmd,
+                staging.buffer,
+                self.image.image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
+        };
+        let to_read = ImageTransition {
+            from: stage::TRANSFER_DST,
+            to: stage::FRAGMENT_READ,
+        };
+        image_barrier(d, cmd, self.image.image, 1, to_read);
+        self.ready = true;
+    }
+
+    /// The overlay's set and its full rectangle, once it has content.
+    fn source(&self) -> Option<(vk::DescriptorSet, Rect)> {
+        let (w, h) = (self.image.desc.width, self.image.desc.height);
+        self.ready
+            .then(|| (self.set, Rect::new(0.0, 0.0, w as f32, h as f32)))
+    }
+}
+
+/// What the window is composed from: the panel images that have content, where they go,
+/// and the parts of the overlay with content.
+struct Sources<'a> {
+    refocus: Option<vk::DescriptorSet>,
+    scene: Option<vk::DescriptorSet>,
+    overlay: Option<(vk::DescriptorSet, Rect)>,
+    layout: &'a Layout,
+    parts: &'a [Rect],
+}
+
+/// Step 4, compose the window: swapchain image `index` cleared, then the refocus panel, the
+/// scene panel and the overlay's parts drawn into it.
+fn compose(
+    ctx: &GpuContext,
+    cmd: vk::CommandBuffer,
+    compositor: &Compositor,
+    swapchain: &Swapchain,
+    index: u32,
+    sources: &Sources,
+) {
+    let d = &ctx.device;
+    let to_write = ImageTransition {
+        from: stage::ACQUIRED,
+        to: stage::COLOR_WRITE,
+    };
+    image_barrier(d, cmd, swapchain.images[index as usize], 1, to_write);
+    let extent = swapchain.extent;
+    let view = swapchain.views[index as usize];
+    begin_rendering(d, cmd, extent, view, vk::AttachmentLoadOp::CLEAR, None);
+    let layout = sources.layout;
+    if let Some(set) = sources.refocus {
+        compositor.draw(ctx, cmd, set, layout.refocus, extent, PanelMode::Encoded);
+    }
+    if let Some(set) = sources.scene {
+        compositor.draw(ctx, cmd, set, layout.scene, extent, PanelMode::Linear);
+    }
+    if let Some((set, full)) = sources.overlay {
+        for part in sources.parts {
+            compositor.draw_part(ctx, cmd, set, full, *part, extent, PanelMode::Overlay);
+        }
+    }
+    // SAFETY: inside the rendering instance begun above.
+    unsafe { d.cmd_end_rendering(cmd) };
+}
+
+/// Step 5, capture: copies the composed `image` into the readback buffer (grown to fit
+/// `extent`) and leaves it ready to present.
+fn record_capture(
+    ctx: &GpuContext,
+    cmd: vk::CommandBuffer,
+    readback: &mut Option<Buffer>,
+    image: vk::Image,
+    extent: vk::Extent2D,
+) -> Result<()> {
+    let bytes = extent.width as u64 * extent.height as u64 * 4;
+    if readback.as_ref().map_or(true, |b| b.size < bytes) {
+        if let Some(b) = readback.take() {
+            // The last capture waited for its frame: the buffer is idle.
+            b.destroy(ctx);
+        }
+        *readback = Some(Buffer::readback(ctx, bytes, "window readback")?);
+    }
+    let buffer = readback.as_ref().map(|b| b.buffer).unwrap_or_default();
+    // The buffer was sized for this extent above.
+    let copy = ImageReadback {
+        image,
+        from: stage::COLOR_WRITE,
+        then: Some(stage::PRESENT),
+        width: extent.width,
+        height: extent.height,
+        buffer,
+        offset: 0,
+    };
+    record_readback(&ctx.device, cmd, &copy);
+    Ok(())
+}
+
+/// The captured window as RGBA (swizzled from BGRA swapchains, opaque), after its frame
+/// completed.
+fn read_window(
+    ctx: &GpuContext,
+    readback: Option<&mut Buffer>,
+    format: vk::Format,
+    extent: vk::Extent2D,
+) -> Result<Option<RgbaImage>> {
+    let Some(b) = readback else { return Ok(None) };
+    b.invalidate(ctx)?;
+    let n = extent.width as usize * extent.height as usize * 4;
+    let mut raw = b.bytes_mut()[..n].to_vec();
+    if matches!(
+        format,
+        vk::Format::B8G8R8A8_UNORM | vk::Format::B8G8R8A8_SRGB
+    ) {
+        for p in raw.chunks_exact_mut(4) {
+            p.swap(0, 2);
+        }
+    }
+    for p in raw.chunks_exact_mut(4) {
+        p[3] = 255;
+    }
+    Ok(RgbaImage::from_raw(extent.width, extent.height, raw))
 }
 
 /// The timings of a completed slot that accumulated `work`.

@@ -18,9 +18,12 @@
 //!
 //! A script is parsed and checked completely before the window opens: unknown commands, bad
 //! numbers and pixels outside their panel (given the window size at that line) are errors
-//! naming the line.
+//! naming the line. While the window is open a [`Runner`] hands out the commands, holding
+//! them back while a `wait` or `wait-converged` line is in effect.
 
+use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
 
 use glfw::Key;
 
@@ -77,6 +80,63 @@ pub enum Command {
 pub struct Line {
     pub number: usize,
     pub command: Command,
+}
+
+/// A script being run: the lines left and what the current one waits for.
+#[derive(Debug, Default)]
+pub struct Runner {
+    lines: VecDeque<Line>,
+    /// A `wait` line in effect until then.
+    wait_until: Option<Instant>,
+    /// A `wait-converged` line in effect.
+    wait_converged: bool,
+}
+
+impl Runner {
+    pub fn new(lines: &[Line]) -> Self {
+        Runner {
+            lines: lines.iter().cloned().collect(),
+            ..Runner::default()
+        }
+    }
+
+    /// The next command to run now, or `None` while the script waits (or has ended). `wait`
+    /// and `wait-converged` lines are taken here; `converged` says whether the image is final.
+    pub fn next(&mut self, converged: impl Fn() -> bool) -> Option<Line> {
+        loop {
+            if let Some(t) = self.wait_until {
+                if Instant::now() < t {
+                    return None;
+                }
+                self.wait_until = None;
+            }
+            if self.wait_converged {
+                if !converged() {
+                    return None;
+                }
+                self.wait_converged = false;
+            }
+            let line = self.lines.pop_front()?;
+            match line.command {
+                Command::Wait(sec) => {
+                    self.wait_until = Some(Instant::now() + Duration::from_secs_f64(sec))
+                }
+                Command::WaitConverged => self.wait_converged = true,
+                _ => return Some(line),
+            }
+            log::debug!("script line {} done", line.number);
+        }
+    }
+
+    /// When a `wait` line ends, if one is in effect.
+    pub fn wakes_at(&self) -> Option<Instant> {
+        self.wait_until
+    }
+
+    /// No line is left and none waits for convergence (input alone drives the window).
+    pub fn finished(&self) -> bool {
+        self.lines.is_empty() && !self.wait_converged
+    }
 }
 
 /// Reads and parses a script file.

@@ -1,7 +1,9 @@
 //! What the viewer shows, as plain data: the focus, the aperture, the viewpoint, the averaging,
-//! the picks in progress — and how every user action changes it. No window and no GPU here:
-//! the event loop turns input into [`Action`]s, applies them, and renders the resulting
-//! [`RefocusPlan`].
+//! the picks in progress, the scene panel's camera, the video frame shown, the on-screen
+//! message — and how every action changes it. No window and no GPU here: the event loop and
+//! the session turn input, script commands and decoded video frames into [`Action`]s, apply
+//! them, and render the resulting [`RefocusPlan`]. Nothing else writes this state; the
+//! [`Effect`] an action returns tells the session what to redraw.
 //!
 //! Rules:
 //! - an action that cannot be applied (a click without usable depth, collinear points, a tilt
@@ -11,11 +13,13 @@
 //!   (a focus given relative to the reference camera is first turned into its world plane);
 //! - keyboard adjustments (tilt, swing, distance) act on the plane as seen from the current
 //!   reference camera, exactly as `render`'s `--nudge-*` options, and leave a world plane;
-//! - every change of what is rendered increments [`ViewerState::version`]; changes that only
-//!   affect markers increment [`ViewerState::marks_version`].
+//! - every change of what is rendered (a new plan, or new views: the next video frame)
+//!   increments [`ViewerState::version`]; changes that only affect markers increment
+//!   [`ViewerState::marks_version`]; moving the scene camera and messages change neither.
 
 use glam::{DVec2, DVec3};
 
+use super::orbit::OrbitCamera;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::geometry::normals::NormalParams;
@@ -27,8 +31,8 @@ use crate::refocus::{
     RefocusRequest, ResolvedFocus,
 };
 
-/// One user action, whatever input produced it (key, mouse, script).
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// One action, whatever produced it (key, mouse, script, the video decoder).
+#[derive(Debug, Clone, PartialEq)]
 pub enum Action {
     /// Tilt the plane by degrees (as `--nudge-tilt`).
     Tilt(f64),
@@ -56,6 +60,17 @@ pub enum Action {
     ThreeClick(DVec2),
     /// One of three picked world points (as `render --points-3d`).
     ScenePick(DVec3),
+    /// Orbit the scene camera by this many dragged pixels.
+    Orbit(DVec2),
+    /// Pan the scene camera by this many dragged pixels in a scene panel of this size.
+    Pan(DVec2, (u32, u32)),
+    /// Zoom the scene camera by scroll steps.
+    Zoom(f64),
+    /// The video frame with this number is now the one whose views are rendered.
+    ShowFrame(u64),
+    /// Show why an input could not become an action (a click without depth, a key that needs
+    /// a video, a frame that failed to decode).
+    Refuse(String),
     ToggleHelp,
     Screenshot,
     Quit,
@@ -70,6 +85,12 @@ pub enum Effect {
     Marked,
     /// Nothing changed; the reason is in [`ViewerState::message`].
     Refused(String),
+    /// The views changed (a new video frame): refinement restarts, the scene is as it was.
+    NewViews,
+    /// Only the scene camera moved: the scene panel (and its cloud layer) is redrawn.
+    SceneView,
+    /// Only the on-screen message changed.
+    Message,
     Screenshot,
     Quit,
 }
@@ -107,6 +128,10 @@ pub struct ViewerState {
     /// How clicks estimate the surface normal (the window suits the depth's origin: larger on
     /// an estimated map, as `render` chooses).
     pub normals: NormalParams,
+    /// The scene panel's camera.
+    pub orbit: OrbitCamera,
+    /// The video frame shown, for videos.
+    pub frame: Option<u64>,
 }
 
 /// Disparity change of one scroll step: 1/64 of the data's disparity range, else 0.05 px.
@@ -151,6 +176,8 @@ impl ViewerState {
         let (resolved, plan) = resolve(lf, &core, &excluded)?;
         let anchor = anchor_of(&resolved);
         let core = Core { anchor, ..core };
+        let orbit =
+            OrbitCamera::over_shoulder(&plan.reference_camera, scene_centre(&resolved, &plan));
         Ok(ViewerState {
             core,
             initial: core,
@@ -164,7 +191,17 @@ impl ViewerState {
             version: 0,
             marks_version: 0,
             normals: NormalParams::default(),
+            orbit,
+            frame: None,
         })
+    }
+
+    /// The scene camera looking at `centre` (the point cloud's) instead of the focus plane.
+    pub fn with_scene_centre(mut self, centre: Option<DVec3>) -> Self {
+        if let Some(c) = centre {
+            self.orbit = OrbitCamera::over_shoulder(&self.plan.reference_camera, c);
+        }
+        self
     }
 
     pub fn focus(&self) -> &FocusRequest {
@@ -201,6 +238,27 @@ impl ViewerState {
                 return Effect::Marked;
             }
             Action::Screenshot => return Effect::Screenshot,
+            Action::Orbit(delta) => {
+                self.orbit.orbit(delta);
+                return Effect::SceneView;
+            }
+            Action::Pan(delta, size) => {
+                self.orbit.pan(delta, size);
+                return Effect::SceneView;
+            }
+            Action::Zoom(steps) => {
+                self.orbit.zoom(steps);
+                return Effect::SceneView;
+            }
+            Action::ShowFrame(frame) => {
+                self.frame = Some(frame);
+                self.version += 1;
+                return Effect::NewViews;
+            }
+            Action::Refuse(why) => {
+                self.message = Some(why);
+                return Effect::Message;
+            }
             Action::Reset => {
                 self.pending_clicks.clear();
                 self.pending_points.clear();
@@ -253,7 +311,7 @@ impl ViewerState {
                     Ok(())
                 })
             }
-            _ => {
+            action => {
                 let resolved = self.resolved.clone();
                 let plan = self.plan.clone();
                 self.change(lf, |lf, core| modify(lf, core, action, &resolved, &plan))
@@ -317,6 +375,15 @@ impl ViewerState {
             reference: Some(self.core.reference),
         }
     }
+}
+
+/// Where the scene camera looks when there is no point cloud: the focus plane's point, else a
+/// unit in front of the reference camera.
+fn scene_centre(resolved: &ResolvedFocus, plan: &RefocusPlan) -> DVec3 {
+    resolved
+        .plane
+        .map(|p| p.point)
+        .unwrap_or_else(|| plan.reference_camera.to_world(DVec3::Z))
 }
 
 fn anchor_of(resolved: &ResolvedFocus) -> Option<DVec3> {
@@ -594,6 +661,31 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn video_frames_scene_moves_and_messages_are_actions_too() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        let plan = s.plan.clone();
+        // A new video frame changes what is rendered (new views), not the plan.
+        assert_eq!(s.apply(&lf, Action::ShowFrame(7)), Effect::NewViews);
+        assert_eq!((s.frame, s.version, s.marks_version), (Some(7), 1, 0));
+        assert_eq!(s.plan, plan);
+        // The scene camera and messages change neither version.
+        let orbit = s.orbit;
+        assert_eq!(
+            s.apply(&lf, Action::Orbit(DVec2::new(10.0, 0.0))),
+            Effect::SceneView
+        );
+        assert_eq!(s.apply(&lf, Action::Zoom(1.0)), Effect::SceneView);
+        assert_ne!(s.orbit, orbit);
+        assert_eq!(
+            s.apply(&lf, Action::Refuse("no depth".into())),
+            Effect::Message
+        );
+        assert_eq!(s.message.as_deref(), Some("no depth"));
+        assert_eq!((s.version, s.marks_version), (1, 0));
     }
 
     #[test]

@@ -1,0 +1,106 @@
+//! Screenshots (`P`, or a script's `screenshot PREFIX`): the refocus image at full quality
+//! exactly as `render` computes it, the scene panel, the composed window, and a JSON record of
+//! the state that `render` can reproduce `PREFIX_refocus.png` from.
+
+use std::path::{Path, PathBuf};
+
+use image::RgbaImage;
+
+use super::super::gpu::ViewerGpu;
+use super::super::state::ViewerState;
+use crate::error::{Error, Result};
+use crate::lightfield::LightField;
+
+/// Screenshots asked for and taken.
+pub struct Screenshots {
+    /// Where `P` writes (a counter is appended).
+    prefix: PathBuf,
+    /// `P` presses so far.
+    taken: u32,
+    /// The prefix of the screenshot the next frame takes.
+    pub next: Option<PathBuf>,
+}
+
+impl Screenshots {
+    pub fn new(prefix: PathBuf) -> Self {
+        Screenshots {
+            prefix,
+            taken: 0,
+            next: None,
+        }
+    }
+
+    /// A `P` press: the next numbered screenshot.
+    pub fn numbered(&mut self) {
+        self.taken += 1;
+        self.next = Some(with_suffix(&self.prefix, &format!("-{}", self.taken)));
+    }
+}
+
+fn save_png(img: &RgbaImage, path: &Path) -> Result<()> {
+    if let Some(p) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(p).map_err(|e| Error::io(p, e))?;
+    }
+    crate::io::save_png(img, path)
+}
+
+fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_owned();
+    s.push(suffix);
+    PathBuf::from(s)
+}
+
+/// The state of a screenshot: the plan as `render --json` reports it, with the focus method,
+/// aperture and averaging, so `render` can reproduce `PREFIX_refocus.png`.
+pub fn screenshot_json(state: &ViewerState) -> serde_json::Value {
+    let mut v = crate::refocus::plan_json(&state.plan);
+    if let Some(obj) = v.as_object_mut() {
+        obj.insert("focus_how".into(), state.resolved.how.into());
+        obj.insert(
+            "aperture".into(),
+            serde_json::json!({"shape": state.aperture().shape, "radius": state.aperture().radius}),
+        );
+        obj.insert(
+            "averaging".into(),
+            serde_json::to_value(state.averaging()).unwrap_or_default(),
+        );
+    }
+    v
+}
+
+/// Writes `PREFIX_refocus.png`, `PREFIX_scene.png`, `PREFIX_window.png` (the composed `window`
+/// of this frame) and `PREFIX.json`; `frames` is the number of frames presented so far.
+pub fn save(
+    gpu: &mut ViewerGpu,
+    lf: &LightField,
+    state: &ViewerState,
+    prefix: &Path,
+    window: Option<&RgbaImage>,
+    frames: usize,
+) -> Result<()> {
+    let full = state.plan.clone();
+    let refocus = gpu.capture_refocus(&full, state.averaging(), (lf.width, lf.height))?;
+    save_png(&refocus, &with_suffix(prefix, "_refocus.png"))?;
+    let scene = gpu.capture_scene()?;
+    save_png(&scene, &with_suffix(prefix, "_scene.png"))?;
+    if let Some(w) = window {
+        save_png(w, &with_suffix(prefix, "_window.png"))?;
+    }
+    let mut json = screenshot_json(state);
+    if let Some(obj) = json.as_object_mut() {
+        if let Some(f) = state.frame {
+            obj.insert("frame".into(), f.into());
+        }
+        // Frames presented so far (this one included): scripts can check that an idle
+        // viewer renders nothing.
+        obj.insert("frames_presented".into(), frames.into());
+    }
+    let path = with_suffix(prefix, ".json");
+    std::fs::write(&path, format!("{json:#}\n")).map_err(|e| Error::io(&path, e))?;
+    log::info!("screenshot {}", prefix.display());
+    eprintln!(
+        "wrote {0}_refocus.png, {0}_scene.png, {0}_window.png and {0}.json",
+        prefix.display()
+    );
+    Ok(())
+}
