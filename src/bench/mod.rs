@@ -499,18 +499,50 @@ fn renderer_for<'a>(
     Ok(&mut list[i].1)
 }
 
-/// Measures every variant of `options` and the scaling sweep on `ctx`'s device.
-pub fn run(
-    ctx: Arc<GpuContext>,
-    scene: &BenchScene,
-    options: &BenchOptions,
-) -> Result<BenchReport> {
-    options.check()?;
+/// Plans of the variants by aperture radius key.
+type Plans = HashMap<Option<u64>, RefocusPlan>;
+/// The scaling sweep's plans (one per distinct view count) and output sizes.
+type SweepSet = (Vec<RefocusPlan>, Vec<(u32, u32)>);
+
+/// The radius key of a disk aperture (`None`: every view).
+fn radius_key(r: Option<f64>) -> Option<u64> {
+    r.map(f64::to_bits)
+}
+
+/// The ambiguity map a variant's accuracy excludes: (aperture, output size, nearest or not).
+fn ambiguity_key(lf: &LightField, v: &Variant) -> AmbiguityKey {
+    (
+        radius_key(v.aperture_radius),
+        v.size.resolve(lf.width, lf.height),
+        v.model() == Kernel::Nearest,
+    )
+}
+
+/// What the measurements share: plans by aperture radius (disk), f64 references by
+/// (radius, size, kernel), ambiguity maps, and the scaling sweep's plans and sizes.
+struct Prepared {
+    plans: Plans,
+    references: HashMap<RefKey, RefocusImage>,
+    /// Pixels whose masks (nearest: texels) f32 and f64 may decide differently.
+    ambiguous: HashMap<AmbiguityKey, Vec<bool>>,
+    sweep_plans: Vec<RefocusPlan>,
+    sizes: Vec<(u32, u32)>,
+}
+
+/// A variant's accuracy: against the bilinear f64 reference, against its own kernel's model,
+/// against the optical truth (synthetic scenes), and the pixels left out as ambiguous.
+type VariantAccuracy = (
+    stats::Accuracy,
+    stats::Accuracy,
+    Option<Option<stats::Accuracy>>,
+    usize,
+);
+
+/// The plans of the variants (by aperture radius) and of the scaling sweep (one per distinct
+/// view count) and the sweep's output sizes.
+fn plans_of(scene: &BenchScene, options: &BenchOptions) -> Result<(Plans, SweepSet)> {
     let lf = &scene.lf;
-    let warmup = options.warmup.max(1);
-    // Plans by aperture radius (disk), references by (radius, size, kernel).
-    let radius_key = |r: Option<f64>| r.map(f64::to_bits);
-    let mut plans: HashMap<Option<u64>, RefocusPlan> = HashMap::new();
+    let mut plans: Plans = HashMap::new();
     for v in &options.variants {
         if let std::collections::hash_map::Entry::Vacant(e) =
             plans.entry(radius_key(v.aperture_radius))
@@ -539,27 +571,31 @@ pub fn run(
             sweep_plans.push(plan);
         }
     }
-    let sweep_points = sweep_plans.len() * sizes.len();
-    let mut ref_keys: Vec<RefKey> = Vec::new();
+    Ok((plans, (sweep_plans, sizes)))
+}
+
+/// The (radius, size, kernel) keys of the f64 references the variants are scored against.
+fn reference_keys(lf: &LightField, options: &BenchOptions) -> Vec<RefKey> {
+    let mut keys: Vec<RefKey> = Vec::new();
     for v in &options.variants {
         let size = v.size.resolve(lf.width, lf.height);
         for k in [Kernel::Bilinear, v.model()] {
             let key = (radius_key(v.aperture_radius), size, k);
-            if !ref_keys.contains(&key) {
-                ref_keys.push(key);
+            if !keys.contains(&key) {
+                keys.push(key);
             }
         }
     }
-    let total = ref_keys.len()
-        + options.variants.len() * (warmup + options.frames)
-        + sweep_points * (warmup + options.sweep_frames);
-    let bar = ProgressBar::new(total as u64).with_style(
-        ProgressStyle::with_template("bench {bar:30} {pos}/{len} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    // The f64 references first: they are CPU work and need no device.
+    keys
+}
+
+/// Plans, f64 references (CPU work, no device) and ambiguity maps, advancing `bar` by
+/// reference.
+fn prepare(scene: &BenchScene, options: &BenchOptions, bar: &ProgressBar) -> Result<Prepared> {
+    let lf = &scene.lf;
+    let (plans, (sweep_plans, sizes)) = plans_of(scene, options)?;
     let mut references: HashMap<RefKey, RefocusImage> = HashMap::new();
-    for key in ref_keys {
+    for key in reference_keys(lf, options) {
         bar.set_message(format!(
             "f64 {} reference {}×{}",
             kernel_name(key.2),
@@ -571,19 +607,9 @@ pub fn run(
         references.insert(key, img);
         bar.inc(1);
     }
-    // Pixels whose masks (nearest: texels) f32 and f64 may decide differently, per
-    // (aperture, size, nearest or not).
     let mut ambiguous: HashMap<AmbiguityKey, Vec<bool>> = HashMap::new();
-    let ambiguity_key = |v: &Variant| {
-        let size = v.size.resolve(lf.width, lf.height);
-        (
-            radius_key(v.aperture_radius),
-            size,
-            v.model() == Kernel::Nearest,
-        )
-    };
     for v in &options.variants {
-        let key = ambiguity_key(v);
+        let key = ambiguity_key(lf, v);
         if let std::collections::hash_map::Entry::Vacant(e) = ambiguous.entry(key) {
             let kernel = if key.2 {
                 Kernel::Nearest
@@ -599,6 +625,178 @@ pub fn run(
             ));
         }
     }
+    Ok(Prepared {
+        plans,
+        references,
+        ambiguous,
+        sweep_plans,
+        sizes,
+    })
+}
+
+/// Renders variant `v` once for accuracy (also its first warm-up frame: it compiles the
+/// pipeline), then the rest of the warm-up, and scores the image.
+fn measure_accuracy(
+    r: &mut HeadlessRenderer,
+    scene: &BenchScene,
+    prep: &Prepared,
+    v: &Variant,
+    warmup: usize,
+    bar: &ProgressBar,
+) -> Result<VariantAccuracy> {
+    let lf = &scene.lf;
+    let plan = &prep.plans[&radius_key(v.aperture_radius)];
+    let size = v.size.resolve(lf.width, lf.height);
+    let image = render_variant(r, scene, plan, v)?;
+    bar.inc(1);
+    for _ in 1..warmup {
+        r.render_timed(plan, &settings_of(v, lf))?;
+        bar.inc(1);
+    }
+    let key = |k| (radius_key(v.aperture_radius), size, k);
+    let exclude = prep.ambiguous[&ambiguity_key(lf, v)].as_slice();
+    let mismatch = || Error::Invalid("reference size mismatch".into());
+    let vs_ref = stats::accuracy(
+        &image,
+        &prep.references[&key(Kernel::Bilinear)],
+        Some(exclude),
+    )
+    .ok_or_else(mismatch)?;
+    let vs_model = stats::accuracy(&image, &prep.references[&key(v.model())], Some(exclude))
+        .ok_or_else(mismatch)?;
+    let truth = scene
+        .truth
+        .as_ref()
+        .map(|t| stats::accuracy(&image, &t.image, None));
+    let ambiguous_count = exclude.iter().filter(|&&a| a).count();
+    Ok((vs_ref, vs_model, truth, ambiguous_count))
+}
+
+/// The report of variant `v` from its frame times and accuracy, with its roofline fractions.
+fn variant_report(
+    v: &Variant,
+    lf: &LightField,
+    plan: &RefocusPlan,
+    frame_times: &[f64],
+    accuracy: VariantAccuracy,
+    peak: &roof::Peak,
+) -> Result<VariantReport> {
+    let (w, h) = v.size.resolve(lf.width, lf.height);
+    let times =
+        stats::summarize(frame_times).ok_or_else(|| Error::Invalid("no frames timed".into()))?;
+    let (vs_ref, vs_model, truth, ambiguous_count) = accuracy;
+    let views = plan.views.len();
+    let bound = v.bound(views);
+    let samples = views as f64 * w as f64 * h as f64;
+    let samples_per_s = samples / (times.median / 1e3);
+    let texel_bytes = match v.storage {
+        ViewStorage::Srgb8 => 4.0,
+        ViewStorage::Linear16 => 8.0,
+    };
+    let accum_bytes = match v.accumulation {
+        Accumulation::Rgba32f => 16.0,
+        Accumulation::Rgba16f => 8.0,
+    };
+    let traffic = views as f64 * lf.width as f64 * lf.height as f64 * texel_bytes
+        + w as f64 * h as f64 * accum_bytes;
+    Ok(VariantReport {
+        name: v.name(),
+        label: v.label(),
+        strategy: v.strategy.name(),
+        filter: v.filter,
+        storage: v.storage,
+        accumulation: v.accumulation,
+        aperture_radius: v.aperture_radius,
+        views,
+        width: w,
+        height: h,
+        default: v.is_default(),
+        frames: frame_times.len(),
+        gpu_ms_median: times.median,
+        gpu_ms_min: times.min,
+        gpu_ms_max: times.max,
+        samples_per_s,
+        texture_roof_fraction: peak
+            .gtexels
+            .map(|g| samples_per_s * fetches(v.filter) / (g * 1e9)),
+        bandwidth_roof_fraction: peak
+            .gbps
+            .map(|g| traffic / (times.median / 1e3) / (g * 1e9)),
+        psnr_vs_reference_db: vs_ref.psnr_db,
+        max_error_vs_reference: vs_ref.max_levels,
+        ambiguous_pixels: ambiguous_count,
+        model: kernel_name(v.model()),
+        psnr_vs_model_db: vs_model.psnr_db,
+        max_error_vs_model: vs_model.max_levels,
+        within_bound: vs_model.psnr_db >= bound.min_psnr_db
+            && vs_model.max_levels <= bound.max_levels,
+        bound,
+        psnr_vs_truth_db: truth.map(|a| a.map(|a| a.psnr_db)),
+        max_error_vs_truth: truth.map(|a| a.map(|a| a.max_levels)),
+    })
+}
+
+/// Times render's default variant on `r` over every (plan, size) point of the sweep.
+fn scaling_points(
+    r: &mut HeadlessRenderer,
+    lf: &LightField,
+    prep: &Prepared,
+    warmup: usize,
+    frames: usize,
+    bar: &ProgressBar,
+) -> Result<Vec<ScalingPoint>> {
+    let default = Variant::default();
+    let mut scaling = Vec::new();
+    for plan in &prep.sweep_plans {
+        for &(w, h) in &prep.sizes {
+            bar.set_message(format!("scaling: {} views, {w}×{h}", plan.views.len()));
+            let settings = RenderSettings {
+                size: Some((w, h)),
+                ..settings_of(&default, lf)
+            };
+            let t = time_frames(r, plan, &settings, warmup, frames, bar)?;
+            let samples = plan.views.len() as f64 * w as f64 * h as f64;
+            scaling.push(ScalingPoint {
+                views: plan.views.len(),
+                width: w,
+                height: h,
+                view_samples: samples,
+                frames,
+                gpu_ms_median: t.median,
+                gpu_ms_min: t.min,
+                gpu_ms_max: t.max,
+                samples_per_s: samples / (t.median / 1e3),
+            });
+        }
+    }
+    Ok(scaling)
+}
+
+/// Measures every variant of `options` and the scaling sweep on `ctx`'s device.
+pub fn run(
+    ctx: Arc<GpuContext>,
+    scene: &BenchScene,
+    options: &BenchOptions,
+) -> Result<BenchReport> {
+    options.check()?;
+    let lf = &scene.lf;
+    let warmup = options.warmup.max(1);
+    let sweep_points = options.sweep_radii.len() * options.sweep_widths.len();
+    let total = reference_keys(lf, options).len()
+        + options.variants.len() * (warmup + options.frames)
+        + sweep_points * (warmup + options.sweep_frames);
+    let bar = ProgressBar::new(total as u64).with_style(
+        ProgressStyle::with_template("bench {bar:30} {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let prep = prepare(scene, options, &bar)?;
+    // Radii with the same view count share a sweep plan: the bar counts the points timed.
+    let sweep_points = prep.sweep_plans.len() * prep.sizes.len();
+    bar.set_length(
+        (prep.references.len()
+            + options.variants.len() * (warmup + options.frames)
+            + sweep_points * (warmup + options.sweep_frames)) as u64,
+    );
     let mut renderers: Vec<(ViewStorage, HeadlessRenderer)> = Vec::new();
     let peak = roof::peak_of(&ctx.info.name, options.peak_gtexels, options.peak_gbps);
     // Accuracy and warm-up of every variant first; then the timed frames round-robin, one
@@ -608,122 +806,27 @@ pub fn run(
     for v in &options.variants {
         bar.set_message(format!("{} (accuracy, warm-up)", v.name()));
         let r = renderer_for(&mut renderers, &ctx, lf, v.storage)?;
-        let plan = &plans[&radius_key(v.aperture_radius)];
-        let size = v.size.resolve(lf.width, lf.height);
-        // The image for accuracy is also the first warm-up frame (it compiles the pipeline).
-        let image = render_variant(r, scene, plan, v)?;
-        bar.inc(1);
-        for _ in 1..warmup {
-            r.render_timed(plan, &settings_of(v, lf))?;
-            bar.inc(1);
-        }
-        let key = |k| (radius_key(v.aperture_radius), size, k);
-        let exclude = ambiguous[&ambiguity_key(v)].as_slice();
-        let mismatch = || Error::Invalid("reference size mismatch".into());
-        let vs_ref = stats::accuracy(&image, &references[&key(Kernel::Bilinear)], Some(exclude))
-            .ok_or_else(mismatch)?;
-        let vs_model = stats::accuracy(&image, &references[&key(v.model())], Some(exclude))
-            .ok_or_else(mismatch)?;
-        let truth = scene
-            .truth
-            .as_ref()
-            .map(|t| stats::accuracy(&image, &t.image, None));
-        let ambiguous_count = exclude.iter().filter(|&&a| a).count();
-        accuracy.push((vs_ref, vs_model, truth, ambiguous_count));
+        accuracy.push(measure_accuracy(r, scene, &prep, v, warmup, &bar)?);
     }
     let mut times: Vec<Vec<f64>> = vec![Vec::with_capacity(options.frames); options.variants.len()];
     for round in 0..options.frames {
         bar.set_message(format!("timing round {}/{}", round + 1, options.frames));
         for (i, v) in options.variants.iter().enumerate() {
             let r = renderer_for(&mut renderers, &ctx, lf, v.storage)?;
-            let plan = &plans[&radius_key(v.aperture_radius)];
+            let plan = &prep.plans[&radius_key(v.aperture_radius)];
             times[i].push(time_frames(r, plan, &settings_of(v, lf), 0, 1, &bar)?.median);
         }
     }
     let mut variants = Vec::new();
     for (i, v) in options.variants.iter().enumerate() {
-        let plan = &plans[&radius_key(v.aperture_radius)];
-        let (w, h) = v.size.resolve(lf.width, lf.height);
-        let times =
-            stats::summarize(&times[i]).ok_or_else(|| Error::Invalid("no frames timed".into()))?;
-        let (vs_ref, vs_model, truth, ambiguous_count) = accuracy[i];
-        let views = plan.views.len();
-        let bound = v.bound(views);
-        let samples = views as f64 * w as f64 * h as f64;
-        let samples_per_s = samples / (times.median / 1e3);
-        let texel_bytes = match v.storage {
-            ViewStorage::Srgb8 => 4.0,
-            ViewStorage::Linear16 => 8.0,
-        };
-        let accum_bytes = match v.accumulation {
-            Accumulation::Rgba32f => 16.0,
-            Accumulation::Rgba16f => 8.0,
-        };
-        let traffic = views as f64 * lf.width as f64 * lf.height as f64 * texel_bytes
-            + w as f64 * h as f64 * accum_bytes;
-        variants.push(VariantReport {
-            name: v.name(),
-            label: v.label(),
-            strategy: v.strategy.name(),
-            filter: v.filter,
-            storage: v.storage,
-            accumulation: v.accumulation,
-            aperture_radius: v.aperture_radius,
-            views,
-            width: w,
-            height: h,
-            default: v.is_default(),
-            frames: options.frames,
-            gpu_ms_median: times.median,
-            gpu_ms_min: times.min,
-            gpu_ms_max: times.max,
-            samples_per_s,
-            texture_roof_fraction: peak
-                .gtexels
-                .map(|g| samples_per_s * fetches(v.filter) / (g * 1e9)),
-            bandwidth_roof_fraction: peak
-                .gbps
-                .map(|g| traffic / (times.median / 1e3) / (g * 1e9)),
-            psnr_vs_reference_db: vs_ref.psnr_db,
-            max_error_vs_reference: vs_ref.max_levels,
-            ambiguous_pixels: ambiguous_count,
-            model: kernel_name(v.model()),
-            psnr_vs_model_db: vs_model.psnr_db,
-            max_error_vs_model: vs_model.max_levels,
-            within_bound: vs_model.psnr_db >= bound.min_psnr_db
-                && vs_model.max_levels <= bound.max_levels,
-            bound,
-            psnr_vs_truth_db: truth.map(|a| a.map(|a| a.psnr_db)),
-            max_error_vs_truth: truth.map(|a| a.map(|a| a.max_levels)),
-        });
+        let plan = &prep.plans[&radius_key(v.aperture_radius)];
+        variants.push(variant_report(v, lf, plan, &times[i], accuracy[i], &peak)?);
     }
     // The sweep times render's default on the renderer of its storage.
-    let default = Variant::default();
     let mut scaling = Vec::new();
     if sweep_points > 0 {
-        let r = renderer_for(&mut renderers, &ctx, lf, default.storage)?;
-        for plan in &sweep_plans {
-            for &(w, h) in &sizes {
-                bar.set_message(format!("scaling: {} views, {w}×{h}", plan.views.len()));
-                let settings = RenderSettings {
-                    size: Some((w, h)),
-                    ..settings_of(&default, lf)
-                };
-                let t = time_frames(r, plan, &settings, warmup, options.sweep_frames, &bar)?;
-                let samples = plan.views.len() as f64 * w as f64 * h as f64;
-                scaling.push(ScalingPoint {
-                    views: plan.views.len(),
-                    width: w,
-                    height: h,
-                    view_samples: samples,
-                    frames: options.sweep_frames,
-                    gpu_ms_median: t.median,
-                    gpu_ms_min: t.min,
-                    gpu_ms_max: t.max,
-                    samples_per_s: samples / (t.median / 1e3),
-                });
-            }
-        }
+        let r = renderer_for(&mut renderers, &ctx, lf, Variant::default().storage)?;
+        scaling = scaling_points(r, lf, &prep, warmup, options.sweep_frames, &bar)?;
     }
     bar.finish_and_clear();
     let errors = ctx.validation().errors();
@@ -733,6 +836,22 @@ pub fn run(
             "{errors} validation errors while benchmarking (see the log above)"
         )));
     }
+    Ok(report(&ctx, scene, &prep, warmup, peak, variants, scaling))
+}
+
+/// The report: device, light field, variants, the scaling sweep with its cost fit, and the
+/// fastest variant that meets render's default accuracy bound at full size.
+fn report(
+    ctx: &GpuContext,
+    scene: &BenchScene,
+    prep: &Prepared,
+    warmup: usize,
+    peak: roof::Peak,
+    variants: Vec<VariantReport>,
+    scaling: Vec<ScalingPoint>,
+) -> BenchReport {
+    let lf = &scene.lf;
+    let default = Variant::default();
     let scaling_fit = stats::fit_cost(
         &scaling
             .iter()
@@ -740,7 +859,8 @@ pub fn run(
             .collect::<Vec<_>>(),
     );
     let default_bound = default.bound(1);
-    let all_views = plans
+    let all_views = prep
+        .plans
         .get(&None)
         .map(|p| p.views.len())
         .unwrap_or_else(|| lf.views.len());
@@ -754,7 +874,7 @@ pub fn run(
         })
         .min_by(|a, b| a.gpu_ms_median.total_cmp(&b.gpu_ms_median))
         .map(|v| v.name.clone());
-    Ok(BenchReport {
+    BenchReport {
         device: DeviceReport {
             name: ctx.info.name.clone(),
             kind: ctx.info.kind.clone(),
@@ -781,5 +901,5 @@ pub fn run(
         scaling,
         scaling_fit,
         fastest_full_quality,
-    })
+    }
 }
