@@ -34,7 +34,6 @@ use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::geometry::plane::Plane;
 use crate::gpu::GpuContext;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
-use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
 use crate::passes::refocus::{Accumulation, Filter, OutputFormat};
 use crate::passes::texture::ViewStorage;
@@ -416,7 +415,7 @@ pub fn plan_for(
     shape: ApertureShape,
     radius: Option<f64>,
 ) -> Result<RefocusPlan> {
-    let dark: Vec<bool> = scene.lf.views.iter().map(|v| is_dark(&v.image)).collect();
+    let dark = scene.lf.dark_views();
     let req = RefocusRequest {
         focus: scene.focus,
         aperture: Aperture { shape, radius },

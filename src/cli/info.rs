@@ -53,8 +53,9 @@ pub fn run(args: &InfoArgs) -> Result<()> {
     let dark: Vec<(usize, usize)> = lf
         .views
         .iter()
-        .filter(|v| crate::lightfield::images::is_dark(&v.image))
-        .map(|v| (v.s, v.t))
+        .zip(lf.dark_views())
+        .filter(|(_, dark)| *dark)
+        .map(|(v, _)| (v.s, v.t))
         .collect();
     let k = ref_cam.k;
     let report = json!({

@@ -18,11 +18,10 @@ use crate::gpu::timing::median;
 use crate::gpu::GpuContext;
 use crate::io::OutputKind;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
-use crate::lightfield::images::is_dark;
 use crate::lightfield::LightField;
 use crate::passes::refocus::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
 use crate::passes::texture::ViewStorage;
-use crate::refocus::{self, resolve_focus, Averaging, RefocusPlan, RefocusRequest, ResolvedFocus};
+use crate::refocus::{self, Averaging, RefocusPlan, ResolvedFocus};
 
 /// Most `--repeat` timing frames.
 const MAX_REPEAT: usize = 10_000;
@@ -95,10 +94,7 @@ pub struct RenderArgs {
 
 /// Indices of views to leave out of the aperture (vignetted black views).
 pub fn dark_views(lf: &LightField, include_dark: bool) -> Vec<bool> {
-    if include_dark {
-        return vec![false; lf.views.len()];
-    }
-    let dark: Vec<bool> = lf.views.iter().map(|v| is_dark(&v.image)).collect();
+    let dark = lf.excluded_views(include_dark);
     let n = dark.iter().filter(|&&d| d).count();
     if n > 0 {
         log::warn!(
@@ -135,15 +131,8 @@ pub fn make_plan_with_window(
         shape: args.aperture,
         radius: args.aperture_radius,
     };
-    // Before the focus, so a bad aperture is reported first, as the plan would.
-    aperture.validate()?;
-    let focus = resolve_focus(lf, &request, reference.unwrap_or_else(|| lf.grid.centre()))?;
-    let req = RefocusRequest {
-        focus: focus.spec,
-        aperture,
-        reference,
-    };
-    let plan = refocus::plan(lf, &req, &dark_views(lf, args.include_dark))?;
+    let excluded = dark_views(lf, args.include_dark);
+    let (focus, plan) = refocus::resolve_and_plan(lf, &request, aperture, reference, &excluded)?;
     Ok((plan, focus))
 }
 

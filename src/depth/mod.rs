@@ -46,7 +46,6 @@ pub use cache::{ensure_depth_in, DepthOrigin};
 use sweep::SweepPlan;
 
 use crate::error::{Error, Result};
-use crate::lightfield::images::is_dark;
 use crate::lightfield::{DepthMap, LightField, ParallelRig};
 
 /// What the sweep parameter p means (see [`sweep`]).
@@ -456,11 +455,7 @@ pub fn plan(lf: &LightField, options: &DepthOptions) -> Result<SweepPlan> {
         )));
     }
     let reference = sweep::reference_view(lf, options.reference)?;
-    let excluded: Vec<bool> = if options.include_dark {
-        vec![false; lf.views.len()]
-    } else {
-        lf.views.iter().map(|v| is_dark(&v.image)).collect()
-    };
+    let excluded = lf.excluded_views(options.include_dark);
     if excluded[reference] {
         return Err(Error::Invalid(format!(
             "the reference view ({}, {}) is (almost) entirely black; pick another with --view",

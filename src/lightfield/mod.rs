@@ -91,6 +91,25 @@ pub struct LightField {
 }
 
 impl LightField {
+    /// Which views are (almost) entirely black: the vignetted corner views of plenoptic
+    /// captures ([`images::is_dark`]), by view index.
+    pub fn dark_views(&self) -> Vec<bool> {
+        self.views
+            .iter()
+            .map(|v| images::is_dark(&v.image))
+            .collect()
+    }
+
+    /// The views to leave out of an aperture or a depth sweep: the dark ones, or none when
+    /// `include_dark` (the `--include-dark` option).
+    pub fn excluded_views(&self, include_dark: bool) -> Vec<bool> {
+        if include_dark {
+            vec![false; self.views.len()]
+        } else {
+            self.dark_views()
+        }
+    }
+
     /// The depth of this light field's map-carrying view. Among the views with maps it takes the one
     /// nearest the grid centre; for that view a depth map is preferred over a disparity map
     /// (no conversion, no rig needed). Errors name the light field when it has no map at all,

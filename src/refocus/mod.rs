@@ -16,6 +16,32 @@ pub use focus::{
 };
 pub use plan::{plan, plan_json, PlannedView, RefocusPlan, RefocusRequest};
 
+use crate::geometry::aperture::Aperture;
+use crate::lightfield::LightField;
+
+/// Resolves what the user asked to focus on and plans the refocus in one call: the request's
+/// focus is resolved from the reference viewpoint (`None`: the grid centre) and the plan uses
+/// the aperture there, leaving out the `excluded` views (see
+/// [`LightField::excluded_views`]). Every front end (render, frames, the viewer, bench) goes
+/// through it, so they validate in the same order: the aperture first, then the focus.
+pub fn resolve_and_plan(
+    lf: &LightField,
+    focus: &FocusRequest,
+    aperture: Aperture,
+    reference: Option<glam::DVec2>,
+    excluded: &[bool],
+) -> Result<(ResolvedFocus, RefocusPlan)> {
+    aperture.validate()?;
+    let resolved = resolve_focus(lf, focus, reference.unwrap_or_else(|| lf.grid.centre()))?;
+    let request = RefocusRequest {
+        focus: resolved.spec,
+        aperture,
+        reference,
+    };
+    let plan = plan(lf, &request, excluded)?;
+    Ok((resolved, plan))
+}
+
 /// In which space views are averaged.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase")]

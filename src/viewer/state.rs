@@ -27,8 +27,8 @@ use crate::geometry::picking::{nudge_plane, KeyboardPlane, Nudge};
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
 use crate::refocus::{
-    self, resolve_focus, Averaging, FocusRequest, FocusSpec, FocusTarget, RefocusPlan,
-    RefocusRequest, ResolvedFocus,
+    self, Averaging, FocusRequest, FocusSpec, FocusTarget, RefocusPlan, RefocusRequest,
+    ResolvedFocus,
 };
 
 /// One action, whatever produced it (key, mouse, script, the video decoder).
@@ -398,15 +398,13 @@ fn resolve(
     core: &Core,
     excluded: &[bool],
 ) -> Result<(ResolvedFocus, RefocusPlan)> {
-    core.aperture.validate()?;
-    let resolved = resolve_focus(lf, &core.focus, core.reference)?;
-    let req = RefocusRequest {
-        focus: resolved.spec,
-        aperture: core.aperture,
-        reference: Some(core.reference),
-    };
-    let plan = refocus::plan(lf, &req, excluded)?;
-    Ok((resolved, plan))
+    refocus::resolve_and_plan(
+        lf,
+        &core.focus,
+        core.aperture,
+        Some(core.reference),
+        excluded,
+    )
 }
 
 /// The focus as a world plane that no longer depends on the reference camera (before the
@@ -540,6 +538,7 @@ fn modify(
 mod tests {
     use super::*;
     use crate::geometry::plane::tilt_swing_normal;
+    use crate::refocus::resolve_focus;
 
     fn lf(name: &str) -> LightField {
         crate::synth::builtin(name).unwrap().light_field(1)
