@@ -546,13 +546,6 @@ fn create_window(
     Ok((window, events))
 }
 
-fn save_png(img: &image::RgbaImage, path: &Path) -> Result<()> {
-    if let Some(p) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(p).map_err(|e| Error::io(p, e))?;
-    }
-    crate::io::save_png(img, path)
-}
-
 fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
     let mut s = prefix.as_os_str().to_owned();
     s.push(suffix);
@@ -1196,11 +1189,11 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         if let Some(prefix) = screenshot.take() {
             let full = s.state.plan.clone();
             let refocus = gpu.capture_refocus(&full, s.state.averaging(), (lf.width, lf.height))?;
-            save_png(&refocus, &with_suffix(&prefix, "_refocus.png"))?;
+            crate::io::save_png(&refocus, &with_suffix(&prefix, "_refocus.png"))?;
             let scene = gpu.capture_scene()?;
-            save_png(&scene, &with_suffix(&prefix, "_scene.png"))?;
+            crate::io::save_png(&scene, &with_suffix(&prefix, "_scene.png"))?;
             if let Some(w) = &result.window {
-                save_png(w, &with_suffix(&prefix, "_window.png"))?;
+                crate::io::save_png(w, &with_suffix(&prefix, "_window.png"))?;
             }
             let mut json = screenshot_json(&s.state);
             if let Some(obj) = json.as_object_mut() {
@@ -1212,7 +1205,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
                 obj.insert("frames_presented".into(), s.frames.into());
             }
             let path = with_suffix(&prefix, ".json");
-            std::fs::write(&path, format!("{json:#}\n")).map_err(|e| Error::io(&path, e))?;
+            crate::io::write_bytes(&path, "JSON", format!("{json:#}\n").as_bytes())?;
             log::info!("screenshot {}", prefix.display());
             eprintln!(
                 "wrote {0}_refocus.png, {0}_scene.png, {0}_window.png and {0}.json",
