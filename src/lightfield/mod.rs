@@ -455,7 +455,9 @@ pub fn open_frame_within(
                 "not a light field: expected a folder (HCI or grid of views) or a .json manifest",
             ));
         }
-    } else if path.join(hci::CONFIG_NAME).is_file() {
+    } else if std::fs::symlink_metadata(path.join(hci::CONFIG_NAME)).is_ok() {
+        // Any entry named parameters.cfg makes the folder HCI: one that is a folder, a FIFO or
+        // a dangling link is then refused naming what it is, not reported as missing.
         hci::load_within(path, limits)?
     } else if std::fs::symlink_metadata(&manifest_in_folder).is_ok() {
         // A tiltfield.json that exists but is a folder, a dangling or looping link or
