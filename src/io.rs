@@ -165,7 +165,14 @@ fn check_destination(path: &Path) -> Result<()> {
                 kind_of(&m)
             ),
         )),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        // Missing, or a file where a folder of the path should be: `split_existing` then
+        // names the part of the path that is in the way.
+        Err(e)
+            if e.kind() == std::io::ErrorKind::NotFound
+                || e.raw_os_error() == Some(libc::ENOTDIR) =>
+        {
+            Ok(())
+        }
         Err(e) => Err(Error::io(path, e)),
     }
 }

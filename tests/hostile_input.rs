@@ -899,6 +899,34 @@ fn outputs_are_written_whole_or_not_at_all() {
         !dir.join("x").exists(),
         "a failed run left its output folder"
     );
+    // A file in the way of the output's folder is named; a FIFO given as the light field is
+    // called a FIFO, not "Not a directory".
+    let blocker = dir.join("blocker");
+    std::fs::write(&blocker, b"x").unwrap();
+    fails_with(
+        &[
+            "render",
+            "builtin:planes",
+            "--disparity",
+            "0",
+            "-o",
+            s(&blocker.join("o.png")),
+        ],
+        &["blocker", "not a folder"],
+    );
+    let fifo = dir.join("lf");
+    mkfifo(&fifo);
+    fails_with(
+        &[
+            "render",
+            s(&fifo),
+            "--disparity",
+            "0",
+            "-o",
+            s(&dir.join("o.png")),
+        ],
+        &["not a light field", "FIFO"],
+    );
     // -o at a link to /dev/full: refused before rendering, the link left as it was.
     let full = dir.join("full.png");
     std::os::unix::fs::symlink("/dev/full", &full).unwrap();

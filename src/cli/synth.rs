@@ -375,7 +375,7 @@ pub fn run(args: &SynthArgs) -> Result<()> {
     let sensor = positive(args.sensor_mm, "--sensor-mm")?;
     if sensor > MAX_SENSOR_MM {
         return Err(Error::Invalid(format!(
-            "--sensor-mm must be at most {MAX_SENSOR_MM} mm, got {sensor}"
+            "--sensor-mm must be at most {MAX_SENSOR_MM} mm, got {sensor:e}"
         )));
     }
     let kind = match args.rig {

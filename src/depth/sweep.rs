@@ -271,6 +271,15 @@ pub fn sweep_view(
     }
 }
 
+/// `v` for a message: exponent notation for huge and tiny magnitudes (1e308, not 309 digits).
+fn short(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// Largest disparity magnitude a sweep accepts, px per grid step: far beyond any real light
 /// field (the views would not overlap), small enough that every plane stays finite.
 pub const MAX_DISPARITY: f64 = 1e6;
@@ -294,7 +303,7 @@ pub fn param_range_from(
     origin: &str,
 ) -> Result<(f64, f64)> {
     let (lo, hi) = given;
-    let what = format!("{origin} {lo},{hi}");
+    let what = format!("{origin} {},{}", short(lo), short(hi));
     if !(lo.is_finite() && hi.is_finite()) || lo >= hi {
         return Err(Error::Invalid(format!(
             "{what}: give two finite numbers MIN,MAX with MIN < MAX"
@@ -356,8 +365,8 @@ pub fn param_range_from(
         return Err(Error::Invalid(format!(
             "{what} is out of reach: it becomes {unit} {} … {} on this rig; sweeps need finite, \
              distinct values{}",
-            p.0,
-            p.1,
+            short(p.0),
+            short(p.1),
             if limit < f64::MAX {
                 format!(" of at most {MAX_DISPARITY:e} px")
             } else {

@@ -445,6 +445,18 @@ pub fn open_frame_within(
             std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
         ));
     }
+    if let Ok(m) = std::fs::metadata(path) {
+        if !m.is_file() && !m.is_dir() {
+            return Err(Error::bad_file(
+                path,
+                format!(
+                    "not a light field: it is {}; expected a folder (HCI, grid of views or \
+                     video) or a .json manifest",
+                    crate::io::kind_of(&m)
+                ),
+            ));
+        }
+    }
     let manifest_in_folder = path.join(manifest::DEFAULT_NAME);
     let lf = if path.is_file() {
         if path.extension().and_then(|e| e.to_str()) == Some("json") {
