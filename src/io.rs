@@ -143,6 +143,21 @@ pub fn check_writable(path: &Path) -> Result<()> {
     std::fs::remove_file(&probe).map_err(|e| Error::io(&probe, e))
 }
 
+/// [`check_writable`] for an output folder `dir` that will receive `first` (a file name): a
+/// `dir` that exists must be a folder ("the output folder is a file" otherwise).
+pub fn check_writable_folder(dir: &Path, first: &str) -> Result<()> {
+    if let Ok(m) = std::fs::metadata(dir) {
+        if !m.is_dir() {
+            let what = if m.is_file() { "a file" } else { kind_of(&m) };
+            return Err(Error::bad_file(
+                dir,
+                format!("the output folder is {what}; give a folder"),
+            ));
+        }
+    }
+    check_writable(&dir.join(first))
+}
+
 /// A destination that exists must be a regular file; it is never followed if it is a link.
 fn check_destination(path: &Path) -> Result<()> {
     if path.file_name().is_none() {
@@ -338,10 +353,11 @@ impl OutputFolder {
         match std::fs::metadata(dir) {
             Ok(m) if m.is_dir() => return Ok(out),
             Ok(m) => {
+                let what = if m.is_file() { "a file" } else { kind_of(&m) };
                 return Err(Error::bad_file(
                     dir,
-                    format!("the output folder is {}, not a folder", kind_of(&m)),
-                ))
+                    format!("the output folder is {what}; give a folder"),
+                ));
             }
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
             Err(e) => return Err(Error::io(dir, e)),

@@ -216,7 +216,7 @@ pub fn table(report: &BenchReport) -> String {
 pub fn run(args: &BenchArgs) -> Result<()> {
     let options = options(args)?;
     // The folder is made only when the report is written; here only that it can be.
-    super::check_output(&args.out.join("bench.json"))?;
+    crate::io::check_writable_folder(&args.out, "bench.json")?;
     let ctx = Arc::new(GpuContext::new(&args.gpu.options())?);
     let scene = scene(args, &ctx)?;
     check_variant_sizes(&options, scene.lf.width, scene.lf.height)?;

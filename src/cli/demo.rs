@@ -49,7 +49,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     }
     let dir = args.output.clone().unwrap_or_else(default_demo_dir);
     // Checked now, made when the first image is written (and removed again on failure).
-    crate::io::check_writable(&dir.join("demo.json"))?;
+    crate::io::check_writable_folder(&dir, "demo.json")?;
     let scene = synth::builtin(&args.scene).ok_or_else(|| {
         Error::Invalid(format!(
             "no built-in scene '{}'; available: {}",

@@ -267,18 +267,8 @@ fn check_focus(focus: &Option<FocusSpec>) -> Result<()> {
 /// Refuses an output folder that cannot be created or written, before rendering; creates
 /// nothing (the folder is made when the light field is written).
 fn check_out_dir(out: &Path) -> Result<()> {
-    if let Ok(m) = std::fs::metadata(out) {
-        if !m.is_dir() {
-            return Err(Error::bad_file(
-                out,
-                format!(
-                    "--out must be a folder, but this is {}",
-                    crate::io::kind_of(&m)
-                ),
-            ));
-        }
-    }
-    crate::io::check_writable(&out.join(hci::CONFIG_NAME))
+    crate::io::check_writable_folder(out, hci::CONFIG_NAME)
+        .map_err(|e| Error::Invalid(format!("--out: {e}")))
 }
 
 fn positive(v: f64, what: &str) -> Result<f64> {
