@@ -55,6 +55,12 @@ const MAX_GLTF_BYTES: u64 = 1 << 30;
 /// Loads `path` (see the module docs).
 pub fn load(path: &Path) -> Result<GltfScene> {
     // A folder, FIFO or device is named as such (not "missing"), and nothing is read from it.
+    if std::fs::symlink_metadata(path).is_err() {
+        return Err(Error::io(
+            path,
+            std::io::Error::new(std::io::ErrorKind::NotFound, "no such glTF file"),
+        ));
+    }
     let size = crate::io::check_regular(path, "the glTF scene")?;
     if size > MAX_GLTF_BYTES {
         return Err(Error::bad_file(
