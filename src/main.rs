@@ -4,6 +4,12 @@
 use clap::Parser;
 
 fn main() -> std::process::ExitCode {
+    // Output piped into a reader that stops early (`tiltfield synth --list | head -1`): end
+    // quietly like every Unix tool (SIGPIPE), instead of panicking in `println!`.
+    // SAFETY: called first in main, before any thread exists; SIG_DFL is a valid disposition.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = tiltfield::cli::Cli::parse();
     let level = match cli.verbose {
         0 => "warn",

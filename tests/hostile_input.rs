@@ -645,3 +645,677 @@ fn usage_errors_exit_2_other_errors_exit_1_as_documented() {
         "the README documents the paths policy"
     );
 }
+
+// ---------------------------------------------------------------------------------------------
+// Round two (issue 24): files that are not files, numbers at the edge, a cache others can
+// write, outputs that must be whole or absent.
+
+/// Runs `f` on another thread and fails the test if it has not returned within `secs`: a
+/// regression that blocks on a FIFO fails instead of hanging the suite.
+fn within<R: Send + 'static>(secs: u64, what: &str, f: impl FnOnce() -> R + Send + 'static) -> R {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = tx.send(f());
+    });
+    rx.recv_timeout(std::time::Duration::from_secs(secs))
+        .unwrap_or_else(|_| panic!("{what} did not return within {secs} s (blocked?)"))
+}
+
+/// `tiltfield args` killed after `secs` (a failed test, not a hung suite), with extra
+/// environment variables.
+fn tiltfield_within(secs: u64, args: &[&str], env: &[(&str, &Path)]) -> std::process::Output {
+    let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"));
+    cmd.args(args)
+        .env("TILTFIELD_VALIDATION", "1")
+        .env_remove("RUST_LOG")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped());
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let mut child = cmd.spawn().expect("run tiltfield");
+    let t0 = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed().as_secs() >= secs {
+            child.kill().unwrap();
+            panic!("{args:?} did not finish within {secs} s");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
+}
+
+fn mkfifo(path: &Path) {
+    let st = std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .expect("mkfifo");
+    assert!(st.success(), "mkfifo {}", path.display());
+}
+
+/// Every file in `dir` and below, relative, sorted.
+fn listing(dir: &Path) -> Vec<String> {
+    fn walk(base: &Path, dir: &Path, out: &mut Vec<String>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            out.push(p.strip_prefix(base).unwrap().display().to_string());
+            if p.is_dir() && !p.is_symlink() {
+                walk(base, &p, out);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(dir, dir, &mut out);
+    out.sort();
+    out
+}
+
+#[test]
+fn a_fifo_or_device_where_a_file_is_expected_is_refused_without_blocking() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().to_path_buf();
+    // A manifest whose depth map is a FIFO, then /dev/zero.
+    let manifest = manifest_folder(&dir);
+    let mut m = manifest_value(3, 3, "v.png");
+    m["views"][4]["disparity"] = json!("d.pfm");
+    write_json(&manifest, &m);
+    mkfifo(&dir.join("d.pfm"));
+    let msg = within(20, "a FIFO depth map", {
+        let p = manifest.clone();
+        move || open_err(&p)
+    });
+    assert!(msg.contains("d.pfm") && msg.contains("FIFO"), "{msg}");
+    std::fs::remove_file(dir.join("d.pfm")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", dir.join("d.pfm")).unwrap();
+    let msg = within(20, "/dev/zero as a depth map", move || open_err(&manifest));
+    assert!(
+        msg.contains("d.pfm") && msg.contains("character device"),
+        "{msg}"
+    );
+    assert!(!msg.contains("out of memory"), "{msg}");
+
+    // A viewer script.
+    let script = dir.join("s.txt");
+    mkfifo(&script);
+    let msg = within(20, "a FIFO script", move || {
+        tiltfield::viewer::script::load(&script)
+            .unwrap_err()
+            .to_string()
+    });
+    assert!(
+        msg.contains("s.txt") && msg.contains("--script") && msg.contains("FIFO"),
+        "{msg}"
+    );
+
+    // depth --score (refused before the light field is even looked at).
+    let score = dir.join("truth.pfm");
+    mkfifo(&score);
+    let o = tiltfield_within(
+        30,
+        &[
+            "depth",
+            "builtin:planes",
+            "--score",
+            s(&score),
+            "-o",
+            s(&dir.join("o.pfm")),
+        ],
+        &[],
+    );
+    let err = stderr(&o);
+    assert!(
+        !o.status.success() && err.contains("--score") && err.contains("FIFO"),
+        "{err}"
+    );
+
+    // A glTF buffer URI.
+    let gltf_dir = dir.join("g");
+    std::fs::create_dir(&gltf_dir).unwrap();
+    let path = gltf_file(&gltf_dir, &quad(1.0), &[0, 1, 2, 0, 2, 3], 6, json!({}), 0);
+    let mut v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    v["buffers"][0]["uri"] = json!("buf.bin");
+    write_json(&path, &v);
+    mkfifo(&gltf_dir.join("buf.bin"));
+    let msg = within(20, "a FIFO glTF buffer", move || gltf_err(&path));
+    assert!(msg.contains("buf.bin") && msg.contains("FIFO"), "{msg}");
+}
+
+#[test]
+fn a_folder_or_special_file_named_as_the_scene_or_parameters_is_named_not_missing() {
+    let tmp = tempfile::tempdir().unwrap();
+    // A folder given as the glTF scene.
+    let folder = tmp.path().join("scene.gltf");
+    std::fs::create_dir(&folder).unwrap();
+    let msg = gltf_err(&folder);
+    assert!(
+        msg.contains("a folder") && !msg.contains("no such"),
+        "{msg}"
+    );
+
+    // parameters.cfg that is a folder, a FIFO or a dangling link.
+    let hci = tmp.path().join("hci");
+    std::fs::create_dir(&hci).unwrap();
+    hci_folder(&hci, 3, 3, 9, "10");
+    let cfg = hci.join("parameters.cfg");
+    for (make, needle) in [
+        (
+            &(|p: &Path| std::fs::create_dir(p).unwrap()) as &dyn Fn(&Path),
+            "a folder",
+        ),
+        (&|p: &Path| mkfifo(p), "FIFO"),
+        (
+            &|p: &Path| std::os::unix::fs::symlink("nowhere.cfg", p).unwrap(),
+            "No such file",
+        ),
+    ] {
+        let _ = std::fs::remove_file(&cfg).or_else(|_| std::fs::remove_dir(&cfg));
+        make(&cfg);
+        let msg = within(20, "a special parameters.cfg", {
+            let hci = hci.clone();
+            move || open_err(&hci)
+        });
+        assert!(
+            msg.contains("parameters.cfg")
+                && msg.contains(needle)
+                && !msg.contains("no parameters.cfg"),
+            "{needle}: {msg}"
+        );
+    }
+
+    // cameras_parameters.txt that is a folder or a FIFO: still a video folder, and the error
+    // names the file instead of loading the views as a plain grid.
+    let video = tmp.path().join("video");
+    std::fs::create_dir(&video).unwrap();
+    for (r, c) in [(0, 0), (0, 1), (1, 0), (1, 1)] {
+        png(&video.join(format!("{r:02}_{c:02}.png")), 50);
+    }
+    let params = video.join("cameras_parameters.txt");
+    std::fs::create_dir(&params).unwrap();
+    let msg = open_err(&video);
+    assert!(
+        msg.contains("cameras_parameters.txt") && msg.contains("a folder"),
+        "{msg}"
+    );
+    std::fs::remove_dir(&params).unwrap();
+    mkfifo(&params);
+    let msg = within(20, "a FIFO cameras_parameters.txt", move || {
+        open_err(&video)
+    });
+    assert!(
+        msg.contains("cameras_parameters.txt") && msg.contains("FIFO"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn outputs_are_written_whole_or_not_at_all() {
+    use tiltfield::io;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let img = image::RgbaImage::from_pixel(4, 4, image::Rgba([1, 2, 3, 255]));
+    // A device, a dangling link and a link to a file are refused; nothing is written through
+    // them.
+    let e = io::save_png(&img, Path::new("/dev/full"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("/dev/full") && e.contains("character device"),
+        "{e}"
+    );
+    let target = dir.join("target.png");
+    let link = dir.join("link.png");
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    let e = io::save_png(&img, &link).unwrap_err().to_string();
+    assert!(e.contains("symbolic link"), "{e}");
+    assert!(!target.exists(), "written through a dangling link");
+    // A failing write leaves neither the file, a temporary file, nor the folders it made.
+    let deep = dir.join("a/b/out.bin");
+    let e = io::write_with(&deep, "test data", |w| {
+        use std::io::Write;
+        w.write_all(b"partial").map_err(|e| e.to_string())?;
+        Err("the encoder failed".into())
+    })
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("out.bin") && e.contains("the encoder failed"),
+        "{e}"
+    );
+    assert_eq!(listing(dir), vec!["link.png"], "left behind");
+    // A successful write makes the folders and exactly one file; checking creates nothing.
+    io::check_writable(&dir.join("c/d/x.png")).unwrap();
+    assert_eq!(listing(dir), vec!["link.png"]);
+    io::save_png(&img, &dir.join("c/d/x.png")).unwrap();
+    assert_eq!(listing(dir), vec!["c", "c/d", "c/d/x.png", "link.png"]);
+    assert_eq!(image::open(dir.join("c/d/x.png")).unwrap().to_rgba8(), img);
+
+    // The command line: a render that fails (the light field has no views) leaves no folder.
+    let empty = dir.join("empty");
+    std::fs::create_dir(&empty).unwrap();
+    let out = dir.join("x/y/out.png");
+    let o = tiltfield(&["render", s(&empty), "--disparity", "0", "-o", s(&out)]);
+    assert!(!o.status.success());
+    assert!(
+        !dir.join("x").exists(),
+        "a failed run left its output folder"
+    );
+    // A file in the way of the output's folder is named; a FIFO given as the light field is
+    // called a FIFO, not "Not a directory".
+    let blocker = dir.join("blocker");
+    std::fs::write(&blocker, b"x").unwrap();
+    fails_with(
+        &[
+            "render",
+            "builtin:planes",
+            "--disparity",
+            "0",
+            "-o",
+            s(&blocker.join("o.png")),
+        ],
+        &["blocker", "not a folder"],
+    );
+    let fifo = dir.join("lf");
+    mkfifo(&fifo);
+    fails_with(
+        &[
+            "render",
+            s(&fifo),
+            "--disparity",
+            "0",
+            "-o",
+            s(&dir.join("o.png")),
+        ],
+        &["not a light field", "FIFO"],
+    );
+    // -o at a link to /dev/full: refused before rendering, the link left as it was.
+    let full = dir.join("full.png");
+    std::os::unix::fs::symlink("/dev/full", &full).unwrap();
+    fails_with(
+        &[
+            "render",
+            "builtin:planes",
+            "--disparity",
+            "0",
+            "-o",
+            s(&full),
+        ],
+        &["full.png", "symbolic link"],
+    );
+    assert!(full.is_symlink());
+}
+
+#[test]
+fn a_write_error_is_reported_and_leaves_no_file() {
+    // A file size limit makes the PNG's writes fail (EFBIG; SIGXFSZ ignored, as a full disk
+    // fails a write): the run must fail naming the file, and leave neither it nor a
+    // temporary file behind.
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("out.png");
+    let o = std::process::Command::new("sh")
+        .arg("-c")
+        .arg("trap '' XFSZ; ulimit -f 4; exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_tiltfield"))
+        .args([
+            "render",
+            "builtin:planes",
+            "--disparity",
+            "0",
+            "-o",
+            s(&out),
+        ])
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(
+        !o.status.success(),
+        "a failed write reported success: {err}"
+    );
+    assert!(
+        err.contains("out.png") && !err.contains("panicked"),
+        "{err}"
+    );
+    assert!(listing(tmp.path()).is_empty(), "{:?}", listing(tmp.path()));
+}
+
+#[test]
+fn the_depth_cache_verifies_its_entries_and_follows_no_planted_link() {
+    use tiltfield::depth::scenes::DepthScene;
+    let tmp = tempfile::tempdir().unwrap();
+    let grid = tmp.path().join("grid");
+    std::fs::create_dir(&grid).unwrap();
+    let lf = DepthScene::Planes.light_field(3, 32);
+    for v in &lf.views {
+        v.image
+            .save(grid.join(format!("view_{:02}_{:02}.png", v.t, v.s)))
+            .unwrap();
+    }
+    let cache = tmp.path().join("cache");
+    let outside = tmp.path().join("outside");
+    std::fs::create_dir(&outside).unwrap();
+    let ply = tmp.path().join("c.ply");
+    // Without the validation layer: this branch's depth sweep trips a LocalSizeId check the
+    // sweep's own tests own; this test is about the cache's files.
+    let run = || {
+        let o = tiltfield_within(
+            120,
+            &["cloud", s(&grid), "-o", s(&ply), "--json"],
+            &[
+                ("TILTFIELD_CACHE_DIR", &cache),
+                ("TILTFIELD_VALIDATION", Path::new("0")),
+            ],
+        );
+        let err = stderr(&o);
+        (common::json_of(&o), err)
+    };
+    let (v, _) = run();
+    assert_eq!(v["depth"]["cached"], false);
+    let meta = PathBuf::from(v["depth"]["cache_file"].as_str().unwrap());
+    let data = meta.with_extension("pfm");
+    let good = std::fs::read(&data).unwrap();
+    let (v, _) = run();
+    assert_eq!(v["depth"]["cached"], true, "an intact entry is used");
+
+    // Altered values: detected by the hash, estimated again, and the entry repaired.
+    let mut bad = good.clone();
+    let n = bad.len();
+    bad[n - 8..n - 4].copy_from_slice(&0.25f32.to_le_bytes());
+    std::fs::write(&data, &bad).unwrap();
+    let (v, err) = run();
+    assert_eq!(v["depth"]["cached"], false, "an altered entry was used");
+    assert!(err.contains("does not match the hash"), "{err}");
+    assert_eq!(
+        std::fs::read(&data).unwrap(),
+        good,
+        "the entry is not repaired"
+    );
+
+    // Links planted in the cache folder, pointing outside it: never written through.
+    let victim = outside.join("victim");
+    std::fs::write(&victim, b"keep me").unwrap();
+    std::fs::remove_file(&data).unwrap();
+    std::os::unix::fs::symlink(&victim, &data).unwrap();
+    std::fs::remove_file(&meta).unwrap();
+    std::os::unix::fs::symlink(outside.join("created"), &meta).unwrap();
+    let (v, _) = run();
+    assert_eq!(v["depth"]["cached"], false);
+    assert_eq!(std::fs::read(&victim).unwrap(), b"keep me");
+    assert_eq!(
+        listing(&outside),
+        vec!["victim"],
+        "a file appeared outside the cache"
+    );
+    assert!(!data.is_symlink() && !meta.is_symlink());
+    let (v, _) = run();
+    assert_eq!(
+        v["depth"]["cached"], true,
+        "the replaced entry is used again"
+    );
+
+    // An entry that is a FIFO: no hang, estimated again.
+    std::fs::remove_file(&data).unwrap();
+    mkfifo(&data);
+    let (v, _) = run();
+    assert_eq!(v["depth"]["cached"], false);
+    // Nothing but the two entry files in the cache (no temporary files left).
+    assert_eq!(listing(&cache).len(), 2, "{:?}", listing(&cache));
+}
+
+#[test]
+fn depth_numbers_at_the_edge_name_their_origin() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("o.pfm");
+    // An all-NaN ground truth scores nothing: refused, not a perfect score.
+    let nan = tmp.path().join("nan.pfm");
+    tiltfield::lightfield::pfm::write_pfm(&nan, 64, 64, 1, &[f32::NAN; 64 * 64]).unwrap();
+    fails_with(
+        &["depth", "builtin:planes", "--score", s(&nan), "-o", s(&out)],
+        &["nan.pfm", "no finite disparity"],
+    );
+    // Depths so extreme that the sweep range overflows.
+    fails_with(
+        &[
+            "depth",
+            "builtin:planes",
+            "--kind",
+            "depth",
+            "--range=1e-308,1e308",
+            "-o",
+            s(&out),
+        ],
+        &["--range", "out of reach"],
+    );
+    assert!(!out.exists());
+    // A range that came from the dataset is called that, not --range.
+    let hci = tmp.path().join("hci");
+    std::fs::create_dir(&hci).unwrap();
+    hci_folder(&hci, 3, 3, 9, "10");
+    let cfg = hci.join("parameters.cfg");
+    let text = std::fs::read_to_string(&cfg).unwrap();
+    std::fs::write(
+        &cfg,
+        format!("{text}\n[meta]\ndisp_min = -1000\ndisp_max = 1\n"),
+    )
+    .unwrap();
+    let o = tiltfield(&["depth", s(&hci), "-o", s(&out)]);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("[meta] disp_min") && !err.contains("--range"),
+        "{err}"
+    );
+}
+
+#[test]
+fn numbers_at_the_edge_are_refused_before_any_work() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("synth");
+    // synth: a sensor that makes the focal length infinite; a render that would take long.
+    fails_with(
+        &[
+            "synth",
+            "builtin:planes",
+            "--sensor-mm=1e308",
+            "-o",
+            s(&out),
+        ],
+        &["--sensor-mm", "at most"],
+    );
+    fails_with(
+        &[
+            "synth",
+            "builtin:planes",
+            "--focal-mm=1e300",
+            "--sensor-mm=1e-300",
+            "-o",
+            s(&out),
+        ],
+        &["focal length", "--focal-mm"],
+    );
+    fails_with(
+        &[
+            "synth",
+            "builtin:planes",
+            "--size",
+            "8192x8192",
+            "--grid",
+            "2x2",
+            "-o",
+            s(&out),
+        ],
+        &["--size 8192x8192", "--samples"],
+    );
+    assert!(!out.exists(), "a refused synth created its folder");
+    // render: an output size no device holds is named as such, before loading anything.
+    fails_with(
+        &[
+            "render",
+            "no-such-lf",
+            "--disparity",
+            "0",
+            "--size",
+            "16384x16384",
+            "-o",
+            "x.png",
+        ],
+        &["--size 16384x16384", "8192"],
+    );
+    // bench: variant sizes that overflowed, aborted or ran for minutes.
+    for size in ["99999x99999", "33000x33000", "4096x4096"] {
+        fails_with(
+            &[
+                "bench",
+                "--variants",
+                size,
+                "--out",
+                s(&tmp.path().join("b")),
+            ],
+            &[size, "2048"],
+        );
+    }
+    fails_with(
+        &[
+            "bench",
+            "--frames",
+            "18446744073709551615",
+            "--out",
+            s(&tmp.path().join("b")),
+        ],
+        &["--frames", "1000"],
+    );
+    assert!(!tmp.path().join("b").exists());
+}
+
+/// A Technicolor-layout video of four parallel 16×12 cameras in a row (0.1 apart), with the
+/// frames numbered `frames`.
+fn small_video(video: &Path, frames: &[u64]) {
+    std::fs::create_dir(video).unwrap();
+    let views: Vec<image::RgbaImage> = (0..4)
+        .map(|k| image::RgbaImage::from_pixel(16, 12, image::Rgba([40 * k as u8, 90, 120, 255])))
+        .collect();
+    let mut params = String::from("f cu cv ar sk qw qx qy qz tx ty tz\n");
+    for k in 0..4 {
+        params.push_str(&format!("14 7.5 5.5 1 0 1 0 0 0 {} 0 0\n", -0.1 * k as f64));
+    }
+    std::fs::write(video.join("cameras_parameters.txt"), params).unwrap();
+    for &f in frames {
+        for (k, v) in views.iter().enumerate() {
+            v.save(video.join(format!("S_undist_{f:05}_{k:02}.png")))
+                .unwrap();
+        }
+    }
+}
+
+#[test]
+fn frames_at_the_top_of_u64_and_every_output_checked_first() {
+    let tmp = tempfile::tempdir().unwrap();
+    let video = tmp.path().join("video");
+    let top = u64::MAX;
+    small_video(&video, &[top - 1, top]);
+    let out = tmp.path().join("f_{frame}.png");
+    let o = tiltfield_within(
+        120,
+        &[
+            "render",
+            s(&video),
+            "--frames",
+            &format!("{top}.."),
+            "--disparity",
+            "0",
+            "-o",
+            s(&out),
+        ],
+        &[],
+    );
+    let err = stderr(&o);
+    assert!(o.status.success() && !err.contains("panicked"), "{err}");
+    assert!(tmp.path().join(format!("f_{top}.png")).exists());
+    // The second frame's output is a folder: refused before the first is written.
+    std::fs::create_dir(tmp.path().join(format!("g_{top}.png"))).unwrap();
+    let out = tmp.path().join("g_{frame}.png");
+    let o = tiltfield_within(
+        120,
+        &[
+            "render",
+            s(&video),
+            "--frames",
+            &format!("{}..", top - 1),
+            "--disparity",
+            "0",
+            "-o",
+            s(&out),
+        ],
+        &[],
+    );
+    let err = stderr(&o);
+    assert!(
+        !o.status.success() && err.contains(&format!("g_{top}.png")),
+        "{err}"
+    );
+    assert!(
+        !tmp.path().join(format!("g_{}.png", top - 1)).exists(),
+        "wrote before failing"
+    );
+}
+
+#[test]
+fn scripts_with_a_bom_huge_counts_or_device_screenshots() {
+    use tiltfield::viewer::script;
+    let lines = script::parse("\u{feff}wait 0\nquit\n").unwrap();
+    assert_eq!(
+        lines.len(),
+        2,
+        "a byte-order mark is not part of the first command"
+    );
+    let err = script::parse("key UP 10000\n").unwrap_err();
+    assert!(
+        err.contains("line 1") && err.contains("count must be 1 to"),
+        "{err}"
+    );
+    let many = "key UP 500\n".repeat(5);
+    let err = script::parse(&many).unwrap_err();
+    assert!(
+        err.contains("line 5") && err.contains("presses keys"),
+        "{err}"
+    );
+    let waits = "wait 3600\nwait 1\n";
+    assert!(script::parse(waits).unwrap_err().contains("line 2"));
+    let tmp = tempfile::tempdir().unwrap();
+    let path = tmp.path().join("s.txt");
+    std::fs::write(&path, "\u{feff}screenshot /dev/full\n").unwrap();
+    let e = script::load(&path).unwrap_err().to_string();
+    assert!(
+        e.contains("line 1") && e.contains("character device"),
+        "{e}"
+    );
+    assert!(!Path::new("/dev/full_refocus.png").exists());
+}
+
+#[test]
+fn a_focus_no_view_reaches_is_an_error_not_a_transparent_image() {
+    // A plane 1 mm in front of a virtual camera between the real ones: every view's sample
+    // lands hundreds of pixels outside it.
+    let tmp = tempfile::tempdir().unwrap();
+    let video = tmp.path().join("video");
+    small_video(&video, &[1]);
+    let out = tmp.path().join("o.png");
+    fails_with(
+        &["render", s(&video), "--focus", "0.001", "-o", s(&out)],
+        &["no view reaches", "nothing was written"],
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn output_cut_short_by_its_reader_ends_quietly() {
+    // `tiltfield demo --list | head -1`: the reader goes away; no panic message.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+        .args(["demo", "--list"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let o = child.wait_with_output().unwrap();
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+}

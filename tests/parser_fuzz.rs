@@ -106,6 +106,85 @@ fn bytes_with_prefix(prefixes: &'static [&'static [u8]]) -> impl Strategy<Value 
         .prop_map(|(p, rest)| [p, &rest[..]].concat())
 }
 
+/// A camera-array video of two 4×4 cameras with frames 1 and 2 in `dir`; returns its folder.
+fn small_video(dir: &Path) -> String {
+    let video = dir.join("video");
+    std::fs::create_dir(&video).unwrap();
+    let mut params = String::from("f cu cv ar sk qw qx qy qz tx ty tz\n");
+    for k in 0..2 {
+        params.push_str(&format!("4 1.5 1.5 1 0 1 0 0 0 {} 0 0\n", -0.1 * k as f64));
+        for f in [1, 2] {
+            image::RgbaImage::from_pixel(4, 4, image::Rgba([9, 9, 9, 255]))
+                .save(video.join(format!("S_undist_{f:05}_{k:02}.png")))
+                .unwrap();
+        }
+    }
+    std::fs::write(video.join("cameras_parameters.txt"), params).unwrap();
+    video.display().to_string()
+}
+
+/// Script commands, good and bad, for the script parser's property.
+const SCRIPT_WORDS: &[&str] = &[
+    "wait",
+    "wait-converged",
+    "key UP",
+    "key shift+W",
+    "key",
+    "click refocus",
+    "click scene",
+    "shift-click refocus",
+    "drag scene",
+    "scroll refocus",
+    "scroll scene",
+    "resize",
+    "screenshot",
+    "quit",
+    "# comment",
+    "",
+    "jump",
+];
+
+/// Numbers as text, concentrated at the edges: zero, negatives, the ends of u32/u64/f64,
+/// non-finite and malformed spellings.
+fn number_text() -> impl Strategy<Value = String> {
+    prop_oneof![
+        proptest::sample::select(vec![
+            "0",
+            "1",
+            "-1",
+            "2",
+            "3",
+            "4096",
+            "8192",
+            "16384",
+            "99999",
+            "33000",
+            "65535",
+            "4294967295",
+            "4294967296",
+            "18446744073709551615",
+            "18446744073709551616",
+            "1e308",
+            "-1e308",
+            "1e-308",
+            "5e-324",
+            "inf",
+            "-inf",
+            "NaN",
+            "0.001",
+            "1e9",
+            "",
+            "x",
+            "1,2",
+            "0x10",
+            " 7",
+        ])
+        .prop_map(str::to_string),
+        any::<u32>().prop_map(|v| v.to_string()),
+        any::<f64>().prop_map(|v| v.to_string()),
+    ]
+}
+
 // ---------------------------------------------------------------------------------------------
 // Parsers.
 
@@ -252,6 +331,114 @@ proptest! {
             }
             Err(e) => clear(&e),
         }
+    }
+
+    #[test]
+    fn script_parser_never_panics_and_keeps_its_limits(
+        lines in proptest::collection::vec(
+            (
+                proptest::sample::select(SCRIPT_WORDS),
+                proptest::collection::vec(number_text(), 0..5),
+                any::<bool>(),
+            ),
+            0..12,
+        ),
+    ) {
+        use tiltfield::viewer::script::{self, Command};
+        let text: String = lines
+            .iter()
+            .map(|(cmd, args, bom)| {
+                format!("{}{cmd} {}\n", if *bom { "\u{feff}" } else { "" }, args.join(" "))
+            })
+            .collect();
+        match script::parse(&text) {
+            Ok(parsed) => {
+                let mut presses = 0u64;
+                let mut waited = 0.0;
+                for l in &parsed {
+                    match &l.command {
+                        Command::Key { count, .. } => {
+                            prop_assert!((1..=script::MAX_COUNT).contains(count));
+                            presses += *count as u64;
+                        }
+                        Command::Wait(s) => {
+                            prop_assert!(s.is_finite() && *s >= 0.0);
+                            waited += s;
+                        }
+                        Command::Click { x, y, .. } => prop_assert!(x.is_finite() && y.is_finite()),
+                        Command::Scroll { dy, .. } => prop_assert!(dy.is_finite()),
+                        Command::Resize(w, h) => prop_assert!(
+                            script::WINDOW_SIZES.contains(w) && script::WINDOW_SIZES.contains(h)
+                        ),
+                        _ => {}
+                    }
+                }
+                prop_assert!(presses <= script::MAX_PRESSES as u64);
+                prop_assert!(waited <= script::MAX_WAIT_S);
+            }
+            Err(e) => prop_assert!(e.starts_with("line ") && !e.contains('\n'), "{e}"),
+        }
+    }
+
+    #[test]
+    fn cli_numbers_are_refused_or_bounded_before_any_work(
+        case in 0usize..5,
+        a in number_text(),
+        b in number_text(),
+        c in number_text(),
+    ) {
+        // Every command is given an output it cannot write (inside a regular file), so a case
+        // whose numbers are all valid ends at that refusal, before any GPU or file work:
+        // the property is that hostile numbers end in one clear message naming an option (or
+        // the output), never a panic, overflow or allocation.
+        let tmp = tempfile::tempdir().unwrap();
+        let blocker = write(tmp.path(), "blocker", b"x");
+        let out = |name: &str| blocker.join(name).display().to_string();
+        let args: Vec<String> = match case {
+            0 => vec![
+                "synth".into(), "builtin:planes".into(), "--grid".into(), format!("{a}x{b}"),
+                "--size".into(), format!("{b}x{c}"), format!("--sensor-mm={c}"),
+                format!("--focal-mm={a}"), "-o".into(), blocker.display().to_string(),
+            ],
+            1 => vec![
+                "render".into(), "no-such-lf".into(), format!("--disparity={a}"),
+                "--size".into(), format!("{b}x{c}"), "--repeat".into(), c.clone(),
+                "-o".into(), out("o.png"),
+            ],
+            2 => vec![
+                "bench".into(), "--frames".into(), a.clone(),
+                "--variants".into(), format!("{b}x{c},x{a},r{b}"),
+                format!("--peak-gtexels={c}"), "--out".into(), out("b"),
+            ],
+            3 => vec![
+                "depth".into(), "no-such-lf".into(), "--planes".into(), a.clone(),
+                format!("--range={b},{c}"), "-o".into(), out("d.pfm"),
+            ],
+            _ => vec![
+                "render".into(), small_video(tmp.path()), "--frames".into(),
+                format!("{a}..{b}"), "--disparity".into(), "0".into(),
+                "-o".into(), out("f_{frame}.png"),
+            ],
+        };
+        let mut argv = vec!["tiltfield".to_string()];
+        argv.extend(args.iter().cloned());
+        let Ok(cli) = <tiltfield::cli::Cli as clap::Parser>::try_parse_from(&argv) else {
+            return Ok(()); // a usage error from the argument parser: clear by construction
+        };
+        let (result, largest) = largest_allocation(|| tiltfield::cli::run(cli));
+        match result {
+            Ok(()) => prop_assert!(false, "{args:?} succeeded despite an unwritable output"),
+            Err(e) => {
+                clear(&e);
+                let m = e.to_string();
+                prop_assert!(
+                    m.contains("--") || m.contains("blocker") || m.contains("no-such-lf")
+                        || m.contains("variant") || m.contains("frame"),
+                    "{args:?}: the message names no option or file: {m}"
+                );
+            }
+        }
+        prop_assert!(largest < 64 << 20, "{args:?} allocated {largest} bytes at once");
     }
 
     #[test]

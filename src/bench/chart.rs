@@ -6,7 +6,7 @@
 //! (`assets/fonts/DejaVuSans.ttf`), so no system font library is needed; SVG text names the
 //! family and leaves rendering to the viewer.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -41,9 +41,12 @@ fn chart_err(e: impl std::fmt::Display) -> Error {
     Error::Invalid(format!("drawing a chart: {e}"))
 }
 
-/// Draws both charts as `speed_accuracy.{svg,png}` and `scaling.{svg,png}` in `dir`; the
+/// Draws both charts as `speed_accuracy.{svg,png}` and `scaling.{svg,png}` in `folder`; the
 /// scaling chart only when the report has a sweep. Returns the files written.
-pub fn write_charts(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
+pub fn write_charts(
+    report: &BenchReport,
+    folder: &crate::io::OutputFolder,
+) -> Result<Vec<PathBuf>> {
     register_font()?;
     let mut written = Vec::new();
     for (stem, kind) in [
@@ -59,21 +62,18 @@ pub fn write_charts(report: &BenchReport, dir: &Path) -> Result<Vec<PathBuf>> {
             draw(kind, report, &root)?;
             root.present().map_err(chart_err)?;
         }
-        let path = dir.join(format!("{stem}.svg"));
-        std::fs::write(&path, svg).map_err(|e| Error::io(&path, e))?;
-        written.push(path);
+        written.push(folder.write_bytes(format!("{stem}.svg"), "SVG", svg.as_bytes())?);
         let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
         {
             let root = BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area();
             draw(kind, report, &root)?;
             root.present().map_err(chart_err)?;
         }
-        let path = dir.join(format!("{stem}.png"));
         let img = image::RgbImage::from_raw(SIZE.0, SIZE.1, rgb)
             .ok_or_else(|| Error::Invalid("chart buffer size".into()))?;
-        img.save(&path)
-            .map_err(|e| Error::Invalid(format!("{}: {e}", path.display())))?;
-        written.push(path);
+        written.push(folder.write_with(format!("{stem}.png"), "PNG", |w| {
+            crate::io::encode_png(&img, w)
+        })?);
     }
     Ok(written)
 }

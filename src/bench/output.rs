@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::{chart, BenchReport, Homographies};
-use crate::error::{Error, Result};
+use crate::error::Result;
 
 /// Columns of `bench.csv`.
 pub const CSV_HEADER: &str = "kind,name,strategy,filter,storage,accumulation,views,width,height,\
@@ -86,33 +86,22 @@ pub fn csv(report: &BenchReport) -> String {
     out
 }
 
-fn write(path: PathBuf, bytes: &[u8], written: &mut Vec<PathBuf>) -> Result<()> {
-    std::fs::write(&path, bytes).map_err(|e| Error::io(&path, e))?;
-    written.push(path);
-    Ok(())
-}
-
-/// Writes every output of a run into `dir` (created if needed). Returns the files written.
+/// Writes every output of a run into `dir` (created if needed; on failure nothing written
+/// stays). Returns the files written.
 pub fn write_all(
     report: &BenchReport,
     homographies: &Homographies,
     dir: &Path,
 ) -> Result<Vec<PathBuf>> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let mut written = Vec::new();
+    let folder = crate::io::OutputFolder::create(dir)?;
     let json = |v: &dyn erased::Json| v.pretty();
-    write(
-        dir.join("bench.json"),
-        json(report)?.as_bytes(),
-        &mut written,
-    )?;
-    write(dir.join("bench.csv"), csv(report).as_bytes(), &mut written)?;
-    write(
-        dir.join("homographies.json"),
-        json(homographies)?.as_bytes(),
-        &mut written,
-    )?;
-    written.extend(chart::write_charts(report, dir)?);
+    let mut written = vec![
+        folder.write_bytes("bench.json", "JSON", json(report)?.as_bytes())?,
+        folder.write_bytes("bench.csv", "CSV", csv(report).as_bytes())?,
+        folder.write_bytes("homographies.json", "JSON", json(homographies)?.as_bytes())?,
+    ];
+    written.extend(chart::write_charts(report, &folder)?);
+    folder.finish();
     Ok(written)
 }
 

@@ -15,6 +15,10 @@ use crate::passes::refocus::{Accumulation, Filter, Strategy, WarpMemory};
 use crate::passes::texture::ViewStorage;
 use crate::refocus::cpu::Kernel;
 
+/// Largest output side a variant may ask for: each variant is checked against an f64 CPU
+/// model of the same size, which costs minutes beyond 2048² (and 99999² overflowed).
+pub const MAX_SIDE: u32 = 2048;
+
 /// Output size of a variant.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum OutputSize {
@@ -209,6 +213,12 @@ impl std::str::FromStr for Variant {
                     (Ok(w), Ok(h)) if w > 0 && h > 0 => (w, h),
                     _ => return Err(bad("bad output size")),
                 };
+                if w > MAX_SIDE || h > MAX_SIDE {
+                    return Err(Error::Invalid(format!(
+                        "variant '{text}': output size {w}x{h} is larger than {MAX_SIDE} pixels \
+                         a side (each variant is checked against a CPU model of its size)"
+                    )));
+                }
                 v.size = OutputSize::Pixels(w, h);
             } else {
                 return Err(bad("unknown token"));

@@ -62,6 +62,26 @@ pub struct BenchArgs {
     pub gpu: GpuArgs,
 }
 
+/// Most timed frames per variant.
+const MAX_FRAMES: usize = 1000;
+
+/// Refuses variants whose output, resolved against the scene's view size (`xF` scales it),
+/// is larger than [`variant::MAX_SIDE`] a side, naming the variant.
+fn check_variant_sizes(options: &BenchOptions, width: u32, height: u32) -> Result<()> {
+    for v in &options.variants {
+        let (w, h) = v.size.resolve(width, height);
+        if w > variant::MAX_SIDE || h > variant::MAX_SIDE {
+            return Err(Error::Invalid(format!(
+                "variant '{}': its output is {w}×{h} for views of {width}×{height}, larger than \
+                 {} pixels a side",
+                v.name(),
+                variant::MAX_SIDE
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// The options of `args` (checked before any GPU work).
 pub fn options(args: &BenchArgs) -> Result<BenchOptions> {
     let mut o = if args.quick {
@@ -70,6 +90,11 @@ pub fn options(args: &BenchArgs) -> Result<BenchOptions> {
         BenchOptions::full()
     };
     if let Some(n) = args.frames {
+        if !(1..=MAX_FRAMES).contains(&n) {
+            return Err(Error::Invalid(format!(
+                "--frames {n}: timed frames per variant must be 1 to {MAX_FRAMES}"
+            )));
+        }
         o.frames = n;
         o.sweep_frames = o.sweep_frames.min(n).max(1);
     }
@@ -78,6 +103,16 @@ pub fn options(args: &BenchArgs) -> Result<BenchOptions> {
     }
     if args.no_scaling {
         o.sweep_radii.clear();
+    }
+    for (what, v) in [
+        ("--peak-gtexels", args.peak_gtexels),
+        ("--peak-gbps", args.peak_gbps),
+    ] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::Invalid(format!("{what} must be positive, got {v}")));
+            }
+        }
     }
     o.peak_gtexels = args.peak_gtexels;
     o.peak_gbps = args.peak_gbps;
@@ -180,9 +215,11 @@ pub fn table(report: &BenchReport) -> String {
 
 pub fn run(args: &BenchArgs) -> Result<()> {
     let options = options(args)?;
-    super::ensure_dir(&args.out)?;
+    // The folder is made only when the report is written; here only that it can be.
+    crate::io::check_writable_folder(&args.out, "bench.json")?;
     let ctx = Arc::new(GpuContext::new(&args.gpu.options())?);
     let scene = scene(args, &ctx)?;
+    check_variant_sizes(&options, scene.lf.width, scene.lf.height)?;
     let report = bench::run(Arc::clone(&ctx), &scene, &options)?;
     let plan = bench::plan_for(&scene, ApertureShape::Disk, None)?;
     let homographies = bench::homographies(&scene.lf, &plan);

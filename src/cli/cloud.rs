@@ -11,7 +11,7 @@ use glam::{DVec2, DVec3};
 use serde_json::json;
 
 use super::focus::{focus_json, FocusArgs, FOCUS_OPTIONS};
-use super::{ensure_parent, load_light_field, parse_numbers, LightFieldArgs};
+use super::{load_light_field, parse_numbers, LightFieldArgs};
 use crate::error::{Error, Result};
 use crate::geometry::normals::estimate_normals;
 use crate::lightfield::ply::{PlyMesh, PlyVertex};
@@ -62,6 +62,7 @@ pub fn run(args: &CloudArgs) -> Result<()> {
             args.output.display()
         )));
     }
+    super::check_output(&args.output)?;
     if args.stride == 0 {
         return Err(Error::Invalid("--stride must be at least 1".into()));
     }
@@ -206,7 +207,6 @@ pub fn run(args: &CloudArgs) -> Result<()> {
          (x right, y down, z forward)"
             .into(),
     );
-    ensure_parent(&args.output)?;
     mesh.write(&args.output)?;
     if args.json {
         let report = json!({

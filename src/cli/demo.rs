@@ -48,7 +48,8 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         return Ok(());
     }
     let dir = args.output.clone().unwrap_or_else(default_demo_dir);
-    std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+    // Checked now, made when the first image is written (and removed again on failure).
+    crate::io::check_writable_folder(&dir, "demo.json")?;
     let scene = synth::builtin(&args.scene).ok_or_else(|| {
         Error::Invalid(format!(
             "no built-in scene '{}'; available: {}",
@@ -71,9 +72,11 @@ pub fn run(args: &DemoArgs) -> Result<()> {
     let device = renderer.context().info.name.clone();
     let centre = lf.grid.centre();
     let centre_view = &lf.views[lf.grid.index(lf.grid.cols / 2, lf.grid.rows / 2)];
+    let folder = crate::io::OutputFolder::create(&dir)?;
     let mut written = Vec::new();
-    let view_path = dir.join("centre_view.png");
-    crate::io::save_png(&centre_view.image, &view_path)?;
+    let view_path = folder.write_with("centre_view.png", "PNG", |w| {
+        crate::io::encode_png(&centre_view.image, w)
+    })?;
     written
         .push(json!({"file": view_path, "what": "the centre view (a pinhole image, all sharp)"}));
 
@@ -114,7 +117,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         let plan = refocus::plan(&lf, &req, &[])?;
         let (image, timings) = renderer.render(&plan, &settings)?;
         let path = dir.join(&file);
-        save(&image, &path)?;
+        folder.track(&path, |p| save(&image, p))?;
         let ms = timings.map(|t| t.refocus_ms);
         eprintln!(
             "  {:<28} {what}{}",
@@ -138,12 +141,14 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         )));
     }
     let summary = json!({"scene": args.scene, "device": device, "images": written});
-    let summary_path = dir.join("demo.json");
-    std::fs::write(
-        &summary_path,
-        serde_json::to_string_pretty(&summary).map_err(|e| Error::Invalid(e.to_string()))?,
-    )
-    .map_err(|e| Error::io(&summary_path, e))?;
+    let summary_path = folder.write_bytes(
+        "demo.json",
+        "JSON",
+        serde_json::to_string_pretty(&summary)
+            .map_err(|e| Error::Invalid(e.to_string()))?
+            .as_bytes(),
+    )?;
+    folder.finish();
     println!(
         "wrote {} refocus images of builtin:{} to {} (summary: {}; device: {device})",
         written.len(),

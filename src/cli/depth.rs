@@ -188,7 +188,23 @@ pub fn run(args: &DepthArgs) -> Result<()> {
     let truth = args
         .score
         .as_deref()
-        .map(|p| read_pfm_depth(p, DepthKind::Disparity))
+        .map(|p| {
+            let t = read_pfm_depth(p, DepthKind::Disparity)
+                .map_err(|e| Error::Invalid(format!("--score: {e}")))?;
+            // A truth without a single finite pixel inside the scored area would score a
+            // perfect 0 on zero pixels.
+            let inside = score(&t.values, &t.values, t.width, t.height, HCI_BORDER, None).pixels;
+            if inside == 0 {
+                return Err(Error::bad_file(
+                    p,
+                    format!(
+                        "--score: the ground truth has no finite disparity inside its {HCI_BORDER} \
+                         px border, so there is nothing to score"
+                    ),
+                ));
+            }
+            Ok(t)
+        })
         .transpose()?;
     let ctx = GpuContext::new(&args.gpu.options())?;
     let lf = load_light_field_within(&args.lf, &device_load_limits(&ctx))?;
@@ -220,14 +236,24 @@ pub fn run(args: &DepthArgs) -> Result<()> {
         None => est.natural_kind(),
     };
     let values = est.values(kind)?;
+    if !values.iter().any(|v| v.is_finite()) {
+        // Writing it would report success for a map with no value at all.
+        return Err(Error::Invalid(format!(
+            "the estimate has no finite {kind:?} value in any pixel (range {} … {} from {:?}); \
+             nothing was written to {}",
+            est.range.0,
+            est.range.1,
+            est.range_origin,
+            args.output.display()
+        )));
+    }
     write_map(&args.output, &est, kind, &values)?;
     if let Some(path) = &args.confidence {
         let img = image::GrayImage::from_fn(est.width, est.height, |x, y| {
             let c = est.confidence[(y * est.width + x) as usize];
             image::Luma([(c.clamp(0.0, 1.0) * 255.0).round() as u8])
         });
-        img.save_with_format(path, image::ImageFormat::Png)
-            .map_err(|e| Error::bad_file(path, format!("cannot write PNG: {e}")))?;
+        crate::io::save_png(&img, path)?;
     }
     let scores = truth.as_ref().map(|t| {
         let disparity = est.values(DepthKind::Disparity).unwrap_or_default();

@@ -26,12 +26,19 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
     let sequence = FrameSequence::open(Path::new(&args.lf.light_field))?;
     let frames = sequence.select(range)?;
     let kind = OutputKind::from_path(&pattern.path(frames[0]))?;
-    check_output(&pattern.path(frames[0]))?;
+    // Every frame's output, not only the first: a run must not stop at frame 300 because
+    // its file cannot be written, after writing 299 others.
+    for &f in &frames {
+        check_output(&pattern.path(f))?;
+    }
     let settings = render_settings(args, kind)?;
     let storage = args
         .storage
         .unwrap_or_else(|| ViewStorage::for_averaging(args.average));
     let ctx = Arc::new(GpuContext::new(&args.gpu.options())?);
+    if let Some(size) = settings.size {
+        super::render::check_output_fits(&ctx, size)?;
+    }
     let job = BatchJob {
         sequence: &sequence,
         frames: &frames,

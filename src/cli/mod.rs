@@ -190,45 +190,10 @@ pub fn run(cli: Cli) -> Result<()> {
     }
 }
 
-/// Creates the folder of an output file.
-pub(crate) fn ensure_parent(path: &Path) -> Result<()> {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => {
-            std::fs::create_dir_all(p).map_err(|e| Error::io(p, e))
-        }
-        _ => Ok(()),
-    }
-}
-
-/// Checks before any work that `path` can be written as an output file: its folder exists or
-/// can be created, and it is not itself a folder. A file is created and removed again when it
-/// did not exist, so a read-only folder is reported now rather than after rendering.
+/// Checks before any work that `path` can be written as an output file (see
+/// [`crate::io::check_writable`]); creates nothing.
 pub(crate) fn check_output(path: &Path) -> Result<()> {
-    ensure_parent(path)?;
-    if path.is_dir() {
-        return Err(Error::bad_file(
-            path,
-            "the output is a folder; give a file name",
-        ));
-    }
-    let existed = path.exists();
-    std::fs::OpenOptions::new()
-        .append(true)
-        .create(true)
-        .open(path)
-        .map_err(|e| Error::io(path, e))?;
-    if !existed {
-        std::fs::remove_file(path).map_err(|e| Error::io(path, e))?;
-    }
-    Ok(())
-}
-
-/// Creates output folder `dir` (and its parents), refusing a path that is a file.
-pub(crate) fn ensure_dir(dir: &Path) -> Result<()> {
-    if dir.exists() && !dir.is_dir() {
-        return Err(Error::bad_file(dir, "the output folder is a file"));
-    }
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
+    crate::io::check_writable(path)
 }
 
 /// Default output folder of `demo`.

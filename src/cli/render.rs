@@ -25,6 +25,11 @@ use crate::refocus::{self, Averaging, RefocusPlan, ResolvedFocus};
 
 /// Most `--repeat` timing frames.
 const MAX_REPEAT: usize = 10_000;
+/// Largest `--size` side: a float accumulation target of 8192² takes 1 GiB, which every
+/// device tiltfield runs on can hold; larger requests failed deep inside Vulkan.
+pub const MAX_OUTPUT_SIDE: u32 = 8192;
+/// Bytes per output pixel the refocus pass holds at most (RGBA32F accumulation).
+const OUTPUT_BYTES_PER_PIXEL: u64 = 16;
 
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("focus_plane").required(true).args(FOCUS_OPTIONS)))]
@@ -138,6 +143,40 @@ pub fn make_plan_with_window(
 
 pub use crate::refocus::plan_json;
 
+/// Output pixels of `image` no view reached (transparent).
+fn uncovered_pixels(image: &GpuImage) -> usize {
+    match image {
+        GpuImage::Srgb8(img) => img.pixels().filter(|p| p.0[3] == 0).count(),
+        GpuImage::Float(img) => img.uncovered(),
+    }
+}
+
+/// Pixels of `image`.
+fn out_size(image: &GpuImage) -> usize {
+    match image {
+        GpuImage::Srgb8(img) => img.width() as usize * img.height() as usize,
+        GpuImage::Float(img) => img.width as usize * img.height as usize,
+    }
+}
+
+/// Refuses an output size the device cannot hold (its image size limit, or its largest
+/// allocation for the float accumulation target), naming `--size`.
+pub(crate) fn check_output_fits(ctx: &GpuContext, (w, h): (u32, u32)) -> Result<()> {
+    let t = crate::passes::texture::TextureLimits::of(ctx);
+    let bytes = w as u64 * h as u64 * OUTPUT_BYTES_PER_PIXEL;
+    if w.max(h) > t.max_dimension || bytes > t.max_allocation.min(t.heap_bytes) {
+        return Err(Error::DeviceLimit(format!(
+            "--size {w}x{h} does not fit {}: at most {} pixels a side and {} MiB per image \
+             ({} MiB needed)",
+            ctx.info.name,
+            t.max_dimension,
+            t.max_allocation.min(t.heap_bytes) >> 20,
+            bytes >> 20
+        )));
+    }
+    Ok(())
+}
+
 /// Writes a GPU result to `path` (PNG or EXR by extension). Returns the uncovered pixel count.
 pub fn save(image: &GpuImage, path: &std::path::Path) -> Result<usize> {
     crate::jobs::batch::save_image(image, path)
@@ -155,6 +194,15 @@ pub fn render_settings(args: &RenderArgs, kind: OutputKind) -> Result<RenderSett
         .as_deref()
         .map(|text| super::synth::parse_pair(text, "--size"))
         .transpose()?;
+    if let Some((w, h)) = size {
+        if w > MAX_OUTPUT_SIDE || h > MAX_OUTPUT_SIDE {
+            return Err(Error::Invalid(format!(
+                "--size {w}x{h}: at most {MAX_OUTPUT_SIDE} pixels a side (the float accumulation \
+                 target alone would take {:.1} GiB)",
+                (w as u64 * h as u64 * OUTPUT_BYTES_PER_PIXEL) as f64 / (1u64 << 30) as f64
+            )));
+        }
+    }
     Ok(RenderSettings {
         averaging: args.average,
         output: match kind {
@@ -183,10 +231,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             args.repeat
         )));
     }
-    check_output(&args.output)?;
     let settings = render_settings(args, kind)?;
+    check_output(&args.output)?;
     // The device first, so a light field it cannot hold is refused before decoding its views.
     let ctx = GpuContext::new(&args.gpu.options())?;
+    if let Some(size) = settings.size {
+        check_output_fits(&ctx, size)?;
+    }
     let mut lf = load_light_field_within(&args.lf, &device_load_limits(&ctx))?;
     let t_load = t0.elapsed().as_secs_f64() * 1e3;
     // Clicks need depth: the light field's own map, or one estimated from its views.
@@ -225,6 +276,17 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             bar.inc(1);
         }
         bar.finish_and_clear();
+    }
+    // An image no view reaches (a plane so near that every sample lands outside the views) is
+    // fully transparent: refused naming the cause instead of written as a "result".
+    let total = out_size(&image);
+    if uncovered_pixels(&image) == total && total > 0 {
+        return Err(Error::Geometry(format!(
+            "no view reaches any of the {total} output pixels with this focus ({}); nothing \
+             was written to {}. The plane is probably too near or beyond the views' overlap",
+            focus_summary(&focus).unwrap_or_else(|| format!("{:?}", focus.spec)),
+            args.output.display()
+        )));
     }
     let uncovered = save(&image, &args.output)?;
     let errors = renderer.context().validation().errors();

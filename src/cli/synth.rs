@@ -133,6 +133,12 @@ const MAX_LIGHT_FIELD_BYTES: u64 = 8 << 30;
 const MAX_SAMPLES: u32 = 16;
 /// Most pinholes per side of the optical ground truth's aperture grid (`--gt-samples`).
 const MAX_GT_SAMPLES: u32 = 257;
+/// Most rasterized samples of the whole light field (views × pixels × samples²): about 2·10⁹,
+/// ten times the default 9×9×512² at 3×3 samples, a few minutes on a software renderer.
+const MAX_RENDER_SAMPLES: u64 = 1 << 31;
+/// Largest `--sensor-mm`: larger than any camera's sensor (large format is ~250 mm), small
+/// enough that every derived number (focal length in mm) stays finite.
+const MAX_SENSOR_MM: f64 = 1000.0;
 
 /// Checks every size and count before anything is loaded, rendered or written, so a request
 /// that cannot be served fails at once with the limit it exceeds (not by overflowing, running
@@ -171,6 +177,15 @@ fn check_request(args: &SynthArgs, cols: u32, rows: u32, width: u32, height: u32
             args.samples
         )));
     }
+    let render_samples = views * pixels * (args.samples as u64).pow(2);
+    if render_samples > MAX_RENDER_SAMPLES {
+        return Err(Error::Invalid(format!(
+            "--grid {cols}x{rows} of --size {width}x{height} with --samples {} rasterizes \
+             {render_samples} samples, more than the {MAX_RENDER_SAMPLES} a synth run may (it \
+             would take very long); use fewer views, a smaller size or fewer samples",
+            args.samples
+        )));
+    }
     if !(1..=MAX_GT_SAMPLES).contains(&args.gt_samples) {
         return Err(Error::Invalid(format!(
             "--gt-samples must be 1 to {MAX_GT_SAMPLES} (pinholes per side), got {}",
@@ -192,6 +207,37 @@ fn check_request(args: &SynthArgs, cols: u32, rows: u32, width: u32, height: u32
     ] {
         if let Some(v) = v {
             positive(v, what)?;
+        }
+    }
+    Ok(())
+}
+
+/// The rig's numbers as they are written (HCI's focal_length_mm and baseline_mm, the manifest's
+/// K and t) must be finite: products of extreme options overflow to infinity, which tiltfield
+/// itself would refuse to read back.
+fn check_rig_numbers(rig: &SynthRig, sensor_mm: f64) -> Result<()> {
+    let max_px = rig.width.max(rig.height) as f64;
+    let derived = [
+        (
+            "the focal length in pixels (--focal-mm, --sensor-mm)",
+            rig.focal_px,
+        ),
+        (
+            "the focal length in mm (--focal-mm, --sensor-mm)",
+            rig.focal_px * sensor_mm / max_px,
+        ),
+        ("the baseline in mm (--baseline)", rig.baseline * 1000.0),
+        ("the focus distance (--focus-distance)", rig.focus_distance),
+        (
+            "the disparity at infinity (--focal-mm, --baseline, --focus-distance)",
+            rig.focal_px * rig.baseline / rig.focus_distance,
+        ),
+    ];
+    for (what, v) in derived {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(Error::Invalid(format!(
+                "{what} would be {v}: the options are too extreme to describe a camera"
+            )));
         }
     }
     Ok(())
@@ -219,18 +265,11 @@ fn check_focus(focus: &Option<FocusSpec>) -> Result<()> {
     }
 }
 
-/// Refuses an output folder that cannot be created or written, before rendering.
+/// Refuses an output folder that cannot be created or written, before rendering; creates
+/// nothing (the folder is made when the light field is written).
 fn check_out_dir(out: &Path) -> Result<()> {
-    if out.exists() && !out.is_dir() {
-        return Err(Error::bad_file(
-            out,
-            "--out must be a folder, but this is a file",
-        ));
-    }
-    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let probe = out.join(".tiltfield-write-test");
-    std::fs::write(&probe, b"").map_err(|e| Error::io(out, e))?;
-    std::fs::remove_file(&probe).map_err(|e| Error::io(&probe, e))
+    crate::io::check_writable_folder(out, hci::CONFIG_NAME)
+        .map_err(|e| Error::Invalid(format!("--out: {e}")))
 }
 
 fn positive(v: f64, what: &str) -> Result<f64> {
@@ -325,6 +364,11 @@ pub fn run(args: &SynthArgs) -> Result<()> {
     let (width, height) = parse_pair(&args.size, "--size")?;
     check_request(args, cols, rows, width, height)?;
     let sensor = positive(args.sensor_mm, "--sensor-mm")?;
+    if sensor > MAX_SENSOR_MM {
+        return Err(Error::Invalid(format!(
+            "--sensor-mm must be at most {MAX_SENSOR_MM} mm, got {sensor:e}"
+        )));
+    }
     let kind = match args.rig {
         RigArg::Parallel => RigKind::Parallel,
         RigArg::Converging => RigKind::Converging { distance: 0.0 },
@@ -367,6 +411,7 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         focus_distance,
         kind,
     };
+    check_rig_numbers(&rig, sensor)?;
     let focus = args.plane_opts.spec()?.map(|(_, spec)| spec);
     check_focus(&focus)?;
     check_out_dir(out)?;
@@ -387,21 +432,22 @@ pub fn run(args: &SynthArgs) -> Result<()> {
     let synth = render_light_field(&mut r, &rig, args.samples, args.layout == Layout::Manifest)?;
     let render_s = t_render.elapsed().as_secs_f64();
     let lf = &synth.light_field;
-    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    // Every file goes through one output folder: a failure half way (a full disk, the ground
+    // truth's plane refused) removes what this run wrote and the folders it made.
+    let folder = crate::io::OutputFolder::create(out)?;
     let mut written = Vec::new();
     match args.layout {
         Layout::Hci => {
-            let Some(p) = rig.parallel() else {
-                unreachable!("checked above")
-            };
+            let p = rig
+                .parallel()
+                .ok_or_else(|| Error::Invalid("--layout hci needs parallel cameras".into()))?;
             let cfg = hci::config_for(lf, &p, sensor);
-            hci::write(lf, &cfg, out)?;
+            hci::write_into(lf, &cfg, &folder)?;
             written.push(out.join(hci::CONFIG_NAME));
         }
         Layout::Manifest => {
-            let path = out.join(manifest::DEFAULT_NAME);
-            manifest::write(lf, &path)?;
-            written.push(path);
+            manifest::write_into(lf, &folder, manifest::DEFAULT_NAME)?;
+            written.push(out.join(manifest::DEFAULT_NAME));
         }
     }
     let normals_path = out.join("gt_normals_centre.exr");
@@ -410,7 +456,9 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         .iter()
         .map(|n| [n[0], n[1], n[2], if n[0].is_nan() { 0.0 } else { 1.0 }])
         .collect();
-    crate::io::save_exr(width, height, &normals, &normals_path)?;
+    folder.track(&normals_path, |p| {
+        crate::io::save_exr(width, height, &normals, p)
+    })?;
     written.push(normals_path);
 
     let mut gt_report = serde_json::Value::Null;
@@ -447,8 +495,10 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         )?;
         let png = out.join("optical_gt.png");
         let exr = out.join("optical_gt.exr");
-        crate::io::save_png(&encode(&linear, width, height), &png)?;
-        crate::io::save_exr(width, height, &linear, &exr)?;
+        folder.track(&png, |p| {
+            crate::io::save_png(&encode(&linear, width, height), p)
+        })?;
+        folder.track(&exr, |p| crate::io::save_exr(width, height, &linear, p))?;
         let v3 = |v: DVec3| [v.x, v.y, v.z];
         gt_report = json!({
             "plane": {"point": v3(plane.point), "normal": v3(plane.normal)},
@@ -468,6 +518,7 @@ pub fn run(args: &SynthArgs) -> Result<()> {
             "{errors} validation errors while rendering (see the log above)"
         )));
     }
+    folder.finish();
     let rot = |m: DMat3| m == DMat3::IDENTITY;
     let report = json!({
         "scene": scene,

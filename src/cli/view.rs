@@ -91,6 +91,14 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         Some(path) => script::load(path)?,
         None => Vec::new(),
     };
+    // The P key writes PREFIX-1_refocus.png and so on. A viewer is useful without
+    // screenshots, so a prefix that cannot be written is a warning now (and P then fails
+    // naming the file), not a refusal to start.
+    let mut first_shot = args.screenshot_prefix.as_os_str().to_owned();
+    first_shot.push("-1");
+    if let Err(e) = script::check_screenshot_prefix(std::path::Path::new(&first_shot)) {
+        log::warn!("--screenshot-prefix: {e}; the P key will not be able to save");
+    }
     let reference = match &args.view {
         Some(text) => {
             let v = parse_numbers(text, 2, "--view")?;

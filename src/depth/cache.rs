@@ -7,16 +7,25 @@
 //! everything the estimate depends on: an algorithm version, the grid, every view's pixels and
 //! camera, the rig, the dataset's disparity range, the sweep convention and the options. Any
 //! change of content gives another key, so a stale estimate is never reused. Per key two
-//! files: `KEY.json` (what was estimated, how, on which device) and `KEY.pfm` (three channels:
-//! the sweep parameter, the confidence, 0). Both are written to temporary names and renamed,
-//! so a crash leaves no half file; an unreadable entry is recomputed with a warning, and a
-//! cache folder that cannot be written only costs the reuse.
+//! files: `KEY.json` (what was estimated, how, on which device, and a content hash of the key,
+//! the metadata and the data) and `KEY.pfm` (three channels: the sweep parameter, the
+//! confidence, 0). Both are written through [`crate::io`]: temporary files created exclusively
+//! (never through a link planted in the folder), checked writes, then renamed, so a crash
+//! leaves no half file. Reading takes only regular files in the folder itself and checks the
+//! hash first; a damaged, edited, older or planted entry is estimated again (with a warning)
+//! and replaced, and a cache folder that cannot be written only costs the reuse.
+//!
+//! Trust model: the cache may be shared. Whatever others put in it cannot make tiltfield write
+//! or read outside it, block on a FIFO or device, or use an entry whose content does not match
+//! its hash. The hash (xxh3) detects damage and edits, not forgery: someone who can write the
+//! folder can compute a matching hash, so share a cache only with people whose estimates you
+//! would accept.
 
 use std::path::{Path, PathBuf};
 
 use super::{sweep, DepthEstimate, DepthOptions};
 use crate::error::{Error, Result};
-use crate::lightfield::pfm::{read_pfm, write_pfm};
+use crate::lightfield::pfm::{decode_pfm, encode_pfm};
 use crate::lightfield::LightField;
 
 /// Bumped whenever the estimator's output for the same input changes.
@@ -101,18 +110,80 @@ pub fn cache_key(lf: &LightField, options: &DepthOptions) -> String {
     format!("{:032x}", h.digest128())
 }
 
-/// Reads the entry `key` from `dir`; `None` when there is none or it is unreadable (with a
-/// warning naming the file).
+/// Name of the metadata field holding the entry's content hash.
+const HASH_FIELD: &str = "entry_xxh3";
+
+/// The content hash of an entry: its key, its metadata text (every byte, so any edited field
+/// changes it) and its data file's bytes.
+fn entry_hash(key: &str, meta: &str, data: &[u8]) -> String {
+    let mut h = xxhash_rust::xxh3::Xxh3::new();
+    for part in [key.as_bytes(), meta.as_bytes(), data] {
+        h.update(&(part.len() as u64).to_le_bytes());
+        h.update(part);
+    }
+    format!("{:032x}", h.digest128())
+}
+
+/// The metadata file's text: `meta` (pretty JSON of the estimate, ending in `\n}`) with the
+/// hash as its last field. The hash covers `meta`'s exact text, recovered by [`split_hash`],
+/// so no float has to survive a parse and a print unchanged.
+fn join_hash(meta: &str, hash: &str) -> Option<String> {
+    let body = meta.strip_suffix("\n}")?;
+    Some(format!("{body},\n  \"{HASH_FIELD}\": \"{hash}\"\n}}\n"))
+}
+
+/// The inverse of [`join_hash`]: the hashed text and the hash; `None` for any other shape.
+fn split_hash(text: &str) -> Option<(String, String)> {
+    let head = format!(",\n  \"{HASH_FIELD}\": \"");
+    let at = text.rfind(&head)?;
+    let hash = text[at + head.len()..].strip_suffix("\"\n}\n")?;
+    if hash.len() != 32 || !hash.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return None;
+    }
+    Some((format!("{}\n}}", &text[..at]), hash.to_string()))
+}
+
+/// Reads the entry `key` from `dir`; `None` when there is none, or when it is damaged or not
+/// what it claims (with a warning naming the file): then it is estimated again and replaced.
+/// Only regular files in the folder itself are read (a link planted in the cache folder is
+/// never followed), and the content hash in the metadata must match before anything is used.
 pub fn load(dir: &Path, key: &str) -> Option<DepthEstimate> {
     let meta_path = dir.join(format!("{key}.json"));
     let data_path = dir.join(format!("{key}.pfm"));
-    if !meta_path.is_file() {
+    if std::fs::symlink_metadata(&meta_path).is_err() {
         return None;
     }
     let read = || -> std::result::Result<DepthEstimate, String> {
-        let text = std::fs::read_to_string(&meta_path).map_err(|e| e.to_string())?;
+        for p in [&meta_path, &data_path] {
+            match std::fs::symlink_metadata(p) {
+                Ok(m) if m.is_file() => {}
+                Ok(m) => {
+                    return Err(format!(
+                        "{} is {}, not a regular file",
+                        p.display(),
+                        crate::io::kind_of(&m)
+                    ))
+                }
+                Err(e) => return Err(format!("{}: {e}", p.display())),
+            }
+        }
+        let text =
+            crate::io::read_text(&meta_path, "a depth cache entry").map_err(|e| e.to_string())?;
+        let (meta, stored) = split_hash(&text).ok_or_else(|| {
+            format!("the metadata does not end in its {HASH_FIELD} (an older or edited entry)")
+        })?;
+        let bytes = crate::io::read_file(
+            &data_path,
+            "a depth cache entry",
+            crate::lightfield::pfm::MAX_PFM_BYTES,
+        )
+        .map_err(|e| e.to_string())?;
+        if entry_hash(key, &meta, &bytes) != stored {
+            return Err("its content does not match the hash in its metadata".into());
+        }
+        // Unknown fields (the hash) are ignored by the estimate's deserialisation.
         let mut est: DepthEstimate = serde_json::from_str(&text).map_err(|e| e.to_string())?;
-        let (w, h, channels, data) = read_pfm(&data_path).map_err(|e| e.to_string())?;
+        let (w, h, channels, data) = decode_pfm(&bytes, &data_path).map_err(|e| e.to_string())?;
         if (w, h, channels) != (est.width, est.height, 3) {
             return Err(format!(
                 "{} does not match its metadata",
@@ -127,7 +198,7 @@ pub fn load(dir: &Path, key: &str) -> Option<DepthEstimate> {
         Ok(est) => Some(est),
         Err(e) => {
             log::warn!(
-                "depth cache entry {} is unreadable ({e}); estimating again",
+                "depth cache entry {} is unusable ({e}); estimating again",
                 meta_path.display()
             );
             None
@@ -135,29 +206,35 @@ pub fn load(dir: &Path, key: &str) -> Option<DepthEstimate> {
     }
 }
 
-/// Writes `est` as entry `key` in `dir` (creating it); returns the metadata file.
+/// Writes `est` as entry `key` in `dir` (creating it); returns the metadata file. Both files
+/// go through [`crate::io::write_bytes`] (exclusive temporary file, checked writes, rename);
+/// an entry that is a link or another non-file is removed first (never followed), so a damaged
+/// or planted entry is replaced rather than blocking the cache.
 pub fn store(dir: &Path, key: &str, est: &DepthEstimate) -> Result<PathBuf> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     let meta_path = dir.join(format!("{key}.json"));
     let data_path = dir.join(format!("{key}.pfm"));
-    let tmp = |p: &Path| {
-        let mut name = p.as_os_str().to_owned();
-        name.push(format!(".tmp{}", std::process::id()));
-        PathBuf::from(name)
-    };
+    for p in [&meta_path, &data_path] {
+        if let Ok(m) = std::fs::symlink_metadata(p) {
+            if !m.is_file() && !m.is_dir() {
+                // `remove_file` on a link removes the link, never its target.
+                std::fs::remove_file(p).map_err(|e| Error::io(p, e))?;
+            }
+        }
+    }
     let data: Vec<f32> = est
         .param
         .iter()
         .zip(&est.confidence)
         .flat_map(|(&p, &c)| [p, c, 0.0])
         .collect();
-    write_pfm(&tmp(&data_path), est.width, est.height, 3, &data)?;
-    let text = serde_json::to_string_pretty(est).map_err(|e| Error::Invalid(e.to_string()))?;
-    std::fs::write(tmp(&meta_path), text).map_err(|e| Error::io(tmp(&meta_path), e))?;
+    let bytes = encode_pfm(&data_path, est.width, est.height, 3, &data)?;
+    let meta = serde_json::to_string_pretty(est).map_err(|e| Error::Invalid(e.to_string()))?;
+    let text = join_hash(&meta, &entry_hash(key, &meta, &bytes)).ok_or_else(|| {
+        Error::Invalid("the depth estimate's metadata is not a JSON object".into())
+    })?;
     // Data first: a metadata file only ever names complete data.
-    for p in [&data_path, &meta_path] {
-        std::fs::rename(tmp(p), p).map_err(|e| Error::io(p, e))?;
-    }
+    crate::io::write_bytes(&data_path, "depth cache data", &bytes)?;
+    crate::io::write_bytes(&meta_path, "depth cache metadata", text.as_bytes())?;
     Ok(meta_path)
 }
 
@@ -253,4 +330,32 @@ pub fn install(lf: &mut LightField, est: &DepthEstimate) -> Result<()> {
     }
     lf.depth.push((est.reference, map));
     lf.validate()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_hash_rides_on_the_metadata_text_and_any_edit_breaks_it() {
+        let meta = "{\n  \"width\": 3,\n  \"range\": [0.1, 0.30000000000000004]\n}";
+        let h = entry_hash("k", meta, b"data");
+        let text = join_hash(meta, &h).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        assert_eq!(
+            v[HASH_FIELD],
+            h.as_str(),
+            "still JSON, with the hash as a field"
+        );
+        assert_eq!(split_hash(&text), Some((meta.to_string(), h.clone())));
+        // An edited value, another key or other data give another hash; a file without the
+        // hash in its place is not an entry.
+        let edited = text.replace("0.1", "0.2");
+        let (m, stored) = split_hash(&edited).unwrap();
+        assert_ne!(entry_hash("k", &m, b"data"), stored);
+        assert_ne!(entry_hash("other", meta, b"data"), h);
+        assert_ne!(entry_hash("k", meta, b"datA"), h);
+        assert_eq!(split_hash(meta), None);
+        assert_eq!(split_hash(&text.replace(&h, "zz")), None);
+    }
 }

@@ -499,7 +499,12 @@ pub fn plan(lf: &LightField, options: &DepthOptions) -> Result<SweepPlan> {
             plan.range_origin = RangeOrigin::Given;
         }
         (None, Some(range), Convention::Hci(_)) if range.0 < range.1 => {
-            plan.range = sweep::param_range(convention, DepthKind::Disparity, range)?;
+            plan.range = sweep::param_range_from(
+                convention,
+                DepthKind::Disparity,
+                range,
+                "the dataset's [meta] disp_min, disp_max",
+            )?;
             plan.range_origin = RangeOrigin::Dataset;
         }
         _ => plan.range = sweep::wide_range(&plan),

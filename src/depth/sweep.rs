@@ -271,20 +271,45 @@ pub fn sweep_view(
     }
 }
 
+/// `v` for a message: exponent notation for huge and tiny magnitudes (1e308, not 309 digits).
+fn short(v: f64) -> String {
+    if v != 0.0 && v.is_finite() && !(1e-4..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+/// Largest disparity magnitude a sweep accepts, px per grid step: far beyond any real light
+/// field (the views would not overlap), small enough that every plane stays finite.
+pub const MAX_DISPARITY: f64 = 1e6;
+
 /// A range given in `kind` units (disparity px per grid step, or depth in world units) as
-/// a range of p, first < last. Errors name what is wrong with it.
+/// a range of p, first < last. Errors name what is wrong with it and call it `--range`.
 pub fn param_range(
     convention: Convention,
     kind: DepthKind,
     given: (f64, f64),
 ) -> Result<(f64, f64)> {
+    param_range_from(convention, kind, given, "--range")
+}
+
+/// [`param_range`] for a range that came from `origin` (`--range`, or the dataset's
+/// `[meta] disp_min, disp_max`), which its errors name.
+pub fn param_range_from(
+    convention: Convention,
+    kind: DepthKind,
+    given: (f64, f64),
+    origin: &str,
+) -> Result<(f64, f64)> {
     let (lo, hi) = given;
+    let what = format!("{origin} {},{}", short(lo), short(hi));
     if !(lo.is_finite() && hi.is_finite()) || lo >= hi {
         return Err(Error::Invalid(format!(
-            "--range {lo},{hi}: give two finite numbers MIN,MAX with MIN < MAX"
+            "{what}: give two finite numbers MIN,MAX with MIN < MAX"
         )));
     }
-    match (kind, convention) {
+    let p = match (kind, convention) {
         (DepthKind::Disparity, Convention::InverseDepth) => Err(Error::Invalid(
             "this light field is a calibrated rig without a regular grid, so it has no disparity \
              convention: give --kind depth (and a --range in depth units)"
@@ -294,13 +319,13 @@ pub fn param_range(
             let inf = rig.disparity_at_infinity();
             if hi <= inf {
                 return Err(Error::Invalid(format!(
-                    "--range {lo},{hi} lies entirely at or beyond infinity: on this rig a \
+                    "{what} lies entirely at or beyond infinity: on this rig a \
                      disparity of {inf:.4} px is infinitely far, so every disparity must be larger"
                 )));
             }
             if lo <= inf {
                 return Err(Error::Invalid(format!(
-                    "--range {lo},{hi} reaches beyond infinity: on this rig a disparity of \
+                    "{what} reaches beyond infinity: on this rig a disparity of \
                      {inf:.4} px is infinitely far; give a MIN above it"
                 )));
             }
@@ -308,7 +333,7 @@ pub fn param_range(
         }
         (DepthKind::Disparity, Convention::Classic { .. }) => Ok((lo, hi)),
         (DepthKind::Depth, _) if lo <= 0.0 => Err(Error::Invalid(format!(
-            "--range {lo},{hi}: depths must be positive (MIN is the nearest, MAX the farthest \
+            "{what}: depths must be positive (MIN is the nearest, MAX the farthest \
              distance along the optical axis)"
         ))),
         (DepthKind::Depth, Convention::Hci(rig)) => {
@@ -320,7 +345,36 @@ pub fn param_range(
              --range in classic disparity (px per grid step) with --kind disparity"
                 .into(),
         )),
+    }?;
+    // Extreme depths (1e-308, 1e308) turn into infinite or equal sweep parameters, which
+    // would sweep nothing and write NaN everywhere: refuse them naming the range.
+    let limit = match (kind, convention) {
+        (_, Convention::InverseDepth) => f64::MAX,
+        _ => MAX_DISPARITY,
+    };
+    if !(p.0.is_finite()
+        && p.1.is_finite()
+        && p.0 < p.1
+        && p.0.abs() <= limit
+        && p.1.abs() <= limit)
+    {
+        let unit = match convention {
+            Convention::InverseDepth => "inverse depths",
+            _ => "disparities",
+        };
+        return Err(Error::Invalid(format!(
+            "{what} is out of reach: it becomes {unit} {} … {} on this rig; sweeps need finite, \
+             distinct values{}",
+            short(p.0),
+            short(p.1),
+            if limit < f64::MAX {
+                format!(" of at most {MAX_DISPARITY:e} px")
+            } else {
+                String::new()
+            }
+        )));
     }
+    Ok(p)
 }
 
 /// The wide range searched when no range is known: the reference centre moves by up to an

@@ -124,12 +124,9 @@ impl BatchReport {
     }
 }
 
-/// Writes a GPU result to `path` (PNG or EXR by extension), creating its folder. Returns the
-/// number of uncovered pixels.
+/// Writes a GPU result to `path` (PNG or EXR by extension) through [`crate::io`] (folder
+/// created on success only). Returns the number of uncovered pixels.
 pub fn save_image(image: &GpuImage, path: &Path) -> Result<usize> {
-    if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(parent).map_err(|e| Error::io(parent, e))?;
-    }
     match image {
         GpuImage::Srgb8(img) => {
             crate::io::save_png(img, path)?;

@@ -58,7 +58,7 @@ use image::RgbImage;
 use rayon::prelude::*;
 
 use super::images::{check_regular_file, decode_views_within, LoadLimits};
-use super::pfm::{read_pfm_depth, write_pfm};
+use super::pfm::{encode_pfm, read_pfm_depth};
 use super::{DepthKind, GridSize, LightField, ParallelRig, Source};
 use crate::error::{Error, Result};
 
@@ -352,7 +352,7 @@ pub fn load(dir: &Path) -> Result<LightField> {
 /// [`load`], refusing before decoding a light field beyond `limits`.
 pub fn load_within(dir: &Path, limits: &LoadLimits) -> Result<LightField> {
     let cfg_path = dir.join(CONFIG_NAME);
-    let text = std::fs::read_to_string(&cfg_path).map_err(|e| Error::io(&cfg_path, e))?;
+    let text = crate::io::read_text(&cfg_path, "the HCI parameters file")?;
     let cfg = parse_config(&text, &cfg_path)?;
     let grid = cfg.grid();
     let count = grid.len();
@@ -618,14 +618,26 @@ pub fn write(lf: &LightField, cfg: &HciConfig, dir: &Path) -> Result<()> {
             lf.grid.rows
         )));
     }
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let cfg_path = dir.join(CONFIG_NAME);
-    std::fs::write(&cfg_path, format_config(cfg)).map_err(|e| Error::io(&cfg_path, e))?;
+    let folder = crate::io::OutputFolder::create(dir)?;
+    write_into(lf, cfg, &folder)?;
+    folder.finish();
+    Ok(())
+}
+
+/// [`write`] into an output folder that the caller finishes (or drops, removing every file).
+pub fn write_into(
+    lf: &LightField,
+    cfg: &HciConfig,
+    folder: &crate::io::OutputFolder,
+) -> Result<()> {
+    folder.write_bytes(CONFIG_NAME, "HCI parameters", format_config(cfg).as_bytes())?;
     let count = lf.views.len();
     lf.views.par_iter().enumerate().try_for_each(|(i, v)| {
-        let p = dir.join(view_file_name(i, count));
         let rgb: RgbImage = v.image.convert();
-        save_png(&rgb, &p)
+        folder.write_with(view_file_name(i, count), "PNG", |w| {
+            crate::io::encode_png(&rgb, w)
+        })?;
+        Ok::<_, Error>(())
     })?;
     let centre = lf.grid.index(lf.grid.cols / 2, lf.grid.rows / 2);
     for (i, map) in &lf.depth {
@@ -641,18 +653,16 @@ pub fn write(lf: &LightField, cfg: &HciConfig, dir: &Path) -> Result<()> {
             DepthKind::Disparity => DISPARITY_NAME,
             DepthKind::Depth => DEPTH_NAME,
         };
-        write_pfm(&dir.join(file), map.width, map.height, 1, &map.values)?;
+        let bytes = encode_pfm(
+            &folder.path().join(file),
+            map.width,
+            map.height,
+            1,
+            &map.values,
+        )?;
+        folder.write_bytes(file, "PFM", &bytes)?;
     }
     Ok(())
-}
-
-/// Saves an image as PNG, with errors naming the file.
-pub(crate) fn save_png(img: &RgbImage, path: &Path) -> Result<()> {
-    img.save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| match e {
-            image::ImageError::IoError(io) => Error::io(path, io),
-            other => Error::bad_file(path, format!("cannot encode PNG: {other}")),
-        })
 }
 
 #[cfg(test)]
@@ -1052,7 +1062,8 @@ depth_map_scale = 10.0
     #[test]
     fn depth_map_of_the_wrong_size_is_named() {
         let dir = written();
-        write_pfm(&dir.path().join(DEPTH_NAME), 12, 16, 1, &[1.0; 192]).unwrap();
+        crate::lightfield::pfm::write_pfm(&dir.path().join(DEPTH_NAME), 12, 16, 1, &[1.0; 192])
+            .unwrap();
         let msg = load(dir.path()).unwrap_err().to_string();
         assert!(msg.contains(DEPTH_NAME), "{msg}");
         assert!(msg.contains("12×16") && msg.contains("16×12"), "{msg}");

@@ -98,7 +98,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::images::{decode_views_within, LoadLimits};
-use super::pfm::{read_pfm_depth, write_pfm};
+use super::pfm::{encode_pfm, read_pfm_depth};
 use super::{relative_to, DepthKind, DepthMap, GridSize, LightField, ParallelRig, Source, View};
 use crate::error::{Error, Result};
 use crate::geometry::camera::Camera;
@@ -271,9 +271,9 @@ pub fn load(path: &Path) -> Result<LightField> {
 
 /// [`load`], refusing before decoding a light field beyond `limits`.
 pub fn load_within(path: &Path, limits: &LoadLimits) -> Result<LightField> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    // Editors on Windows write a UTF-8 byte-order mark; parameters.cfg accepts one too.
-    let text = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    // `read_text` drops a UTF-8 byte-order mark (editors on Windows write one).
+    let text = crate::io::read_text(path, "the manifest")?;
+    let text = text.as_str();
     let bad = |m: String| Error::bad_file(path, m);
 
     // Check the version before the strict parse, so a newer manifest gets a version message
@@ -545,10 +545,21 @@ pub fn read_depth_map(path: &Path, kind: DepthKind) -> Result<DepthMap> {
 /// Reads one channel of an OpenEXR file as a depth or disparity map: `Z`, else `Y`, else `R`
 /// (also layer-qualified as `something.Z`), else the only channel. Non-finite values → NaN.
 pub fn read_exr_depth(path: &Path, kind: DepthKind) -> Result<DepthMap> {
-    let img = exr::prelude::read_first_flat_layer_from_file(path).map_err(|e| match e {
-        exr::error::Error::Io(io) => Error::io(path, io),
-        other => Error::bad_file(path, format!("cannot read EXR: {other}")),
-    })?;
+    // Opened as a regular file first: a FIFO or device named as a depth map is refused
+    // instead of blocking or reading without end.
+    let (file, _) = crate::io::open_regular(path, "a depth map", super::pfm::MAX_PFM_BYTES)?;
+    use exr::prelude::{ReadChannels, ReadLayers};
+    let img = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(std::io::BufReader::new(file))
+        .map_err(|e| match e {
+            exr::error::Error::Io(io) => Error::io(path, io),
+            other => Error::bad_file(path, format!("cannot read EXR: {other}")),
+        })?;
     let layer = &img.layer_data;
     let channels = &layer.channel_data.list;
     let names: Vec<String> = channels.iter().map(|c| c.name.to_string()).collect();
@@ -604,6 +615,26 @@ pub fn read_exr_depth(path: &Path, kind: DepthKind) -> Result<DepthMap> {
 /// maps as `depth_S_T.pfm` / `disparity_S_T.pfm` in the same folder (created if needed).
 /// Cameras are written as `K`, `R`, `t`; `rig` is written when the light field has one.
 pub fn write(lf: &LightField, path: &Path) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let folder = crate::io::OutputFolder::create(dir)?;
+    let name = path
+        .file_name()
+        .ok_or_else(|| Error::bad_file(path, "the manifest path has no file name"))?;
+    write_into(lf, &folder, name)?;
+    folder.finish();
+    Ok(())
+}
+
+/// [`write`] into an output folder (the manifest as `name` in it) that the caller finishes
+/// (or drops, removing every file).
+pub fn write_into(
+    lf: &LightField,
+    folder: &crate::io::OutputFolder,
+    name: impl AsRef<Path>,
+) -> Result<()> {
     if lf.views.len() != lf.grid.len() || lf.views.is_empty() {
         return Err(Error::LightField(format!(
             "{}: {} views for a {}×{} grid",
@@ -612,10 +643,6 @@ pub fn write(lf: &LightField, path: &Path) -> Result<()> {
             lf.grid.cols,
             lf.grid.rows
         )));
-    }
-    let dir = path.parent().unwrap_or(Path::new("."));
-    if !dir.as_os_str().is_empty() {
-        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
     }
     let mut maps: BTreeMap<(usize, &'static str), &DepthMap> = BTreeMap::new();
     for (i, m) in &lf.depth {
@@ -656,12 +683,14 @@ pub fn write(lf: &LightField, path: &Path) -> Result<()> {
         .collect();
     lf.views.par_iter().zip(&entries).try_for_each(|(v, e)| {
         let rgb: image::RgbImage = image::buffer::ConvertBuffer::convert(&v.image);
-        super::hci::save_png(&rgb, &dir.join(&e.image))
+        folder.write_with(&e.image, "PNG", |w| crate::io::encode_png(&rgb, w))?;
+        Ok::<_, Error>(())
     })?;
     for ((i, key), m) in &maps {
         let v = &lf.views[*i];
-        let p = dir.join(format!("{key}_{}_{}.pfm", v.s, v.t));
-        write_pfm(&p, m.width, m.height, 1, &m.values)?;
+        let file = format!("{key}_{}_{}.pfm", v.s, v.t);
+        let bytes = encode_pfm(&folder.path().join(&file), m.width, m.height, 1, &m.values)?;
+        folder.write_bytes(&file, "PFM", &bytes)?;
     }
     let file = ManifestFile {
         version: VERSION,
@@ -675,13 +704,15 @@ pub fn write(lf: &LightField, path: &Path) -> Result<()> {
     };
     let text = serde_json::to_string_pretty(&file)
         .map_err(|e| Error::Invalid(format!("{}: cannot serialise manifest: {e}", lf.name)))?;
-    std::fs::write(path, text + "\n").map_err(|e| Error::io(path, e))
+    folder.write_bytes(name, "manifest", (text + "\n").as_bytes())?;
+    Ok(())
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::lightfield::hci::tests::{pixel, synthetic};
+    use crate::lightfield::pfm::write_pfm;
     use glam::EulerRot;
     use image::RgbaImage;
 

@@ -370,6 +370,18 @@ pub fn open_frame_within(
             std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or folder"),
         ));
     }
+    if let Ok(m) = std::fs::metadata(path) {
+        if !m.is_file() && !m.is_dir() {
+            return Err(Error::bad_file(
+                path,
+                format!(
+                    "not a light field: it is {}; expected a folder (HCI, grid of views or \
+                     video) or a .json manifest",
+                    crate::io::kind_of(&m)
+                ),
+            ));
+        }
+    }
     let manifest_in_folder = path.join(manifest::DEFAULT_NAME);
     let lf = if path.is_file() {
         if path.extension().and_then(|e| e.to_str()) == Some("json") {
@@ -380,7 +392,9 @@ pub fn open_frame_within(
                 "not a light field: expected a folder (HCI or grid of views) or a .json manifest",
             ));
         }
-    } else if path.join(hci::CONFIG_NAME).is_file() {
+    } else if std::fs::symlink_metadata(path.join(hci::CONFIG_NAME)).is_ok() {
+        // Any entry named parameters.cfg makes the folder HCI: one that is a folder, a FIFO or
+        // a dangling link is then refused naming what it is, not reported as missing.
         hci::load_within(path, limits)?
     } else if std::fs::symlink_metadata(&manifest_in_folder).is_ok() {
         // A tiltfield.json that exists but is a folder, a dangling or looping link or

@@ -17,7 +17,6 @@
 //! expected and found. Sizes are checked against the data actually present before anything is
 //! allocated, so a corrupt header cannot trigger a huge allocation.
 
-use std::io::Write;
 use std::path::Path;
 
 use super::{DepthKind, DepthMap};
@@ -26,11 +25,20 @@ use crate::error::{Error, Result};
 /// Upper bound on the header's length: three short fields and their separators.
 const MAX_HEADER: usize = 256;
 
+/// Largest PFM file read (1 GiB: a 16384² one-channel map); checked before reading, so a
+/// device or a huge wrong file costs no memory.
+pub const MAX_PFM_BYTES: u64 = (1 << 30) + MAX_HEADER as u64;
+
 /// Reads a PFM file: `(width, height, channels, samples)` with samples interleaved by channel
 /// and rows top-down (`samples[(y · width + x) · channels + c]`, y = 0 the top row).
 pub fn read_pfm(path: &Path) -> Result<(u32, u32, usize, Vec<f32>)> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
-    parse_pfm(&bytes, path).map_err(|m| Error::bad_file(path, format!("PFM: {m}")))
+    let bytes = crate::io::read_file(path, "a PFM map", MAX_PFM_BYTES)?;
+    decode_pfm(&bytes, path)
+}
+
+/// [`read_pfm`] of bytes already in memory (`path` names them in errors).
+pub fn decode_pfm(bytes: &[u8], path: &Path) -> Result<(u32, u32, usize, Vec<f32>)> {
+    parse_pfm(bytes, path).map_err(|m| Error::bad_file(path, format!("PFM: {m}")))
 }
 
 /// Reads a PFM depth or disparity map (one channel, or the first channel of three), mapping
@@ -51,9 +59,8 @@ pub fn read_pfm_depth(path: &Path, kind: DepthKind) -> Result<DepthMap> {
     })
 }
 
-/// Writes a little-endian PFM (scale −1) from top-down samples interleaved by channel.
-/// `channels` must be 1 (`Pf`) or 3 (`PF`) and `data_top_down.len()` must equal
-/// `width · height · channels`.
+/// Writes a little-endian PFM (scale −1) from top-down samples interleaved by channel
+/// (see [`encode_pfm`]) through [`crate::io::write_bytes`].
 pub fn write_pfm(
     path: &Path,
     width: u32,
@@ -61,6 +68,20 @@ pub fn write_pfm(
     channels: usize,
     data_top_down: &[f32],
 ) -> Result<()> {
+    let bytes = encode_pfm(path, width, height, channels, data_top_down)?;
+    crate::io::write_bytes(path, "PFM", &bytes)
+}
+
+/// The bytes of a little-endian PFM (scale −1) from top-down samples interleaved by channel.
+/// `channels` must be 1 (`Pf`) or 3 (`PF`) and `data_top_down.len()` must equal
+/// `width · height · channels`; `path` only names the file in errors.
+pub fn encode_pfm(
+    path: &Path,
+    width: u32,
+    height: u32,
+    channels: usize,
+    data_top_down: &[f32],
+) -> Result<Vec<u8>> {
     let magic = match channels {
         1 => "Pf",
         3 => "PF",
@@ -87,8 +108,7 @@ pub fn write_pfm(
             bytes.extend_from_slice(&v.to_le_bytes());
         }
     }
-    let mut file = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-    file.write_all(&bytes).map_err(|e| Error::io(path, e))
+    Ok(bytes)
 }
 
 /// Parses a whole PFM file held in memory (`path` only for the warning); errors are messages

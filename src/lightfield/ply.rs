@@ -23,7 +23,6 @@
 //! ```
 //! followed by N vertex records of 31 bytes and F face records.
 
-use std::io::Write;
 use std::path::Path;
 
 use crate::error::{Error, Result};
@@ -111,8 +110,7 @@ impl PlyMesh {
     /// Writes the file to `path`.
     pub fn write(&self, path: &Path) -> Result<()> {
         let bytes = self.encode()?;
-        let mut f = std::fs::File::create(path).map_err(|e| Error::io(path, e))?;
-        f.write_all(&bytes).map_err(|e| Error::io(path, e))
+        crate::io::write_bytes(path, "PLY", &bytes)
     }
 }
 

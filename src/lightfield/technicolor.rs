@@ -99,7 +99,7 @@ impl Calibration {
 
 /// Reads and checks `cameras_parameters.txt`.
 pub fn read_parameters(path: &Path) -> Result<Calibration> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::io::read_text(path, "the camera parameters file")?;
     parse_parameters(&text, path)
 }
 
@@ -479,9 +479,12 @@ pub struct TechnicolorVideo {
     files: BTreeMap<u64, Vec<Option<PathBuf>>>,
 }
 
-/// True when `path` is a folder in the Technicolor layout.
+/// True when `path` is a folder in the Technicolor layout: it has an entry named
+/// `cameras_parameters.txt`, whatever it is. A parameters file that is a folder, a FIFO or a
+/// dangling link still makes the folder a video, so reading it names the real problem instead
+/// of loading the views as a plain grid.
 pub fn is_technicolor(path: &Path) -> bool {
-    path.is_dir() && path.join(PARAMETERS_NAME).is_file()
+    path.is_dir() && std::fs::symlink_metadata(path.join(PARAMETERS_NAME)).is_ok()
 }
 
 /// Frame numbers as compact ranges ("1–100, 102–300").
@@ -490,7 +493,7 @@ pub fn describe_frames(frames: &[u64]) -> String {
     let mut i = 0;
     while i < frames.len() {
         let mut j = i;
-        while j + 1 < frames.len() && frames[j + 1] == frames[j] + 1 {
+        while j + 1 < frames.len() && frames[j].checked_add(1) == Some(frames[j + 1]) {
             j += 1;
         }
         parts.push(if i == j {

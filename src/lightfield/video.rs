@@ -149,7 +149,9 @@ impl FrameSequence {
         // Inside a closed range every number must be a frame: a gap means missing files.
         let expected_first = range.first.unwrap_or(chosen[0]);
         let expected_last = range.last.unwrap_or(chosen[chosen.len() - 1]);
-        let missing: Vec<u64> = (expected_first..=expected_last.min(expected_first + 1_000_000))
+        // Saturating: frame numbers may sit at the top of u64 (they come from file names).
+        let scan_last = expected_last.min(expected_first.saturating_add(1_000_000));
+        let missing: Vec<u64> = (expected_first..=scan_last)
             .filter(|f| chosen.binary_search(f).is_err())
             .take(10)
             .collect();

@@ -58,7 +58,7 @@ pub fn render_with(
         Averaging::Encoded => std::array::from_fn(|i| i as f64 / 255.0),
     };
     let (wf, hf) = (lf.width as f64, lf.height as f64);
-    let mut pixels = vec![[0f32; 4]; (w * h) as usize];
+    let mut pixels = vec![[0f32; 4]; w as usize * h as usize];
     pixels
         .par_chunks_mut(w as usize)
         .enumerate()
@@ -154,7 +154,7 @@ pub fn ambiguous_pixels(
     let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
     let (wf, hf) = (lf.width as f64, lf.height as f64);
     let near = |v: f64, edge: f64| (v - edge).abs() <= eps;
-    (0..(w * h) as usize)
+    (0..w as usize * h as usize)
         .into_par_iter()
         .map(|i| {
             let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);

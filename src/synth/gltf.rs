@@ -49,12 +49,25 @@ pub fn gl_to_cv() -> DMat3 {
     DMat3::from_diagonal(DVec3::new(1.0, -1.0, -1.0))
 }
 
+/// Largest glTF file, and largest external buffer or image it names (1 GiB).
+const MAX_GLTF_BYTES: u64 = 1 << 30;
+
 /// Loads `path` (see the module docs).
 pub fn load(path: &Path) -> Result<GltfScene> {
-    if !path.is_file() {
+    // A folder, FIFO or device is named as such (not "missing"), and nothing is read from it.
+    if std::fs::symlink_metadata(path).is_err() {
         return Err(Error::io(
             path,
             std::io::Error::new(std::io::ErrorKind::NotFound, "no such glTF file"),
+        ));
+    }
+    let size = crate::io::check_regular(path, "the glTF scene")?;
+    if size > MAX_GLTF_BYTES {
+        return Err(Error::bad_file(
+            path,
+            format!(
+                "the glTF scene is {size} bytes, more than the {MAX_GLTF_BYTES} a scene may have"
+            ),
         ));
     }
     let ext = path
@@ -227,12 +240,20 @@ fn check_uri(path: &Path, base: &Path, uri: &str, what: &str) -> Result<()> {
         return Ok(());
     }
     let file = base.join(uri.replace("%20", " "));
-    std::fs::metadata(&file).map(|_| ()).map_err(|e| {
-        Error::bad_file(
-            path,
-            format!("{what} refers to '{uri}', which cannot be read: {e}"),
-        )
-    })
+    // Only regular files: a FIFO or device named by a URI would block the import or read
+    // without end.
+    let why = match std::fs::metadata(&file) {
+        Err(e) => e.to_string(),
+        Ok(m) if !m.is_file() => format!("it is {}, not a regular file", crate::io::kind_of(&m)),
+        Ok(m) if m.len() > MAX_GLTF_BYTES => {
+            format!("it has {} bytes, more than {MAX_GLTF_BYTES}", m.len())
+        }
+        Ok(_) => return Ok(()),
+    };
+    Err(Error::bad_file(
+        path,
+        format!("{what} refers to '{uri}', which cannot be read: {why}"),
+    ))
 }
 
 fn convert_camera(path: &Path, cam: &gltf::Camera, world: DMat4) -> Result<GltfCamera> {

@@ -17,9 +17,12 @@
 //! ```
 //!
 //! A script is parsed and checked completely before the window opens: unknown commands, bad
-//! numbers and pixels outside their panel (given the window size at that line) are errors
-//! naming the line. While the window is open a [`Runner`] hands out the commands, holding
-//! them back while a `wait` or `wait-converged` line is in effect.
+//! numbers, pixels outside their panel (given the window size at that line), screenshots that
+//! could not be written, and scripts that would run for too long (more than [`MAX_PRESSES`]
+//! key presses, each one frame, or [`MAX_WAIT_S`] seconds of waiting in all) are errors naming
+//! the line. A leading UTF-8 byte-order mark is ignored. While the window is open a [`Runner`]
+//! hands out the commands, holding them back while a `wait` or `wait-converged` line is in
+//! effect.
 
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
@@ -31,9 +34,12 @@ use super::controls::key_from_name;
 use super::layout::Layout;
 use crate::error::{Error, Result};
 
-/// Most presses of one `key` line.
-pub const MAX_COUNT: u32 = 10_000;
-/// Longest `wait`, seconds.
+/// Most presses of one `key` line. Each press takes one rendered frame (a fraction of a second
+/// to seconds on a software renderer), so this bounds one line to minutes at worst.
+pub const MAX_COUNT: u32 = 500;
+/// Most key presses in a whole script.
+pub const MAX_PRESSES: u32 = 2_000;
+/// Longest `wait`, and longest total of all waits of a script, seconds.
 pub const MAX_WAIT_S: f64 = 3600.0;
 /// Window sizes a script may ask for.
 pub const WINDOW_SIZES: std::ops::RangeInclusive<u32> = 64..=8192;
@@ -139,15 +145,58 @@ impl Runner {
     }
 }
 
-/// Reads and parses a script file.
+/// Reads and parses a script file (a regular file: a FIFO or device given as `--script` is
+/// refused, not waited on), and checks that its screenshots can be written.
 pub fn load(path: &Path) -> Result<Vec<Line>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
-    parse(&text).map_err(|e| Error::bad_file(path, e))
+    let text = crate::io::read_text(path, "the --script file")?;
+    let lines = parse(&text).map_err(|e| Error::bad_file(path, e))?;
+    for line in &lines {
+        if let Command::Screenshot(prefix) = &line.command {
+            check_screenshot_prefix(prefix).map_err(|e| {
+                Error::bad_file(path, format!("line {}: screenshot {e}", line.number))
+            })?;
+        }
+    }
+    Ok(lines)
+}
+
+/// The files a screenshot with `prefix` writes.
+pub fn screenshot_files(prefix: &Path) -> Vec<PathBuf> {
+    ["_refocus.png", "_scene.png", "_window.png", ".json"]
+        .iter()
+        .map(|suffix| {
+            let mut s = prefix.as_os_str().to_owned();
+            s.push(suffix);
+            PathBuf::from(s)
+        })
+        .collect()
+}
+
+/// Checks before the window opens that screenshots with `prefix` can be written: the prefix
+/// does not name a device, FIFO or socket (`screenshot /dev/full` would write next to the
+/// device), and every file it writes passes [`crate::io::check_writable`].
+pub fn check_screenshot_prefix(prefix: &Path) -> std::result::Result<(), String> {
+    if let Ok(m) = std::fs::metadata(prefix) {
+        if !m.is_file() && !m.is_dir() {
+            return Err(format!(
+                "{}: the prefix names {}; give a path prefix such as shots/a",
+                prefix.display(),
+                crate::io::kind_of(&m)
+            ));
+        }
+    }
+    for file in screenshot_files(prefix) {
+        crate::io::check_writable(&file).map_err(|e| e.to_string())?;
+    }
+    Ok(())
 }
 
 /// Parses script text; the error names the line.
 pub fn parse(text: &str) -> std::result::Result<Vec<Line>, String> {
+    // Editors on Windows start files with a byte-order mark; it is not part of a command.
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut out = Vec::new();
+    let (mut presses, mut waited) = (0u32, 0.0f64);
     for (i, raw) in text.lines().enumerate() {
         let number = i + 1;
         let line = raw.split('#').next().unwrap_or("").trim();
@@ -155,6 +204,27 @@ pub fn parse(text: &str) -> std::result::Result<Vec<Line>, String> {
             continue;
         }
         let command = parse_line(line).map_err(|e| format!("line {number}: {e} ('{line}')"))?;
+        match command {
+            Command::Key { count, .. } => {
+                presses = presses.saturating_add(count);
+                if presses > MAX_PRESSES {
+                    return Err(format!(
+                        "line {number}: the script presses keys {presses} times by here, more \
+                         than the {MAX_PRESSES} a script may (each press renders a frame)"
+                    ));
+                }
+            }
+            Command::Wait(s) => {
+                waited += s;
+                if waited > MAX_WAIT_S {
+                    return Err(format!(
+                        "line {number}: the script waits {waited} s by here, more than the \
+                         {MAX_WAIT_S} s a script may"
+                    ));
+                }
+            }
+            _ => {}
+        }
         out.push(Line { number, command });
     }
     Ok(out)

@@ -8,7 +8,7 @@ use image::RgbaImage;
 
 use super::super::gpu::ViewerGpu;
 use super::super::state::ViewerState;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::lightfield::LightField;
 
 /// Screenshots asked for and taken.
@@ -35,13 +35,6 @@ impl Screenshots {
         self.taken += 1;
         self.next = Some(with_suffix(&self.prefix, &format!("-{}", self.taken)));
     }
-}
-
-fn save_png(img: &RgbaImage, path: &Path) -> Result<()> {
-    if let Some(p) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
-        std::fs::create_dir_all(p).map_err(|e| Error::io(p, e))?;
-    }
-    crate::io::save_png(img, path)
 }
 
 fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
@@ -80,11 +73,11 @@ pub fn save(
 ) -> Result<()> {
     let full = state.plan.clone();
     let refocus = gpu.capture_refocus(&full, state.averaging(), (lf.width, lf.height))?;
-    save_png(&refocus, &with_suffix(prefix, "_refocus.png"))?;
+    crate::io::save_png(&refocus, &with_suffix(prefix, "_refocus.png"))?;
     let scene = gpu.capture_scene()?;
-    save_png(&scene, &with_suffix(prefix, "_scene.png"))?;
+    crate::io::save_png(&scene, &with_suffix(prefix, "_scene.png"))?;
     if let Some(w) = window {
-        save_png(w, &with_suffix(prefix, "_window.png"))?;
+        crate::io::save_png(w, &with_suffix(prefix, "_window.png"))?;
     }
     let mut json = screenshot_json(state);
     if let Some(obj) = json.as_object_mut() {
@@ -96,7 +89,7 @@ pub fn save(
         obj.insert("frames_presented".into(), frames.into());
     }
     let path = with_suffix(prefix, ".json");
-    std::fs::write(&path, format!("{json:#}\n")).map_err(|e| Error::io(&path, e))?;
+    crate::io::write_bytes(&path, "JSON", format!("{json:#}\n").as_bytes())?;
     log::info!("screenshot {}", prefix.display());
     eprintln!(
         "wrote {0}_refocus.png, {0}_scene.png, {0}_window.png and {0}.json",
