@@ -994,15 +994,13 @@ fn the_depth_cache_verifies_its_entries_and_follows_no_planted_link() {
     let outside = tmp.path().join("outside");
     std::fs::create_dir(&outside).unwrap();
     let ply = tmp.path().join("c.ply");
-    // Without the validation layer: this branch's depth sweep trips a LocalSizeId check the
-    // sweep's own tests own; this test is about the cache's files.
     let run = || {
         let o = tiltfield_within(
             120,
             &["cloud", s(&grid), "-o", s(&ply), "--json"],
             &[
                 ("TILTFIELD_CACHE_DIR", &cache),
-                ("TILTFIELD_VALIDATION", Path::new("0")),
+                ("TILTFIELD_VALIDATION", Path::new("1")),
             ],
         );
         let err = stderr(&o);

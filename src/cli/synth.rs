@@ -14,7 +14,7 @@ use super::GpuArgs;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::jobs::raster::{render_light_field, Rasterizer};
-use crate::lightfield::{hci, manifest, GridSize};
+use crate::lightfield::{hci, manifest, GridSize, LightField};
 use crate::passes::texture::{check_fits, TextureLimits};
 use crate::refocus::{self, FocusSpec, RefocusRequest};
 use crate::synth::gltf::{self, gl_to_cv};
@@ -347,28 +347,15 @@ fn place(scene: &str, width: u32, height: u32) -> Result<Placed> {
     })
 }
 
-pub fn run(args: &SynthArgs) -> Result<()> {
-    if args.list {
-        for name in synth_scene_names() {
-            if let Some(s) = synth_scene(name) {
-                println!("builtin:{name:<8} {}", s.description);
-            }
-        }
-        return Ok(());
-    }
-    let (Some(scene), Some(out)) = (&args.scene, &args.out) else {
-        return Err(Error::Invalid("give a SCENE and --out DIR".into()));
-    };
-    let t0 = Instant::now();
-    let (cols, rows) = parse_pair(&args.grid, "--grid")?;
-    let (width, height) = parse_pair(&args.size, "--size")?;
-    check_request(args, cols, rows, width, height)?;
-    let sensor = positive(args.sensor_mm, "--sensor-mm")?;
-    if sensor > MAX_SENSOR_MM {
-        return Err(Error::Invalid(format!(
-            "--sensor-mm must be at most {MAX_SENSOR_MM} mm, got {sensor:e}"
-        )));
-    }
+/// The rig `args` ask for on the placed `scene`: the camera model's defaults from the scene,
+/// overridden by the options, each checked (in the order the options are reported).
+fn rig_of(
+    args: &SynthArgs,
+    scene: &str,
+    (cols, rows): (u32, u32),
+    (width, height): (u32, u32),
+    sensor: f64,
+) -> Result<(Placed, SynthRig)> {
     let kind = match args.rig {
         RigArg::Parallel => RigKind::Parallel,
         RigArg::Converging => RigKind::Converging { distance: 0.0 },
@@ -412,6 +399,98 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         kind,
     };
     check_rig_numbers(&rig, sensor)?;
+    Ok((placed, rig))
+}
+
+/// Renders the optical ground truth of a thin lens focused on `focus` (a disk aperture of
+/// `--gt-aperture-radius` grid steps) into `folder`, adding its files to `written`; returns its
+/// report.
+fn optical_truth(
+    r: &mut Rasterizer,
+    args: &SynthArgs,
+    rig: &SynthRig,
+    lf: &LightField,
+    focus: FocusSpec,
+    folder: &crate::io::OutputFolder,
+    written: &mut Vec<PathBuf>,
+) -> Result<serde_json::Value> {
+    let (cols, rows) = (rig.grid.cols, rig.grid.rows);
+    let (width, height) = (rig.width, rig.height);
+    let baseline = rig.baseline;
+    let out = folder.path();
+    let steps = args
+        .gt_aperture_radius
+        .unwrap_or((cols.max(rows) as f64 - 1.0) / 2.0);
+    let req = RefocusRequest {
+        focus,
+        aperture: Aperture {
+            shape: ApertureShape::Disk,
+            radius: Some(steps),
+        },
+        reference: None,
+    };
+    let plan = refocus::plan(lf, &req, &[])?;
+    let plane = plan.plane.ok_or_else(|| {
+        Error::Invalid(
+            "the optical ground truth needs a plane: on a converging rig --disparity is \
+             classic shift-and-sum; use --plane or --focus"
+                .into(),
+        )
+    })?;
+    // The camera `render` uses by default: the grid centre (virtual for even grids).
+    let reference = plan.reference_camera;
+    let t_gt = Instant::now();
+    let (linear, pinholes) = r.optical_ground_truth(
+        &reference,
+        &plane,
+        steps * baseline,
+        args.gt_samples,
+        (width, height),
+        args.samples,
+    )?;
+    let png = out.join("optical_gt.png");
+    let exr = out.join("optical_gt.exr");
+    folder.track(&png, |p| {
+        crate::io::save_png(&encode(&linear, width, height), p)
+    })?;
+    folder.track(&exr, |p| crate::io::save_exr(width, height, &linear, p))?;
+    let v3 = |v: DVec3| [v.x, v.y, v.z];
+    let report = json!({
+        "plane": {"point": v3(plane.point), "normal": v3(plane.normal)},
+        "aperture_radius_steps": steps,
+        "aperture_radius": steps * baseline,
+        "pinholes": pinholes,
+        "seconds": t_gt.elapsed().as_secs_f64(),
+        "files": [png.clone(), exr.clone()],
+    });
+    written.push(png);
+    written.push(exr);
+    Ok(report)
+}
+
+pub fn run(args: &SynthArgs) -> Result<()> {
+    if args.list {
+        for name in synth_scene_names() {
+            if let Some(s) = synth_scene(name) {
+                println!("builtin:{name:<8} {}", s.description);
+            }
+        }
+        return Ok(());
+    }
+    let (Some(scene), Some(out)) = (&args.scene, &args.out) else {
+        return Err(Error::Invalid("give a SCENE and --out DIR".into()));
+    };
+    let t0 = Instant::now();
+    let (cols, rows) = parse_pair(&args.grid, "--grid")?;
+    let (width, height) = parse_pair(&args.size, "--size")?;
+    check_request(args, cols, rows, width, height)?;
+    let sensor = positive(args.sensor_mm, "--sensor-mm")?;
+    if sensor > MAX_SENSOR_MM {
+        return Err(Error::Invalid(format!(
+            "--sensor-mm must be at most {MAX_SENSOR_MM} mm, got {sensor:e}"
+        )));
+    }
+    let (placed, rig) = rig_of(args, scene, (cols, rows), (width, height), sensor)?;
     let focus = args.plane_opts.spec()?.map(|(_, spec)| spec);
     check_focus(&focus)?;
     check_out_dir(out)?;
@@ -461,56 +540,10 @@ pub fn run(args: &SynthArgs) -> Result<()> {
     })?;
     written.push(normals_path);
 
-    let mut gt_report = serde_json::Value::Null;
-    if let Some(focus) = focus {
-        let steps = args
-            .gt_aperture_radius
-            .unwrap_or((cols.max(rows) as f64 - 1.0) / 2.0);
-        let req = RefocusRequest {
-            focus,
-            aperture: Aperture {
-                shape: ApertureShape::Disk,
-                radius: Some(steps),
-            },
-            reference: None,
-        };
-        let plan = refocus::plan(lf, &req, &[])?;
-        let plane = plan.plane.ok_or_else(|| {
-            Error::Invalid(
-                "the optical ground truth needs a plane: on a converging rig --disparity is \
-                 classic shift-and-sum; use --plane or --focus"
-                    .into(),
-            )
-        })?;
-        // The camera `render` uses by default: the grid centre (virtual for even grids).
-        let reference = plan.reference_camera;
-        let t_gt = Instant::now();
-        let (linear, pinholes) = r.optical_ground_truth(
-            &reference,
-            &plane,
-            steps * baseline,
-            args.gt_samples,
-            (width, height),
-            args.samples,
-        )?;
-        let png = out.join("optical_gt.png");
-        let exr = out.join("optical_gt.exr");
-        folder.track(&png, |p| {
-            crate::io::save_png(&encode(&linear, width, height), p)
-        })?;
-        folder.track(&exr, |p| crate::io::save_exr(width, height, &linear, p))?;
-        let v3 = |v: DVec3| [v.x, v.y, v.z];
-        gt_report = json!({
-            "plane": {"point": v3(plane.point), "normal": v3(plane.normal)},
-            "aperture_radius_steps": steps,
-            "aperture_radius": steps * baseline,
-            "pinholes": pinholes,
-            "seconds": t_gt.elapsed().as_secs_f64(),
-            "files": [png.clone(), exr.clone()],
-        });
-        written.push(png);
-        written.push(exr);
-    }
+    let gt_report = match focus {
+        Some(focus) => optical_truth(&mut r, args, &rig, lf, focus, &folder, &mut written)?,
+        None => serde_json::Value::Null,
+    };
     let errors = r.context().validation().errors();
     drop(r);
     if errors > 0 {
@@ -526,10 +559,10 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         "layout": args.layout,
         "grid": [cols, rows],
         "size": [width, height],
-        "focal_px": focal_px,
-        "baseline": baseline,
-        "focus_distance": focus_distance,
-        "rig": match kind { RigKind::Parallel => "parallel", RigKind::Converging { .. } => "converging" },
+        "focal_px": rig.focal_px,
+        "baseline": rig.baseline,
+        "focus_distance": rig.focus_distance,
+        "rig": match rig.kind { RigKind::Parallel => "parallel", RigKind::Converging { .. } => "converging" },
         "parallel_cameras": lf.views.iter().all(|v| rot(v.camera.r)),
         "camera": placed.camera,
         "triangles": placed.mesh.triangle_count(),
