@@ -8,7 +8,7 @@ use std::sync::Arc;
 use clap::Args;
 
 use super::focus::{focus_summary, FocusArgs};
-use super::{device_load_limits, load_light_field_within, GpuArgs, LightFieldArgs};
+use super::{device_load_limits, load_light_field_within, GpuArgs, LightFieldArgs, ReadArgs};
 use crate::bench::{self, variant, BenchOptions, BenchReport, BenchScene};
 use crate::error::{Error, Result};
 use crate::geometry::aperture::ApertureShape;
@@ -20,15 +20,8 @@ pub struct BenchArgs {
     /// A light field (as for `render`); default: the built-in synthetic scene with optical
     /// ground truth (a 40°-tilted textured plane, refocused onto itself).
     pub light_field: Option<String>,
-    /// Grid folders only: focal length in pixels (default: max(width, height)).
-    #[arg(long, value_name = "PX")]
-    pub focal_px: Option<f64>,
-    /// Grid folders only: distance between neighbouring views in world units.
-    #[arg(long, value_name = "B", default_value_t = 1.0)]
-    pub baseline: f64,
-    /// Camera-array videos: the frame numbered N (default: the first).
-    #[arg(long, value_name = "N")]
-    pub frame: Option<u64>,
+    #[command(flatten)]
+    pub read: ReadArgs,
     #[command(flatten)]
     pub focus: FocusArgs,
     /// Timed frames per variant (after discarded warm-up frames); default 20 (--quick: 3).
@@ -129,19 +122,14 @@ fn scene(args: &BenchArgs, ctx: &Arc<GpuContext>) -> Result<BenchScene> {
                     .into(),
             ));
         }
-        if args.frame.is_some() {
+        if args.read.frame.is_some() {
             return Err(Error::Invalid(
                 "--frame needs a camera-array video light field".into(),
             ));
         }
         return bench::synthetic_scene(Arc::clone(ctx), args.quick);
     };
-    let lf_args = LightFieldArgs {
-        light_field: path.clone(),
-        focal_px: args.focal_px,
-        baseline: args.baseline,
-        frame: args.frame,
-    };
+    let lf_args = LightFieldArgs::new(path.as_str(), &args.read);
     let lf = load_light_field_within(&lf_args, &device_load_limits(ctx))?;
     let (spec, text) = match request {
         Some(req) => {

@@ -34,7 +34,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
     let settings = render_settings(args, kind)?;
     let storage = args
         .storage
-        .unwrap_or_else(|| ViewStorage::for_averaging(args.average));
+        .unwrap_or_else(|| ViewStorage::for_averaging(args.aperture.average));
     let ctx = Arc::new(GpuContext::new(&args.gpu.options())?);
     if let Some(size) = settings.size {
         super::render::check_output_fits(&ctx, size)?;
@@ -96,7 +96,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
             "focus": focus.as_ref().map(focus_json),
             "frames": frames,
             "outputs": frames.iter().map(|&f| pattern.path(f)).collect::<Vec<_>>(),
-            "averaging": args.average,
+            "averaging": args.aperture.average,
             "strategy": settings.strategy.name(),
             "filter": settings.filter,
             "storage": storage,

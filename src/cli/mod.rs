@@ -15,10 +15,14 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser, Subcommand};
 
+use glam::DVec2;
+
 use crate::error::{Error, Result};
+use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::{self, GridCameraOptions, LightField, LoadLimits};
 use crate::passes::texture::TextureLimits;
+use crate::refocus::Averaging;
 
 /// Light field tilt-shift refocus with generalized shift-and-sum (Vulkan).
 #[derive(Debug, Parser)]
@@ -64,6 +68,24 @@ pub struct LightFieldArgs {
     /// A light field: an HCI folder, a manifest (.json or a folder with tiltfield.json), a
     /// folder of views named by row and column, or builtin:NAME (see `tiltfield demo --list`).
     pub light_field: String,
+    #[command(flatten)]
+    pub read: ReadArgs,
+}
+
+impl LightFieldArgs {
+    /// The light field at `path` (or `builtin:NAME`) read with `read`.
+    pub fn new(path: impl Into<String>, read: &ReadArgs) -> Self {
+        LightFieldArgs {
+            light_field: path.into(),
+            read: read.clone(),
+        }
+    }
+}
+
+/// How a light field is read: the cameras of camera-less folders and the frame of a video.
+/// Declared once and flattened into every command that opens a light field.
+#[derive(Debug, Clone, Args)]
+pub struct ReadArgs {
     /// Grid folders only: focal length in pixels (default: max(width, height)).
     #[arg(long, value_name = "PX")]
     pub focal_px: Option<f64>,
@@ -71,9 +93,51 @@ pub struct LightFieldArgs {
     #[arg(long, value_name = "B", default_value_t = 1.0)]
     pub baseline: f64,
     /// Camera-array videos only: the frame, by its number in the file names (default: the
-    /// first frame).
+    /// first frame; the viewer steps through frames with , and . and plays with Space).
     #[arg(long, value_name = "N")]
     pub frame: Option<u64>,
+}
+
+/// The synthetic aperture and the viewpoint: shape, radius, reference view, averaging and dark
+/// views. Declared once and flattened into `render` and `view`.
+#[derive(Debug, Clone, Args)]
+pub struct ApertureArgs {
+    /// Aperture shape: disk, square or gaussian.
+    #[arg(long, default_value = "disk")]
+    pub aperture: ApertureShape,
+    /// Aperture radius in grid steps (σ for gaussian); default: all views.
+    #[arg(long, value_name = "R")]
+    pub aperture_radius: Option<f64>,
+    /// Reference (virtual) view S,T in grid units, fractional allowed; default: grid centre.
+    #[arg(long, value_name = "S,T")]
+    pub view: Option<String>,
+    /// Average linear light (default) or the sRGB-encoded values (the viewer's E toggles).
+    #[arg(long, default_value = "linear")]
+    pub average: Averaging,
+    /// Use views that are (almost) entirely black too (vignetted corners are skipped by default).
+    #[arg(long)]
+    pub include_dark: bool,
+}
+
+impl ApertureArgs {
+    /// The aperture (not yet validated: the plan validates it, before the focus).
+    pub fn aperture(&self) -> Aperture {
+        Aperture {
+            shape: self.aperture,
+            radius: self.aperture_radius,
+        }
+    }
+
+    /// The reference view of `--view` (`None`: the grid centre).
+    pub fn reference(&self) -> Result<Option<DVec2>> {
+        match &self.view {
+            Some(text) => {
+                let v = parse_numbers(text, 2, "--view")?;
+                Ok(Some(DVec2::new(v[0], v[1])))
+            }
+            None => Ok(None),
+        }
+    }
 }
 
 /// Vulkan device options.
@@ -118,20 +182,20 @@ pub fn device_load_limits(ctx: &GpuContext) -> LoadLimits {
 /// [`load_light_field`], refusing a light field beyond `limits` before decoding its views.
 pub fn load_light_field_within(args: &LightFieldArgs, limits: &LoadLimits) -> Result<LightField> {
     if let Some(name) = args.light_field.strip_prefix("builtin:") {
-        if let Some(n) = args.frame {
+        if let Some(n) = args.read.frame {
             return Err(Error::Invalid(format!(
                 "--frame {n}: builtin:{name} is a single light field, not a video"
             )));
         }
         return builtin_light_field(name);
     }
-    if args.baseline.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+    if args.read.baseline.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return Err(Error::Invalid(format!(
             "--baseline must be positive, got {}",
-            args.baseline
+            args.read.baseline
         )));
     }
-    if let Some(f) = args.focal_px {
+    if let Some(f) = args.read.focal_px {
         if !(f.is_finite() && f > 0.0) {
             return Err(Error::Invalid(format!(
                 "--focal-px must be positive, got {f}"
@@ -139,10 +203,10 @@ pub fn load_light_field_within(args: &LightFieldArgs, limits: &LoadLimits) -> Re
         }
     }
     let opts = GridCameraOptions {
-        focal_px: args.focal_px,
-        baseline: args.baseline,
+        focal_px: args.read.focal_px,
+        baseline: args.read.baseline,
     };
-    lightfield::open_frame_within(Path::new(&args.light_field), &opts, limits, args.frame)
+    lightfield::open_frame_within(Path::new(&args.light_field), &opts, limits, args.read.frame)
 }
 
 /// Renders built-in scene `name` (2×2 supersampling).

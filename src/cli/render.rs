@@ -4,16 +4,14 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
-use glam::DVec2;
 use serde_json::json;
 
 use super::focus::{focus_json, focus_summary, FocusArgs, FOCUS_OPTIONS};
 use super::{
-    check_output, device_load_limits, load_light_field_within, parse_numbers, GpuArgs,
+    check_output, device_load_limits, load_light_field_within, ApertureArgs, GpuArgs,
     LightFieldArgs,
 };
 use crate::error::{Error, Result};
-use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::gpu::timing::median;
 use crate::gpu::GpuContext;
 use crate::io::OutputKind;
@@ -21,7 +19,7 @@ use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::LightField;
 use crate::passes::refocus::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
 use crate::passes::texture::ViewStorage;
-use crate::refocus::{self, Averaging, RefocusPlan, ResolvedFocus};
+use crate::refocus::{self, RefocusPlan, ResolvedFocus};
 
 /// Most `--repeat` timing frames.
 const MAX_REPEAT: usize = 10_000;
@@ -41,21 +39,8 @@ pub struct RenderArgs {
     pub output: PathBuf,
     #[command(flatten)]
     pub focus: FocusArgs,
-    /// Aperture shape: disk, square or gaussian.
-    #[arg(long, default_value = "disk")]
-    pub aperture: ApertureShape,
-    /// Aperture radius in grid steps (σ for gaussian); default: all views.
-    #[arg(long, value_name = "R")]
-    pub aperture_radius: Option<f64>,
-    /// Reference (virtual) view S,T in grid units, fractional allowed; default: grid centre.
-    #[arg(long, value_name = "S,T")]
-    pub view: Option<String>,
-    /// Average linear light (default) or the sRGB-encoded values.
-    #[arg(long, default_value = "linear")]
-    pub average: Averaging,
-    /// Use views that are (almost) entirely black too (vignetted corners are skipped by default).
-    #[arg(long)]
-    pub include_dark: bool,
+    #[command(flatten)]
+    pub aperture: ApertureArgs,
     /// How views are summed: fragment (one draw), batched[:N] (draws of N views) or compute.
     #[arg(long, value_name = "STRATEGY")]
     pub strategy: Option<Strategy>,
@@ -116,13 +101,7 @@ pub fn make_plan_with_window(
     args: &RenderArgs,
     default_window: u32,
 ) -> Result<(RefocusPlan, ResolvedFocus)> {
-    let reference = match &args.view {
-        Some(text) => {
-            let v = parse_numbers(text, 2, "--view")?;
-            Some(DVec2::new(v[0], v[1]))
-        }
-        None => None,
-    };
+    let reference = args.aperture.reference()?;
     let request = args
         .focus
         .request_with_window(default_window)?
@@ -132,12 +111,9 @@ pub fn make_plan_with_window(
                     .into(),
             )
         })?;
-    let aperture = Aperture {
-        shape: args.aperture,
-        radius: args.aperture_radius,
-    };
-    let excluded = dark_views(lf, args.include_dark);
-    let (focus, plan) = refocus::resolve_and_plan(lf, &request, aperture, reference, &excluded)?;
+    let excluded = dark_views(lf, args.aperture.include_dark);
+    let (focus, plan) =
+        refocus::resolve_and_plan(lf, &request, args.aperture.aperture(), reference, &excluded)?;
     Ok((plan, focus))
 }
 
@@ -204,7 +180,7 @@ pub fn render_settings(args: &RenderArgs, kind: OutputKind) -> Result<RenderSett
         }
     }
     Ok(RenderSettings {
-        averaging: args.average,
+        averaging: args.aperture.average,
         output: match kind {
             OutputKind::Png => OutputFormat::Srgb8,
             OutputKind::Exr => OutputFormat::Float,
@@ -256,7 +232,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let t1 = Instant::now();
     let storage = args
         .storage
-        .unwrap_or_else(|| ViewStorage::for_averaging(args.average));
+        .unwrap_or_else(|| ViewStorage::for_averaging(args.aperture.average));
     let mut renderer = HeadlessRenderer::with_context(std::sync::Arc::new(ctx), &lf, storage)?;
     let t_upload = t1.elapsed().as_secs_f64() * 1e3;
     let t2 = Instant::now();
@@ -312,13 +288,13 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "focus": focus_json(&focus),
             "depth": depth.as_ref().map(super::depth::origin_json),
             "output": args.output,
-            "averaging": args.average,
+            "averaging": args.aperture.average,
             "strategy": settings.strategy.name(),
             "filter": settings.filter,
             "accumulation": settings.accumulation,
             "storage": renderer_storage,
             "size": [out_w, out_h],
-            "aperture": {"shape": args.aperture, "radius": args.aperture_radius},
+            "aperture": {"shape": args.aperture.aperture, "radius": args.aperture.aperture_radius},
             "device": device,
             "uncovered_pixels": uncovered,
             "timings_ms": {

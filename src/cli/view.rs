@@ -5,18 +5,15 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use glam::DVec2;
 use serde_json::json;
 
 use super::focus::{focus_json, FocusArgs};
 use super::render::{dark_views, plan_json};
-use super::{load_light_field, parse_numbers, GpuArgs, LightFieldArgs};
+use super::{load_light_field, ApertureArgs, GpuArgs, LightFieldArgs, ReadArgs};
 use crate::error::{Error, Result};
-use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::gpu::swapchain::PresentMode;
 use crate::lightfield::video::FrameSequence;
 use crate::passes::texture::ViewStorage;
-use crate::refocus::Averaging;
 use crate::viewer::{self, script, ViewerOptions};
 
 /// The light field `view` opens without one.
@@ -26,33 +23,12 @@ pub const DEFAULT_SCENE: &str = "builtin:demo";
 pub struct ViewArgs {
     /// A light field (as for render); default: the built-in demo scene.
     pub light_field: Option<String>,
-    /// Grid folders only: focal length in pixels (default: max(width, height)).
-    #[arg(long, value_name = "PX")]
-    pub focal_px: Option<f64>,
-    /// Grid folders only: distance between neighbouring views in world units.
-    #[arg(long, value_name = "B", default_value_t = 1.0)]
-    pub baseline: f64,
-    /// Camera-array videos only: the frame to start on (default: the first); , and . step
-    /// through frames, Space plays.
-    #[arg(long, value_name = "N")]
-    pub frame: Option<u64>,
+    #[command(flatten)]
+    pub read: ReadArgs,
     #[command(flatten)]
     pub focus: FocusArgs,
-    /// Aperture shape: disk, square or gaussian.
-    #[arg(long, default_value = "disk")]
-    pub aperture: ApertureShape,
-    /// Aperture radius in grid steps (σ for gaussian); default: all views.
-    #[arg(long, value_name = "R")]
-    pub aperture_radius: Option<f64>,
-    /// Reference (virtual) view S,T in grid units; default: grid centre.
-    #[arg(long, value_name = "S,T")]
-    pub view: Option<String>,
-    /// Average linear light (default) or the sRGB-encoded values (E toggles).
-    #[arg(long, default_value = "linear")]
-    pub average: Averaging,
-    /// Use views that are (almost) entirely black too.
-    #[arg(long)]
-    pub include_dark: bool,
+    #[command(flatten)]
+    pub aperture: ApertureArgs,
     /// Presentation: fifo (vsync), mailbox or immediate (for profiling).
     #[arg(long, default_value = "fifo")]
     pub present: PresentMode,
@@ -99,32 +75,16 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     if let Err(e) = script::check_screenshot_prefix(std::path::Path::new(&first_shot)) {
         log::warn!("--screenshot-prefix: {e}; the P key will not be able to save");
     }
-    let reference = match &args.view {
-        Some(text) => {
-            let v = parse_numbers(text, 2, "--view")?;
-            Some(DVec2::new(v[0], v[1]))
-        }
-        None => None,
-    };
-    let aperture = Aperture {
-        shape: args.aperture,
-        radius: args.aperture_radius,
-    };
+    let reference = args.aperture.reference()?;
+    let aperture = args.aperture.aperture();
     aperture.validate()?;
     let focus = args.focus.request()?;
-    let mut lf = load_light_field(&LightFieldArgs {
-        light_field: args
-            .light_field
-            .clone()
-            .unwrap_or_else(|| DEFAULT_SCENE.to_string()),
-        focal_px: args.focal_px,
-        baseline: args.baseline,
-        frame: args.frame,
-    })?;
+    let path = args.light_field.as_deref().unwrap_or(DEFAULT_SCENE);
+    let mut lf = load_light_field(&LightFieldArgs::new(path, &args.read))?;
     let video = match &args.light_field {
         Some(path) if FrameSequence::is_video(std::path::Path::new(path)) => {
             let sequence = FrameSequence::open(std::path::Path::new(path))?;
-            let frame = args.frame.unwrap_or_else(|| sequence.first());
+            let frame = args.read.frame.unwrap_or_else(|| sequence.first());
             Some((sequence, frame))
         }
         _ => None,
@@ -149,8 +109,8 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         focus,
         aperture,
         reference,
-        averaging: args.average,
-        excluded: dark_views(&lf, args.include_dark),
+        averaging: args.aperture.average,
+        excluded: dark_views(&lf, args.aperture.include_dark),
         present: args.present,
         frame_budget_ms: args.frame_budget_ms,
         window,
