@@ -43,7 +43,7 @@ pub fn glsl_block(glsl: &str, head: &str) -> Vec<(String, usize, usize)> {
             let name = parts.next().expect("name").to_string();
             let (size, align): (usize, usize) = match ty {
                 "mat4" => (64, 16),
-                "vec4" => (16, 16),
+                "vec4" | "uvec4" => (16, 16),
                 "vec2" => (8, 8),
                 "uint" | "float" => (4, 4),
                 other => panic!("unexpected GLSL type {other}"),

@@ -68,40 +68,15 @@ mod tests {
     use super::*;
     use std::mem::{offset_of, size_of};
 
+    use crate::gpu::pod::glsl_block;
+
     const GLSL: &str = include_str!("../../../shaders/depth_interface.glsl");
 
-    /// (type, name) of the members of the GLSL block whose declaration starts with `head`.
-    fn members(head: &str) -> Vec<(String, String)> {
-        let start = GLSL.find(head).unwrap_or_else(|| panic!("no `{head}`"));
-        let body = &GLSL[start..];
-        let (open, close) = (body.find('{').unwrap(), body.find('}').unwrap());
-        body[open + 1..close]
-            .lines()
-            .map(|l| l.split("//").next().unwrap_or("").trim())
-            .filter(|l| !l.is_empty())
-            .map(|l| {
-                let mut p = l.trim_end_matches(';').split_whitespace();
-                (p.next().unwrap().to_string(), p.next().unwrap().to_string())
-            })
-            .collect()
-    }
-
-    /// std430 offsets of members made of vec4/uvec4 and 4-byte scalars.
-    fn offsets(members: &[(String, String)]) -> Vec<(String, usize)> {
-        let mut offset = 0;
-        members
-            .iter()
-            .map(|(ty, name)| {
-                let size = match ty.as_str() {
-                    "vec4" | "uvec4" => 16,
-                    "uint" | "float" => 4,
-                    other => panic!("unexpected GLSL type {other}"),
-                };
-                offset = usize::next_multiple_of(offset, size);
-                let here = offset;
-                offset += size;
-                (name.clone(), here)
-            })
+    /// (name, offset) of the GLSL block's members ([`glsl_block`] without the sizes).
+    fn offsets(head: &str) -> Vec<(String, usize)> {
+        glsl_block(GLSL, head)
+            .into_iter()
+            .map(|(name, offset, _)| (name, offset))
             .collect()
     }
 
@@ -119,7 +94,7 @@ mod tests {
             ("halves", offset_of!(GpuSweepView, halves)),
             ("info", offset_of!(GpuSweepView, info)),
         ]);
-        assert_eq!(offsets(&members("struct SweepView")), rust);
+        assert_eq!(offsets("struct SweepView"), rust);
         assert_eq!(size_of::<GpuSweepView>(), 96);
     }
 
@@ -131,7 +106,7 @@ mod tests {
             ("inv0", offset_of!(GuidePixel, inv0)),
             ("inv1", offset_of!(GuidePixel, inv1)),
         ]);
-        assert_eq!(offsets(&members("struct GuidePixel")), rust);
+        assert_eq!(offsets("struct GuidePixel"), rust);
         assert_eq!(size_of::<GuidePixel>(), 64);
     }
 
@@ -151,7 +126,7 @@ mod tests {
             ("conf_eps", offset_of!(DepthPush, conf_eps)),
             ("conf_gap", offset_of!(DepthPush, conf_gap)),
         ]);
-        assert_eq!(offsets(&members("uniform DepthPush")), rust);
+        assert_eq!(offsets("uniform DepthPush"), rust);
         assert_eq!(size_of::<DepthPush>(), 48);
     }
 
