@@ -126,10 +126,15 @@ impl Hud {
         let (w, h) = layout.window;
         if self.canvas.width != w || self.canvas.height != h {
             self.canvas = Canvas::new(w, h);
-            self.parts.clear();
         }
+        // Every redraw starts from a cleared canvas above the strip, so the parts are listed
+        // anew: kept from earlier redraws they grew with every one (help shown: one more
+        // copy of its box composited per redraw).
+        self.parts.clear();
         let (l1, l2) = status.lines();
         let s = layout.status;
+        // The strip is content too: without its part it was drawn but never composited.
+        self.parts.push(s);
         self.canvas.fill(0, 0, w as i64, s.y as i64, CLEAR);
         self.canvas.fill(
             s.x as i64,
@@ -198,5 +203,59 @@ impl Hud {
             self.canvas.text(x0 + 8, y, 1, key, TEXT);
             self.canvas.text(x0 + 8 + key_w, y, 1, what, TEXT);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::aperture::Aperture;
+    use crate::refocus::Averaging;
+    use crate::viewer::refine::Refiner;
+    use crate::viewer::state::Action;
+
+    #[test]
+    fn the_strip_is_composited_and_redraws_do_not_grow_the_parts() {
+        let lf = crate::synth::builtin("planes").unwrap().light_field(1);
+        let mut state = ViewerState::new(
+            &lf,
+            FocusSpec::Disparity(0.0).into(),
+            Aperture::default(),
+            None,
+            Averaging::Linear,
+            Vec::new(),
+        )
+        .unwrap();
+        let refinement = Refinement::new(Refiner::new(33.0, 1 << 20), &state.plan);
+        let layout = Layout::new(800, 600, (lf.width, lf.height));
+        let mut hud = Hud::new(layout.window);
+        let draw = |state: &ViewerState, hud: &mut Hud| {
+            let status = Status {
+                lf: &lf,
+                state,
+                refinement: &refinement,
+                fps: 30.0,
+            };
+            hud.draw(&layout, &status);
+            hud.parts.clone()
+        };
+        let plain = draw(&state, &mut hud);
+        assert!(plain.contains(&layout.status), "strip missing: {plain:?}");
+        state.apply(&lf, Action::ToggleHelp);
+        let with_help = draw(&state, &mut hud);
+        assert_eq!(with_help.len(), plain.len() + 1, "help adds one box");
+        for _ in 0..40 {
+            assert_eq!(
+                draw(&state, &mut hud),
+                with_help,
+                "redraws repeat, never grow"
+            );
+        }
+        state.apply(&lf, Action::ToggleHelp);
+        assert_eq!(
+            draw(&state, &mut hud),
+            plain,
+            "hidden help is no longer composited"
+        );
     }
 }
