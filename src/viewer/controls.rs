@@ -44,7 +44,7 @@ pub const CONTROLS: &[(&str, &str)] = &[
     (", / .", "previous/next video frame"),
     ("Space", "play/pause video"),
     ("E", "linear/encoded averaging"),
-    ("R", "reset"),
+    ("R", "reset focus and scene view"),
     ("P", "screenshot"),
     ("H", "this help"),
     ("Q or Esc", "quit"),

@@ -130,6 +130,8 @@ pub struct ViewerState {
     pub normals: NormalParams,
     /// The scene panel's camera.
     pub orbit: OrbitCamera,
+    /// The scene camera at start, which R restores with the focus.
+    initial_orbit: OrbitCamera,
     /// The video frame shown, for videos.
     pub frame: Option<u64>,
 }
@@ -192,6 +194,7 @@ impl ViewerState {
             marks_version: 0,
             normals: NormalParams::default(),
             orbit,
+            initial_orbit: orbit,
             frame: None,
         })
     }
@@ -200,6 +203,7 @@ impl ViewerState {
     pub fn with_scene_centre(mut self, centre: Option<DVec3>) -> Self {
         if let Some(c) = centre {
             self.orbit = OrbitCamera::over_shoulder(&self.plan.reference_camera, c);
+            self.initial_orbit = self.orbit;
         }
         self
     }
@@ -262,11 +266,17 @@ impl ViewerState {
             Action::Reset => {
                 self.pending_clicks.clear();
                 self.pending_points.clear();
+                let moved = self.orbit != self.initial_orbit;
+                self.orbit = self.initial_orbit;
                 let initial = self.initial;
-                self.change(lf, |_, core| {
+                match self.change(lf, |_, core| {
                     *core = initial;
                     Ok(())
-                })
+                }) {
+                    // Only the scene camera was off its start.
+                    Effect::Marked if moved => Effect::SceneView,
+                    effect => effect,
+                }
             }
             Action::Quit => return Effect::Quit,
             Action::ThreeClick(pixel) => {
@@ -679,6 +689,13 @@ mod tests {
         );
         assert_eq!(s.apply(&lf, Action::Zoom(1.0)), Effect::SceneView);
         assert_ne!(s.orbit, orbit);
+        // R brings the scene camera back with the focus; the plan was never changed.
+        assert_eq!(s.apply(&lf, Action::Reset), Effect::SceneView);
+        assert_eq!(s.orbit, orbit);
+        assert_eq!(
+            s.apply(&lf, Action::Orbit(DVec2::new(10.0, 0.0))),
+            Effect::SceneView
+        );
         assert_eq!(
             s.apply(&lf, Action::Refuse("no depth".into())),
             Effect::Message

@@ -124,7 +124,13 @@ impl<'a> Session<'a> {
 
     /// Applies `action` to the state and notes what to redraw.
     pub fn act(&mut self, action: Action) -> Effect {
+        let orbit = self.state.orbit;
         let effect = self.state.apply(self.lf, action);
+        if self.state.orbit != orbit {
+            // The cached cloud layer was rendered from the old scene camera.
+            self.dirty.scene = true;
+            self.dirty.cloud = true;
+        }
         match &effect {
             Effect::Changed | Effect::Marked | Effect::Refused(_) => {
                 self.dirty.text = true;
