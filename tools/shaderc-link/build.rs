@@ -35,10 +35,14 @@ fn main() {
     println!("cargo:rerun-if-env-changed=VULKAN_SDK");
     let Some(dir) = search_dir() else { return };
     let combined = dir.join("libshaderc_combined.a");
-    println!("cargo:rerun-if-changed={}", combined.display());
     let Ok(archive) = std::fs::read(&combined) else {
-        return; // no system shaderc: shaderc-sys builds it from source, glslang included
+        // No system shaderc: shaderc-sys builds it from source, glslang included. No
+        // rerun-if-changed on the missing file (cargo would rerun this script, and rebuild
+        // everything after it, on every build); like shaderc-sys, a later install of the
+        // packages takes effect on a clean build.
+        return;
     };
+    println!("cargo:rerun-if-changed={}", combined.display());
     if defines_symbol(&archive, GLSLANG_SYMBOL) {
         return; // a complete combined library
     }
