@@ -15,7 +15,9 @@
 //!   frame.
 //! - Preview size: while interacting on a device too slow for [`PREVIEW_VIEWS`] views per frame
 //!   at full size, the output shrinks by an integer factor (up to [`MAX_PREVIEW_DIVISOR`]) so
-//!   the batch gets there; full size resumes as soon as the input stops.
+//!   the batch gets there; full size resumes as soon as the input stops. The first frame after
+//!   a change has at least [`PREVIEW_MIN_VIEWS`] views even where the frame's fixed cost alone
+//!   exceeds the budget: an over-budget frame that looks like the final image, not one view.
 
 use std::ops::Range;
 
@@ -23,6 +25,10 @@ use glam::DVec2;
 
 /// Views per interactive frame the preview size aims for.
 pub const PREVIEW_VIEWS: usize = 12;
+/// Fewest views in the first frame after a change, whatever the budget: the first views of
+/// [`spread_order`] span the aperture, so even an over-budget preview shows the defocus of the
+/// final image instead of a sharp, noisy pinhole view.
+pub const PREVIEW_MIN_VIEWS: usize = 9;
 /// Largest preview shrink factor (per axis).
 pub const MAX_PREVIEW_DIVISOR: u32 = 4;
 /// Budgets a refinement frame may take once the input has stopped.
@@ -216,7 +222,13 @@ impl Refiner {
             return None;
         }
         let mut n = if interactive {
-            self.views_within(self.budget_ms, self.divisor)
+            let by_budget = self.views_within(self.budget_ms, self.divisor);
+            // Once the device is measured (the very first frame measures it with one view).
+            if self.done == 0 && self.per_view_ms(self.divisor).is_some() {
+                by_budget.max(PREVIEW_MIN_VIEWS)
+            } else {
+                by_budget
+            }
         } else {
             let by_budget = self.views_within(self.budget_ms * STILL_BUDGET_FACTOR, self.divisor);
             match self.per_view_ms(self.divisor) {
@@ -350,5 +362,28 @@ mod tests {
         fast.restart(81, true);
         assert_eq!(fast.divisor(), 1);
         assert_eq!(fast.next_batch(true).unwrap().views, 0..81);
+    }
+
+    #[test]
+    fn a_preview_over_budget_still_spans_the_aperture() {
+        let mut r = Refiner::new(33.0, 512 * 512);
+        r.restart(81, true);
+        assert_eq!(
+            r.next_batch(true).unwrap().views,
+            0..1,
+            "the first frame measures"
+        );
+        // The frame's fixed cost alone (60 ms) exceeds the 33 ms budget.
+        r.measured(1, r.divisor(), 0.5, 60.0);
+        r.restart(81, true);
+        let first = r.next_batch(true).unwrap();
+        assert!(first.clear);
+        assert_eq!(first.views.len(), PREVIEW_MIN_VIEWS, "{first:?}");
+        // Later batches of the same refinement follow the budget again.
+        let next = r.next_batch(true).unwrap();
+        assert_eq!(next.views.len(), 1, "{next:?}");
+        // A light field with fewer views takes them all.
+        r.restart(4, true);
+        assert_eq!(r.next_batch(true).unwrap().views, 0..4);
     }
 }
