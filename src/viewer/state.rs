@@ -431,6 +431,9 @@ fn world_fixed(core: &mut Core, resolved: &ResolvedFocus) {
     }
 }
 
+/// Tilt or swing (degrees) above which a plane counts as tilted: scrolling keeps it tilted.
+const TILTED_DEG: f64 = 1e-6;
+
 fn no_plane() -> Error {
     Error::Geometry(
         "this light field has no calibrated cameras, so its classic shift-and-sum focus has no \
@@ -472,6 +475,32 @@ fn modify(
         }
         Action::DisparitySteps(n) => {
             let step = disparity_step(lf) * n;
+            // A tilted or swung plane keeps its orientation: the scroll moves it along the
+            // reference axis by the same step in disparity (or inverse depth) that moves a
+            // frontoparallel plane, instead of silently replacing it with a frontoparallel one.
+            if let Some(plane) = resolved.plane {
+                let kb = KeyboardPlane::of(&plane, camera)?;
+                if kb.tilt_deg.abs() > TILTED_DEG || kb.swing_deg.abs() > TILTED_DEG {
+                    let z = kb.distance;
+                    let moved = match lf.rig.as_ref() {
+                        Some(rig) => rig.depth_of_disparity(rig.disparity_of_depth(z) + step),
+                        None => Some(z / (1.0 + n / 64.0)),
+                    };
+                    let z_new = moved.filter(|z| z.is_finite() && *z > 0.0).ok_or_else(|| {
+                        Error::Geometry("the focus cannot move farther than infinity".into())
+                    })?;
+                    let (plane, _) = nudge_plane(
+                        &plane,
+                        camera,
+                        Nudge {
+                            distance: z_new - z,
+                            ..Nudge::default()
+                        },
+                    )?;
+                    core.focus = FocusSpec::Plane(plane).into();
+                    return Ok(());
+                }
+            }
             let current = match (core.focus.target, resolved.plane) {
                 (FocusTarget::Spec(FocusSpec::Disparity(d)), _) => Some(d),
                 (_, Some(plane)) => {
@@ -670,6 +699,36 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    #[test]
+    fn scrolling_moves_a_tilted_plane_and_keeps_its_tilt() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        let camera = s.plan.reference_camera;
+        assert_eq!(s.apply(&lf, Action::Tilt(10.0)), Effect::Changed);
+        let before = KeyboardPlane::of(&s.resolved.plane.unwrap(), &camera).unwrap();
+        assert_eq!(s.apply(&lf, Action::DisparitySteps(2.0)), Effect::Changed);
+        let after = KeyboardPlane::of(&s.resolved.plane.unwrap(), &camera).unwrap();
+        assert!((after.tilt_deg - before.tilt_deg).abs() < 1e-9, "{after:?}");
+        assert!(
+            (after.swing_deg - before.swing_deg).abs() < 1e-9,
+            "{after:?}"
+        );
+        // Nearer by the disparity step a frontoparallel plane would move.
+        let rig = lf.rig.unwrap();
+        let expected = rig
+            .depth_of_disparity(rig.disparity_of_depth(before.distance) + 2.0 * disparity_step(&lf))
+            .unwrap();
+        assert!(
+            (after.distance - expected).abs() < 1e-9 * expected,
+            "{after:?}"
+        );
+        assert!(after.distance < before.distance);
+        // A frontoparallel plane still becomes a disparity.
+        let mut f = state(&lf, FocusSpec::Disparity(0.0));
+        f.apply(&lf, Action::DisparitySteps(1.0));
+        assert!(matches!(f.resolved.spec, FocusSpec::Disparity(_)));
     }
 
     #[test]
