@@ -204,11 +204,27 @@ fn scripted_session_matches_render_and_has_no_validation_errors() {
         "tilt moves the quad"
     );
     let dj = json_file(&d.join("d.json"));
-    assert_eq!(dj["focus_how"], "disparity");
+    // The clicked plane is tilted: the scroll moved it along the axis and kept its normal.
+    assert_eq!(dj["focus_how"], "plane");
+    let cj = json_file(&d.join("c.json"));
+    let (nc, nd) = (
+        numbers(&cj["plane"]["normal"]),
+        numbers(&dj["plane"]["normal"]),
+    );
+    // The same orientation (the normal's sign is free), and not frontoparallel.
+    let dot: f64 = nc.iter().zip(&nd).map(|(a, b)| a * b).sum();
+    assert!(
+        dot.abs() > 1.0 - 1e-9 && nc[2].abs() < 0.99,
+        "{nc:?} {nd:?}"
+    );
+    assert_ne!(
+        cj["plane"]["point"], dj["plane"]["point"],
+        "the scroll moved the plane"
+    );
     let want = render_state(lf, &dj, &plane_args(&dj), &d.join("rd.png"));
     let got = decoded(&d.join("d_refocus.png"));
     let want_img = image::load_from_memory(&want).unwrap().to_rgba8();
-    // A disparity focus re-rendered through its plane: equal up to rounding of m.
+    // The plane re-rendered by `render --plane`: equal up to rounding of m.
     let differing = got
         .pixels()
         .zip(want_img.pixels())

@@ -25,7 +25,10 @@ pub const CONTROLS: &[(&str, &str)] = &[
         "single-click plane: point + surface normal",
     ),
     ("Shift+click x3 (refocus)", "plane through three points"),
-    ("scroll (refocus)", "focus nearer/farther (a tilted plane keeps its tilt)"),
+    (
+        "scroll (refocus)",
+        "focus nearer/farther (a tilted plane keeps its tilt)",
+    ),
     (
         "click x3 (scene)",
         "plane through three picked cloud points",
