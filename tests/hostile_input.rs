@@ -1302,6 +1302,27 @@ fn a_focus_no_view_reaches_is_an_error_not_a_transparent_image() {
         &["no view reaches", "nothing was written"],
     );
     assert!(!out.exists());
+    // The same for a frame range: no transparent frame is written either.
+    let pattern = tmp.path().join("f_{frame}.png");
+    fails_with(
+        &[
+            "render",
+            s(&video),
+            "--frames",
+            "1..1",
+            "--focus",
+            "0.001",
+            "-o",
+            s(&pattern),
+        ],
+        &["no view reaches", "nothing was written"],
+    );
+    let written: Vec<_> = std::fs::read_dir(tmp.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .filter(|n| n.to_string_lossy().starts_with("f_"))
+        .collect();
+    assert!(written.is_empty(), "{written:?}");
 }
 
 #[test]

@@ -119,22 +119,6 @@ pub fn make_plan_with_window(
 
 pub use crate::refocus::plan_json;
 
-/// Output pixels of `image` no view reached (transparent).
-fn uncovered_pixels(image: &GpuImage) -> usize {
-    match image {
-        GpuImage::Srgb8(img) => img.pixels().filter(|p| p.0[3] == 0).count(),
-        GpuImage::Float(img) => img.uncovered(),
-    }
-}
-
-/// Pixels of `image`.
-fn out_size(image: &GpuImage) -> usize {
-    match image {
-        GpuImage::Srgb8(img) => img.width() as usize * img.height() as usize,
-        GpuImage::Float(img) => img.width as usize * img.height as usize,
-    }
-}
-
 /// Refuses an output size the device cannot hold (its image size limit, or its largest
 /// allocation for the float accumulation target), naming `--size`.
 pub(crate) fn check_output_fits(ctx: &GpuContext, (w, h): (u32, u32)) -> Result<()> {
@@ -252,17 +236,6 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             bar.inc(1);
         }
         bar.finish_and_clear();
-    }
-    // An image no view reaches (a plane so near that every sample lands outside the views) is
-    // fully transparent: refused naming the cause instead of written as a "result".
-    let total = out_size(&image);
-    if uncovered_pixels(&image) == total && total > 0 {
-        return Err(Error::Geometry(format!(
-            "no view reaches any of the {total} output pixels with this focus ({}); nothing \
-             was written to {}. The plane is probably too near or beyond the views' overlap",
-            focus_summary(&focus).unwrap_or_else(|| format!("{:?}", focus.spec)),
-            args.output.display()
-        )));
     }
     let uncovered = save(&image, &args.output)?;
     let errors = renderer.context().validation().errors();

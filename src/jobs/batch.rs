@@ -125,18 +125,24 @@ impl BatchReport {
 }
 
 /// Writes a GPU result to `path` (PNG or EXR by extension) through [`crate::io`] (folder
-/// created on success only). Returns the number of uncovered pixels.
+/// created on success only). Returns the number of uncovered pixels. An image no view reaches
+/// (a plane so near that every sample lands outside the views) is fully transparent: it is
+/// refused naming the cause, for a single render and every frame of a range alike, instead of
+/// written as a "result".
 pub fn save_image(image: &GpuImage, path: &Path) -> Result<usize> {
-    match image {
-        GpuImage::Srgb8(img) => {
-            crate::io::save_png(img, path)?;
-            Ok(img.pixels().filter(|p| p.0[3] == 0).count())
-        }
-        GpuImage::Float(img) => {
-            crate::io::save_exr(img.width, img.height, &img.linear(), path)?;
-            Ok(img.uncovered())
-        }
+    let (total, uncovered) = (image.pixel_count(), image.uncovered());
+    if uncovered == total && total > 0 {
+        return Err(Error::Geometry(format!(
+            "no view reaches any of the {total} output pixels with this focus; nothing was \
+             written to {}. The plane is probably too near or beyond the views' overlap",
+            path.display()
+        )));
     }
+    match image {
+        GpuImage::Srgb8(img) => crate::io::save_png(img, path)?,
+        GpuImage::Float(img) => crate::io::save_exr(img.width, img.height, &img.linear(), path)?,
+    }
+    Ok(uncovered)
 }
 
 /// What to render.

@@ -68,6 +68,24 @@ pub enum GpuImage {
     Float(RefocusImage),
 }
 
+impl GpuImage {
+    /// Output pixels.
+    pub fn pixel_count(&self) -> usize {
+        match self {
+            GpuImage::Srgb8(img) => img.width() as usize * img.height() as usize,
+            GpuImage::Float(img) => img.width as usize * img.height as usize,
+        }
+    }
+
+    /// Pixels no view reached (alpha 0: the defined background).
+    pub fn uncovered(&self) -> usize {
+        match self {
+            GpuImage::Srgb8(img) => img.pixels().filter(|p| p.0[3] == 0).count(),
+            GpuImage::Float(img) => img.uncovered(),
+        }
+    }
+}
+
 /// A ready-to-render light field on a Vulkan device.
 pub struct HeadlessRenderer {
     /// Kept between [`HeadlessRenderer::replace_views`] calls (created by the first).
