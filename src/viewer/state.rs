@@ -118,6 +118,9 @@ pub struct ViewerState {
     pub plan: RefocusPlan,
     /// Depth-view pixels of the three-click plane in progress.
     pub pending_clicks: Vec<DVec2>,
+    /// Depth-view pixels of the three clicks that made the plane in effect: their marks stay
+    /// on the refocus image until the next pick or a reset.
+    pub placed_clicks: Vec<DVec2>,
     /// World points of the three-pick plane in progress.
     pub pending_points: Vec<DVec3>,
     pub show_help: bool,
@@ -187,6 +190,7 @@ impl ViewerState {
             resolved,
             plan,
             pending_clicks: Vec::new(),
+            placed_clicks: Vec::new(),
             pending_points: Vec::new(),
             show_help: false,
             message: None,
@@ -266,6 +270,7 @@ impl ViewerState {
             Action::Reset => {
                 self.pending_clicks.clear();
                 self.pending_points.clear();
+                self.placed_clicks.clear();
                 let moved = self.orbit != self.initial_orbit;
                 self.orbit = self.initial_orbit;
                 let initial = self.initial;
@@ -281,21 +286,27 @@ impl ViewerState {
             Action::Quit => return Effect::Quit,
             Action::ThreeClick(pixel) => {
                 self.pending_points.clear();
+                self.placed_clicks.clear();
                 self.pending_clicks.push(pixel);
                 if self.pending_clicks.len() < 3 {
                     return self.mark_pending(self.pending_clicks.len(), "Shift+click");
                 }
                 let p: Vec<DVec2> = std::mem::take(&mut self.pending_clicks);
-                self.change(lf, |_, core| {
+                let effect = self.change(lf, |_, core| {
                     core.focus = FocusRequest {
                         target: FocusTarget::ThreeClicks([p[0], p[1], p[2]]),
                         nudge: None,
                     };
                     Ok(())
-                })
+                });
+                if !matches!(effect, Effect::Refused(_)) {
+                    self.placed_clicks = p;
+                }
+                effect
             }
             Action::ScenePick(point) => {
                 self.pending_clicks.clear();
+                self.placed_clicks.clear();
                 self.pending_points.push(point);
                 if self.pending_points.len() < 3 {
                     return self.mark_pending(self.pending_points.len(), "click in the scene");
@@ -311,6 +322,7 @@ impl ViewerState {
             }
             Action::Click(pixel) => {
                 self.pending_clicks.clear();
+                self.placed_clicks.clear();
                 self.pending_points.clear();
                 let normals = self.normals;
                 self.change(lf, |_, core| {
@@ -644,6 +656,31 @@ mod tests {
     }
 
     #[test]
+    fn the_clicks_of_a_three_click_plane_stay_marked_until_the_next_pick() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        let clicks = [
+            DVec2::new(10.0, 10.0),
+            DVec2::new(50.0, 12.0),
+            DVec2::new(30.0, 50.0),
+        ];
+        for c in clicks {
+            s.apply(&lf, Action::ThreeClick(c));
+        }
+        assert_eq!(s.resolved.how, "three-points");
+        assert_eq!(s.placed_clicks, clicks.to_vec());
+        // Kept through a nudge of the plane …
+        s.apply(&lf, Action::Tilt(1.0));
+        assert_eq!(s.placed_clicks.len(), 3);
+        // … gone once the next pick starts, and on a reset.
+        s.apply(&lf, Action::ThreeClick(clicks[0]));
+        assert!(s.placed_clicks.is_empty());
+        assert_eq!(s.pending_clicks, vec![clicks[0]]);
+        s.apply(&lf, Action::Reset);
+        assert!(s.placed_clicks.is_empty() && s.pending_clicks.is_empty());
+    }
+
+    #[test]
     fn refused_actions_keep_the_state_and_say_why() {
         let lf = lf("planes");
         let mut s = state(&lf, FocusSpec::Disparity(0.0));
@@ -659,6 +696,10 @@ mod tests {
         assert!(matches!(e, Effect::Refused(_)), "{e:?}");
         assert_eq!(s.version, 0);
         assert!(s.pending_clicks.is_empty());
+        assert!(
+            s.placed_clicks.is_empty(),
+            "a refused plane leaves no marks"
+        );
         // A click outside the view.
         let e = s.apply(&lf, Action::Click(DVec2::new(500.0, 3.0)));
         assert!(

@@ -153,11 +153,13 @@ impl Hud {
         if let Some(msg) = &state.message {
             self.message(layout, msg);
         }
-        // Marks of the three-click plane in progress.
+        // Marks of the three-click plane in progress (red), and of the one in effect (green).
         let size = (status.lf.width, status.lf.height);
-        for p in &state.pending_clicks {
+        let pending = state.pending_clicks.iter().map(|p| (p, [255, 60, 40, 255]));
+        let placed = state.placed_clicks.iter().map(|p| (p, [60, 220, 90, 255]));
+        for (p, colour) in pending.chain(placed) {
             let at = layout.refocus_to_window(*p, size);
-            self.canvas.cross(at.x, at.y, 6, [255, 60, 40, 255]);
+            self.canvas.cross(at.x, at.y, 6, colour);
             self.parts
                 .push(Rect::new(at.x as f32 - 8.0, at.y as f32 - 8.0, 17.0, 17.0));
         }
