@@ -592,13 +592,17 @@ fn reference_keys(lf: &LightField, options: &BenchOptions) -> Vec<RefKey> {
     keys
 }
 
-/// Plans, f64 references (CPU work, no device) and ambiguity maps, advancing `bar` by
-/// reference.
-fn prepare(scene: &BenchScene, options: &BenchOptions, bar: &ProgressBar) -> Result<Prepared> {
-    let lf = &scene.lf;
-    let (plans, (sweep_plans, sizes)) = plans_of(scene, options)?;
+/// The f64 references of `ref_keys` (CPU work, no device) and the ambiguity maps beside the
+/// plans, advancing `bar` by reference.
+fn prepare(
+    lf: &LightField,
+    options: &BenchOptions,
+    (plans, (sweep_plans, sizes)): (Plans, SweepSet),
+    ref_keys: Vec<RefKey>,
+    bar: &ProgressBar,
+) -> Prepared {
     let mut references: HashMap<RefKey, RefocusImage> = HashMap::new();
-    for key in reference_keys(lf, options) {
+    for key in ref_keys {
         bar.set_message(format!(
             "f64 {} reference {}×{}",
             kernel_name(key.2),
@@ -628,13 +632,13 @@ fn prepare(scene: &BenchScene, options: &BenchOptions, bar: &ProgressBar) -> Res
             ));
         }
     }
-    Ok(Prepared {
+    Prepared {
         plans,
         references,
         ambiguous,
         sweep_plans,
         sizes,
-    })
+    }
 }
 
 /// Renders variant `v` once for accuracy (also its first warm-up frame: it compiles the
@@ -785,22 +789,18 @@ pub fn run(
     options.check()?;
     let lf = &scene.lf;
     let warmup = options.warmup.max(1);
-    let sweep_points = options.sweep_radii.len() * options.sweep_widths.len();
-    let total = reference_keys(lf, options).len()
+    let (plans, (sweep_plans, sizes)) = plans_of(scene, options)?;
+    // Radii with the same view count share a sweep plan: the bar counts the points timed.
+    let sweep_points = sweep_plans.len() * sizes.len();
+    let ref_keys = reference_keys(lf, options);
+    let total = ref_keys.len()
         + options.variants.len() * (warmup + options.frames)
         + sweep_points * (warmup + options.sweep_frames);
     let bar = ProgressBar::new(total as u64).with_style(
         ProgressStyle::with_template("bench {bar:30} {pos}/{len} {msg}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    let prep = prepare(scene, options, &bar)?;
-    // Radii with the same view count share a sweep plan: the bar counts the points timed.
-    let sweep_points = prep.sweep_plans.len() * prep.sizes.len();
-    bar.set_length(
-        (prep.references.len()
-            + options.variants.len() * (warmup + options.frames)
-            + sweep_points * (warmup + options.sweep_frames)) as u64,
-    );
+    let prep = prepare(lf, options, (plans, (sweep_plans, sizes)), ref_keys, &bar);
     let mut renderers: Vec<(ViewStorage, HeadlessRenderer)> = Vec::new();
     let peak = roof::peak_of(&ctx.info.name, options.peak_gtexels, options.peak_gbps);
     // Accuracy and warm-up of every variant first; then the timed frames round-robin, one
