@@ -443,6 +443,20 @@ fn world_fixed(core: &mut Core, resolved: &ResolvedFocus) {
     }
 }
 
+/// The depth `n` scroll steps nearer than `z` along the reference axis: one disparity step
+/// ([`disparity_step`]) per scroll step on a parallel rig, else the inverse depth stepped by
+/// 1/64 of itself.
+fn stepped_depth(lf: &LightField, z: f64, n: f64) -> Result<f64> {
+    let moved = match lf.rig.as_ref() {
+        Some(rig) => rig.depth_of_disparity(rig.disparity_of_depth(z) + disparity_step(lf) * n),
+        None => {
+            let inv = (1.0 / z) * (1.0 + n / 64.0);
+            (inv.is_finite() && inv > 0.0).then(|| 1.0 / inv)
+        }
+    };
+    moved.ok_or_else(|| Error::Geometry("the focus cannot move farther than infinity".into()))
+}
+
 /// Tilt or swing (degrees) above which a plane counts as tilted: scrolling keeps it tilted.
 const TILTED_DEG: f64 = 1e-6;
 
@@ -494,13 +508,7 @@ fn modify(
                 let kb = KeyboardPlane::of(&plane, camera)?;
                 if kb.tilt_deg.abs() > TILTED_DEG || kb.swing_deg.abs() > TILTED_DEG {
                     let z = kb.distance;
-                    let moved = match lf.rig.as_ref() {
-                        Some(rig) => rig.depth_of_disparity(rig.disparity_of_depth(z) + step),
-                        None => Some(z / (1.0 + n / 64.0)),
-                    };
-                    let z_new = moved.filter(|z| z.is_finite() && *z > 0.0).ok_or_else(|| {
-                        Error::Geometry("the focus cannot move farther than infinity".into())
-                    })?;
+                    let z_new = stepped_depth(lf, z, n)?;
                     let (plane, _) = nudge_plane(
                         &plane,
                         camera,
@@ -524,17 +532,12 @@ fn modify(
             match current {
                 Some(d) => core.focus = FocusSpec::Disparity(d + step).into(),
                 None => {
-                    // A calibrated rig without the parallel-rig disparity: step the plane's
-                    // inverse depth by 1/64 of itself per step, frontoparallel to the camera.
+                    // A calibrated rig without the parallel-rig disparity: frontoparallel to
+                    // the camera at the stepped depth.
                     let plane = resolved.plane.ok_or_else(no_plane)?;
                     let z = KeyboardPlane::of(&plane, camera)?.distance;
-                    let inv = (1.0 / z) * (1.0 + n / 64.0);
-                    if !(inv.is_finite() && inv > 0.0) {
-                        return Err(Error::Geometry(
-                            "the focus cannot move farther than infinity".into(),
-                        ));
-                    }
-                    let p = Plane::from_focus_tilt_swing(camera, 1.0 / inv, 0.0, 0.0)?;
+                    let p =
+                        Plane::from_focus_tilt_swing(camera, stepped_depth(lf, z, n)?, 0.0, 0.0)?;
                     core.focus = FocusSpec::Plane(p).into();
                 }
             }
