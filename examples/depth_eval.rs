@@ -32,10 +32,7 @@ fn main() {
     let lf = if let Some(name) = lf_path.strip_prefix("scene:") {
         let (name, size) = name.split_once('@').unwrap_or((name, "96"));
         let size: u32 = size.parse().unwrap();
-        let scene = tiltfield::depth::scenes::DepthScene::ALL
-            .into_iter()
-            .find(|s| s.name() == name)
-            .expect("scene");
+        let scene = tiltfield::depth::scenes::DepthScene::from_name(name).expect("scene");
         scene.light_field(5, size)
     } else if let Some(name) = lf_path.strip_prefix("builtin:") {
         tiltfield::synth::builtin(name)
@@ -60,6 +57,14 @@ fn main() {
             .expect("ground truth")
             .values
     };
+    if let Ok(path) = std::env::var("DEPTH_EVAL_VIEW") {
+        let c = lf.grid.index(lf.grid.cols / 2, lf.grid.rows / 2);
+        lf.views[c].image.save(&path).unwrap();
+        lf.views[0]
+            .image
+            .save(format!("{path}.corner.png"))
+            .unwrap();
+    }
     let ctx = Arc::new(GpuContext::new(&GpuOptions::from_env()).expect("Vulkan"));
     let variants: Vec<String> = if args.len() > 2 {
         args[2..].to_vec()
@@ -148,6 +153,28 @@ fn main() {
             est.planes,
             est.views.len()
         );
+        {
+            // Signed error statistics inside the 15-px border: bias and spread.
+            let mut e: Vec<f64> = Vec::new();
+            for y in 15..est.height - 15 {
+                for x in 15..est.width - 15 {
+                    let i = (y * est.width + x) as usize;
+                    if truth[i].is_finite() && d[i].is_finite() {
+                        e.push((d[i] - truth[i]) as f64);
+                    }
+                }
+            }
+            e.sort_by(f64::total_cmp);
+            let q = |f: f64| e[((e.len() - 1) as f64 * f) as usize];
+            eprintln!(
+                "  signed error: p10 {:.3} p25 {:.3} median {:.3} p75 {:.3} p90 {:.3}",
+                q(0.1),
+                q(0.25),
+                q(0.5),
+                q(0.75),
+                q(0.9)
+            );
+        }
         if std::env::var_os("DEPTH_EVAL_PROBE").is_some() {
             for (x, y) in [(20u32, 20u32), (70, 70), (80, 60), (60, 80), (50, 50)] {
                 let i = (y * est.width + x) as usize;

@@ -63,6 +63,9 @@ pub struct DepthArgs {
     /// The naive baseline: SAD over the views with box aggregation (same planes and views).
     #[arg(long, conflicts_with_all = ["cost", "aggregation"])]
     pub naive: bool,
+    /// Skip the continuous fit after the sweep (the sweep's sub-plane winner; faster).
+    #[arg(long)]
+    pub no_fit: bool,
     /// Match (almost) black views too (vignetted corners are left out by default).
     #[arg(long)]
     pub include_dark: bool,
@@ -75,6 +78,90 @@ pub struct DepthArgs {
     pub json: bool,
     #[command(flatten)]
     pub gpu: GpuArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct DepthSetArgs {
+    /// Views a side of the synthetic scenes (odd, 3 to 9).
+    #[arg(long, default_value_t = 5)]
+    pub grid: usize,
+    /// Size of the synthetic views, px (48 to 512).
+    #[arg(long, default_value_t = 96)]
+    pub size: u32,
+    /// Only these synthetic scenes (comma-separated); default: the whole set.
+    #[arg(long, value_name = "A,B,…", value_delimiter = ',')]
+    pub scenes: Option<Vec<String>>,
+    /// An HCI folder with gt_disp_lowres.pfm to add to the set (repeatable).
+    #[arg(long, value_name = "DIR")]
+    pub hci: Vec<PathBuf>,
+    /// Estimator variants to compare (comma-separated): default, sweep (without the
+    /// continuous fit), naive.
+    #[arg(
+        long,
+        value_name = "A,B,…",
+        value_delimiter = ',',
+        default_value = "default,sweep,naive"
+    )]
+    pub variants: Vec<String>,
+    /// Also write the table to this Markdown file.
+    #[arg(long, value_name = "FILE.md")]
+    pub markdown: Option<PathBuf>,
+    /// Print the rows as JSON on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+/// `tiltfield depth-set`: the whole test set, every variant, one table.
+pub fn run_set(args: &DepthSetArgs) -> Result<()> {
+    use crate::depth::testset;
+    let variants = args
+        .variants
+        .iter()
+        .map(|v| Ok((v.clone(), testset::variant(v)?)))
+        .collect::<Result<Vec<_>>>()?;
+    if let Some(md) = &args.markdown {
+        check_output(md)?;
+    }
+    let mut set = testset::synthetic(args.grid, args.size, args.scenes.as_deref())?;
+    for dir in &args.hci {
+        set.push(testset::hci(dir)?);
+    }
+    let ctx = GpuContext::new(&args.gpu.options())?;
+    let bar = indicatif::ProgressBar::new(0).with_style(
+        indicatif::ProgressStyle::with_template("scoring {bar:30} {pos}/{len} estimates {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let rows = crate::jobs::depth::score_set(&ctx, &set, &variants, &bar)?;
+    bar.finish_and_clear();
+    let errors = ctx.validation().errors();
+    if errors > 0 {
+        return Err(Error::Vulkan(format!(
+            "{errors} validation errors while scoring the set (see the log above)"
+        )));
+    }
+    let table = format!(
+        "{}\nConfidence calibration (pooled over the scenes):\n\n{}",
+        testset::markdown(&rows),
+        testset::calibration_markdown(&rows)
+    );
+    if let Some(md) = &args.markdown {
+        crate::io::write_with(md, "Markdown table", |w| {
+            std::io::Write::write_all(w, table.as_bytes()).map_err(|e| e.to_string())
+        })?;
+    }
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&json!({"device": ctx.info.name, "rows": rows}))
+                .map_err(|e| Error::Invalid(e.to_string()))?
+        );
+    } else {
+        println!("{table}");
+        eprintln!("device: {}", ctx.info.name);
+    }
+    Ok(())
 }
 
 /// Parses `--kind`.
@@ -119,6 +206,7 @@ pub fn options(args: &DepthArgs) -> Result<DepthOptions> {
         cost: args.cost.unwrap_or(base.cost),
         aggregation: args.aggregation.unwrap_or(base.aggregation),
         radius: args.radius.unwrap_or(base.radius),
+        fit: base.fit && !args.no_fit,
         ..base
     };
     let options = DepthOptions {

@@ -56,6 +56,9 @@ pub enum Command {
     /// Estimate the reference view's disparity or depth from the light field (GPU plane sweep)
     /// and write it as PFM or EXR.
     Depth(Box<depth::DepthArgs>),
+    /// Score depth estimation over the depth test set (synthetic scenes, one per failure
+    /// mode, plus HCI folders given with --hci) and print a Markdown table.
+    DepthSet(Box<depth::DepthSetArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -249,6 +252,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(a) => bench::run(&a),
         Command::View(a) => view::run(&a),
         Command::Depth(a) => depth::run(&a),
+        Command::DepthSet(a) => depth::run_set(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }

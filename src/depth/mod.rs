@@ -36,8 +36,11 @@ pub mod cache;
 pub mod cpu;
 pub mod guide;
 pub mod metrics;
+pub mod photometric;
+pub mod refine;
 pub mod scenes;
 pub mod sweep;
+pub mod testset;
 
 use image::RgbaImage;
 
@@ -187,6 +190,13 @@ pub struct SweepParams {
     /// Noise floor ε of the confidence ratio.
     pub conf_eps: f64,
     pub refine: Refine,
+    /// The continuous fit after the sweep ([`refine`]); off: the sweep's sub-plane winner.
+    #[serde(default = "yes")]
+    pub fit: bool,
+}
+
+fn yes() -> bool {
+    true
 }
 
 impl Default for SweepParams {
@@ -199,6 +209,7 @@ impl Default for SweepParams {
             eps: 1e-4,
             conf_eps: 2e-3,
             refine: Refine::Parabola,
+            fit: true,
         }
     }
 }
@@ -210,6 +221,7 @@ impl SweepParams {
             cost: CostKind::Mean,
             truncation: 1.0,
             aggregation: Aggregation::Box,
+            fit: false,
             ..SweepParams::default()
         }
     }
@@ -528,6 +540,25 @@ pub fn plan(lf: &LightField, options: &DepthOptions) -> Result<SweepPlan> {
     Ok(plan)
 }
 
+/// `plan` with the views of `set` (the same reference, range and planes): the views the
+/// continuous refinement ([`refine`]) fits on.
+pub fn with_views(
+    lf: &LightField,
+    plan: &SweepPlan,
+    set: ViewSet,
+    include_dark: bool,
+) -> SweepPlan {
+    let excluded = lf.excluded_views(include_dark);
+    let views = sweep::select_views(lf, plan.reference, set, &excluded)
+        .into_iter()
+        .map(|i| sweep::sweep_view(lf, plan.reference, i, plan.convention))
+        .collect();
+    SweepPlan {
+        views,
+        ..plan.clone()
+    }
+}
+
 /// The coarse sweep of the automatic range: a quarter of the resolution (less for small
 /// views: at least 32 px a side), the wide range, two planes per coarse pixel of motion of the
 /// image centre in the farthest view (32 to 256 planes).
@@ -543,32 +574,41 @@ pub fn coarse_plan(plan: &SweepPlan) -> (SweepPlan, u32) {
     (plan.scaled(factor, planes, range), factor)
 }
 
-/// The range of the fine sweep from the coarse one: the 1st to 99th percentile of the
-/// parameter over the pixels at least as confident as the median, widened by 5 % of that span
-/// and one coarse plane on each side, kept inside the wide range.
+/// The range of the fine sweep from the coarse one. Every pixel votes for its winning coarse
+/// plane with its confidence; planes holding at least [`RANGE_MIN_MASS`] of the votes are
+/// surfaces, and the range spans the first to the last of them, widened by 5 % of that span
+/// and one coarse plane on each side, inside the wide range. Votes rather than percentiles of
+/// the confident pixels: a dark or weakly textured surface is less confident than its
+/// neighbours everywhere, and a cut at the median confidence drops it whole (a dark wall
+/// behind a bust, the far card of a deep scene), while scattered wrong winners spread their
+/// few votes over many planes and stay below the cut.
 pub fn range_from_coarse(coarse: &SweepPlan, out: &SweepOutput) -> (f64, f64) {
-    let mut conf: Vec<f32> = out.confidence.clone();
-    conf.sort_by(f32::total_cmp);
-    let median = conf.get(conf.len() / 2).copied().unwrap_or(0.0);
-    let mut values: Vec<f64> = out
-        .index
-        .iter()
-        .zip(&out.confidence)
-        .filter(|(_, &c)| c >= median)
-        .map(|(&k, _)| coarse.param(k as f64))
-        .collect();
-    if values.is_empty() {
-        return coarse.range;
+    let planes = coarse.planes.max(1);
+    let mut votes = vec![0.0f64; planes];
+    for (&k, &c) in out.index.iter().zip(&out.confidence) {
+        if k.is_finite() && c.is_finite() && c > 0.0 {
+            votes[(k.round().max(0.0) as usize).min(planes - 1)] += c as f64;
+        }
     }
-    values.sort_by(f64::total_cmp);
-    let q = |f: f64| values[((values.len() - 1) as f64 * f).round() as usize];
-    let (lo, hi) = (q(0.01), q(0.99));
+    let total: f64 = votes.iter().sum();
+    let kept: Vec<usize> = (0..planes)
+        .filter(|&k| total > 0.0 && votes[k] >= RANGE_MIN_MASS * total)
+        .collect();
+    let (Some(&first), Some(&last)) = (kept.first(), kept.last()) else {
+        return coarse.range;
+    };
+    let (a, b) = (coarse.param(first as f64), coarse.param(last as f64));
+    let (lo, hi) = (a.min(b), a.max(b));
     let pad = 0.05 * (hi - lo) + coarse.step();
     (
         (lo - pad).max(coarse.range.0),
         (hi + pad).min(coarse.range.1),
     )
 }
+
+/// Share of the confidence votes a coarse plane needs to count as a surface
+/// ([`range_from_coarse`]).
+pub const RANGE_MIN_MASS: f64 = 0.01;
 
 /// `img` downscaled by `factor` (box average of the encoded values, rounded); the last
 /// partial rows and columns are dropped, matching [`SweepPlan::scaled`].

@@ -1,8 +1,13 @@
 //! Small synthetic light fields with exact disparity for the depth tests and the accuracy
-//! study (docs/depth.md): the analytic quad ray tracer of [`crate::synth`] on a regular rig
-//! (or a rotated one), every surface covered with fine value noise unless it is meant to be
-//! textureless. The centre view carries its exact depth and HCI disparity maps, as for every
-//! generated light field.
+//! study (docs/depth.md): the analytic ray tracer of [`crate::synth`] (quads, ellipsoids,
+//! cylinders) on a regular rig (or a rotated one), every surface covered with fine value noise
+//! unless it is meant to be textureless. The centre view carries its exact depth and HCI
+//! disparity maps, as for every generated light field.
+//!
+//! [`DepthScene::SET`] is the depth test set: one scene per known failure mode of depth
+//! estimation (occlusion edges, slanted and curved surfaces, weak texture and low contrast,
+//! a large disparity range, thin structures, sensor noise with vignetting), scored together by
+//! `tiltfield depth --test-set` so that no change is judged on one scene.
 //!
 //! The rig: `grid × grid` views of `size × size` px, f = 1.25·size px, baseline 0.04 m, focus
 //! (zero disparity) at 2 m, so `d = 0.05·size·(1/Z − 1/2)` px per grid step.
@@ -11,6 +16,8 @@ use glam::{DMat3, DVec3};
 
 use crate::geometry::camera::Camera;
 use crate::lightfield::{DepthKind, GridSize, LightField, ParallelRig, Source, View};
+use crate::synth::scene::Solid;
+use crate::synth::surfaces::Rng;
 use crate::synth::{render_light_field, render_view, Quad, Scene, Texture};
 
 /// The rig of the scenes (see the module docs).
@@ -65,14 +72,48 @@ pub enum DepthScene {
     /// The back plane of `Planes` with a uniformly coloured (textureless) card at d = +0.5
     /// over the centre third of the image.
     Textureless,
+    /// A noise-textured ball (d ≈ +0.6 … +1.3) in front of the back plane: a smooth curved
+    /// surface and a round occlusion edge.
+    Sphere,
+    /// A vertical noise-textured column (d ≈ +0.7 … +0.9 across its width) in front of a
+    /// tilted floor and the back plane: curvature in one direction, straight silhouettes.
+    Cylinder,
+    /// A weakly textured, low-contrast "bust" (a head-and-shoulders blob of ellipsoids, pale
+    /// marble with faint veins) in front of a dark wall of very low contrast, a floor at the
+    /// bottom; disparities about −1.6 … +1.4 (the failure mode of smooth, weakly textured HCI
+    /// scenes).
+    Bust,
+    /// Cards from d = −2.0 to +3.2 (at 96 px; scaled with the size) over one another: a large disparity range (sweeps whose
+    /// plane spacing or window assumptions only hold near zero fail here).
+    Wide,
+    /// Thin vertical and horizontal bars (2–4 px) in front of the back plane: thin
+    /// structures, where aggregation windows fatten the foreground.
+    Thin,
+    /// The `Sphere` scene as a plenoptic camera records it: views darker towards the grid's
+    /// rim (vignetting, corner views at about half brightness, with a radial falloff inside
+    /// each view) and Gaussian sensor noise of σ = 3 levels.
+    Plenoptic,
 }
 
 impl DepthScene {
-    /// All scenes, for studies.
+    /// The scenes of the first study.
     pub const ALL: [DepthScene; 3] = [
         DepthScene::Planes,
         DepthScene::Tilted,
         DepthScene::Textureless,
+    ];
+
+    /// The depth test set (module docs).
+    pub const SET: [DepthScene; 9] = [
+        DepthScene::Planes,
+        DepthScene::Tilted,
+        DepthScene::Textureless,
+        DepthScene::Sphere,
+        DepthScene::Cylinder,
+        DepthScene::Bust,
+        DepthScene::Wide,
+        DepthScene::Thin,
+        DepthScene::Plenoptic,
     ];
 
     /// A short name.
@@ -81,6 +122,32 @@ impl DepthScene {
             DepthScene::Planes => "planes",
             DepthScene::Tilted => "tilted",
             DepthScene::Textureless => "textureless",
+            DepthScene::Sphere => "sphere",
+            DepthScene::Cylinder => "cylinder",
+            DepthScene::Bust => "bust",
+            DepthScene::Wide => "wide",
+            DepthScene::Thin => "thin",
+            DepthScene::Plenoptic => "plenoptic",
+        }
+    }
+
+    /// The scene of `name` ([`DepthScene::SET`]).
+    pub fn from_name(name: &str) -> Option<DepthScene> {
+        Self::SET.into_iter().find(|s| s.name() == name)
+    }
+
+    /// What the scene tests, in a few words (the test-set table's column).
+    pub fn failure_mode(&self) -> &'static str {
+        match self {
+            DepthScene::Planes => "occlusion edge",
+            DepthScene::Tilted => "slanted plane",
+            DepthScene::Textureless => "textureless card",
+            DepthScene::Sphere => "curved surface, round silhouette",
+            DepthScene::Cylinder => "curved surface, tilted floor",
+            DepthScene::Bust => "smooth, weak texture, dark low-contrast wall",
+            DepthScene::Wide => "large disparity range",
+            DepthScene::Thin => "thin structures",
+            DepthScene::Plenoptic => "sensor noise and vignetting",
         }
     }
 
@@ -90,7 +157,123 @@ impl DepthScene {
         let s = size as f64;
         let big = [-s, 2.0 * s, -s, 2.0 * s];
         let back = card(&rig, size, -0.6, big, noise(11, 3.0 * s, [0.75, 0.7, 0.6]));
+        // A point at disparity d seen at centre-view pixel (x, y).
+        let point = |x: f64, y: f64, d: f64| {
+            let z = rig.depth_of_disparity(d).expect("in front of infinity");
+            let c = (s - 1.0) / 2.0;
+            DVec3::new((x - c) * z / rig.focal_px, (y - c) * z / rig.focal_px, z)
+        };
+        // Far disparities scale with the view size (d = 0.05·size·(1/Z − 1/2)): the same scene
+        // at any size, never beyond infinity.
+        let k = s / 96.0;
+        let mut solids = Vec::new();
         let quads = match self {
+            DepthScene::Sphere | DepthScene::Plenoptic => {
+                let centre = point(s * 0.5, s * 0.5, 0.6);
+                solids.push(Solid::Ellipsoid {
+                    centre,
+                    radii: DVec3::splat(0.3),
+                    texture: noise(31, 2.0 * s, [0.8, 0.45, 0.3]),
+                });
+                vec![back]
+            }
+            DepthScene::Cylinder => {
+                let centre = point(s * 0.45, s * 0.5, 0.7);
+                solids.push(Solid::Cylinder {
+                    centre,
+                    axis: DVec3::Y,
+                    radius: 0.12,
+                    half_height: 2.0,
+                    texture: noise(41, 1.5 * s, [0.35, 0.7, 0.45]),
+                });
+                vec![back, floor(&rig, s, noise(43, 4.0 * s, [0.6, 0.6, 0.65]))]
+            }
+            DepthScene::Bust => {
+                // Pale marble: faint dark veins (low contrast) on a near-white stone.
+                let marble = |seed| Texture::Detail {
+                    seed,
+                    grain: (s / 8.0).max(1.0) as u32,
+                    rings: 0,
+                    text: String::new(),
+                    paper: [0.72, 0.7, 0.66],
+                    ink: [0.6, 0.58, 0.55],
+                };
+                let head = point(s * 0.5, s * 0.36, 0.7);
+                solids.push(Solid::Ellipsoid {
+                    centre: head,
+                    radii: DVec3::new(0.16, 0.21, 0.17),
+                    texture: marble(51),
+                });
+                solids.push(Solid::Ellipsoid {
+                    centre: head + DVec3::new(0.0, 0.42, 0.12),
+                    radii: DVec3::new(0.36, 0.2, 0.22),
+                    texture: marble(52),
+                });
+                // A dark wall with very little contrast.
+                let wall = Texture::Detail {
+                    seed: 53,
+                    grain: (s * 0.75) as u32,
+                    rings: 0,
+                    text: String::new(),
+                    paper: [0.035, 0.03, 0.03],
+                    ink: [0.02, 0.018, 0.018],
+                };
+                vec![
+                    card(&rig, size, -1.6 * k, big, wall),
+                    floor(&rig, s, noise(54, 4.0 * s, [0.3, 0.27, 0.22])),
+                ]
+            }
+            DepthScene::Wide => vec![
+                card(
+                    &rig,
+                    size,
+                    -2.0 * k,
+                    big,
+                    noise(61, 3.0 * s, [0.7, 0.65, 0.55]),
+                ),
+                card(
+                    &rig,
+                    size,
+                    -k,
+                    [-s, 0.45 * s, -s, 0.55 * s],
+                    noise(62, 1.5 * s, [0.5, 0.7, 0.5]),
+                ),
+                card(
+                    &rig,
+                    size,
+                    1.2 * k,
+                    [0.55 * s, 2.0 * s, -s, 0.45 * s],
+                    noise(63, 1.5 * s, [0.75, 0.5, 0.6]),
+                ),
+                card(
+                    &rig,
+                    size,
+                    3.2 * k,
+                    [0.3 * s, 0.7 * s, 0.6 * s, 2.0 * s],
+                    noise(64, 0.6 * s, [0.4, 0.5, 0.8]),
+                ),
+            ],
+            DepthScene::Thin => {
+                let mut quads = vec![back];
+                for (k, x) in [0.2, 0.42, 0.66].into_iter().enumerate() {
+                    let w = 2.0 + k as f64;
+                    quads.push(card(
+                        &rig,
+                        size,
+                        0.6 + 0.3 * k as f64,
+                        [s * x, s * x + w, -s, 2.0 * s],
+                        noise(71 + k as u32, 0.3 * s, [0.85, 0.8, 0.3]),
+                    ));
+                }
+                quads.push(card(
+                    &rig,
+                    size,
+                    1.0,
+                    [-s, 2.0 * s, s * 0.7, s * 0.7 + 3.0],
+                    noise(75, 3.0 * s, [0.3, 0.75, 0.85]),
+                ));
+                quads
+            }
             DepthScene::Planes => vec![
                 back,
                 card(
@@ -120,6 +303,7 @@ impl DepthScene {
         Scene {
             quads,
             background: [0.0; 3],
+            solids,
         }
     }
 
@@ -130,7 +314,11 @@ impl DepthScene {
             cols: grid,
             rows: grid,
         };
-        render_light_field(&self.scene(size), self.name(), g, size, size, &rig, 2)
+        let mut lf = render_light_field(&self.scene(size), self.name(), g, size, size, &rig, 2);
+        if *self == DepthScene::Plenoptic {
+            plenoptic_degrade(&mut lf, 3.0, 0xC0FFEE);
+        }
+        lf
     }
 
     /// The same scene seen by a rotated (converging) rig without a regular-grid declaration:
@@ -193,6 +381,51 @@ impl DepthScene {
             source: Source::Generated {
                 scene: self.name().into(),
             },
+        }
+    }
+}
+
+/// A floor: the plane through the image's bottom rows at d = +1.0 (near) rising to the back
+/// plane's depth, tilted about the camera's x axis.
+fn floor(rig: &ParallelRig, s: f64, texture: Texture) -> Quad {
+    let c = (s - 1.0) / 2.0;
+    let at = |y: f64, d: f64| {
+        let z = rig.depth_of_disparity(d).expect("in front of infinity");
+        DVec3::new(0.0, (y - c) * z / rig.focal_px, z)
+    };
+    // Near edge below the image bottom, far edge at the three-quarter line.
+    let (near, far) = (at(1.3 * s, 1.0), at(0.75 * s, -0.6));
+    let half_v = (far - near) / 2.0;
+    Quad {
+        centre: (near + far) / 2.0,
+        half_u: DVec3::new(3.0, 0.0, 0.0),
+        half_v,
+        texture,
+    }
+}
+
+/// What a plenoptic camera does to its sub-aperture views: a brightness falling with the
+/// view's distance from the grid centre (the microlens vignetting: 1 − 0.5·ρ², ρ = 1 at the
+/// grid's corners), a radial falloff inside each view that grows with ρ (up to 25 % at the
+/// image corners of a corner view), and Gaussian noise of `sigma` 8-bit levels, seeded.
+/// Applied to the encoded values, as a camera's gain and read noise are before its curve is
+/// inverted by a viewer; the depth maps are untouched.
+pub fn plenoptic_degrade(lf: &mut LightField, sigma: f64, seed: u64) {
+    let c = lf.grid.centre();
+    let rho_max = (c.x * c.x + c.y * c.y).sqrt().max(1e-9);
+    let (w, h) = (lf.width as f64, lf.height as f64);
+    let r_max = ((w * w + h * h) / 4.0).sqrt();
+    let mut rng = Rng::new(seed);
+    for view in &mut lf.views {
+        let rho = ((view.s as f64 - c.x).powi(2) + (view.t as f64 - c.y).powi(2)).sqrt() / rho_max;
+        let gain = 1.0 - 0.5 * rho * rho;
+        for (x, y, p) in view.image.enumerate_pixels_mut() {
+            let r = ((x as f64 - w / 2.0).powi(2) + (y as f64 - h / 2.0).powi(2)).sqrt() / r_max;
+            let g = gain * (1.0 - 0.25 * rho * r * r);
+            for v in &mut p.0[..3] {
+                let x = *v as f64 * g + sigma * rng.gaussian();
+                *v = x.round().clamp(0.0, 255.0) as u8;
+            }
         }
     }
 }

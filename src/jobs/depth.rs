@@ -7,12 +7,14 @@ use indicatif::ProgressBar;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::depth::cache::{cache_dir, ensure_depth_in as ensure_with, DepthOrigin};
-use crate::depth::RangeOrigin;
+use crate::depth::cache::{cache_dir, ensure_depth_in as ensure_with, DepthOrigin, MIN_CONFIDENCE};
+use crate::depth::refine::{refine, RefineParams};
+use crate::depth::testset::{score_row, SetRow, SetScene};
 use crate::depth::{
     self, coarse_plan, downscale, plane_count, range_from_coarse, DepthEstimate, DepthOptions,
     DepthTimings,
 };
+use crate::depth::{photometric, RangeOrigin};
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::lightfield::LightField;
@@ -28,9 +30,24 @@ pub fn estimate(
 ) -> Result<DepthEstimate> {
     let t0 = Instant::now();
     let mut plan = depth::plan(lf, options)?;
-    let images: Vec<&RgbaImage> = std::iter::once(plan.reference)
-        .chain(plan.views.iter().map(|v| v.index))
-        .map(|i| &lf.views[i].image)
+    // Vignetted views (plenoptic cameras) are brought to the reference's brightness first.
+    let reference = &lf.views[plan.reference].image;
+    let equalised: Vec<Option<photometric::Equalised>> = plan
+        .views
+        .iter()
+        .map(|v| photometric::equalise(reference, &lf.views[v.index].image))
+        .collect();
+    let changed = equalised.iter().filter(|e| e.is_some()).count();
+    if changed > 0 {
+        log::info!("{changed} matched views equalised to the reference's brightness (vignetting)");
+    }
+    let images: Vec<&RgbaImage> = std::iter::once(reference)
+        .chain(
+            plan.views
+                .iter()
+                .zip(&equalised)
+                .map(|(v, e)| e.as_ref().map_or(&lf.views[v.index].image, |e| &e.image)),
+        )
         .collect();
     let auto = plan.range_origin == RangeOrigin::Automatic;
     let coarse = auto.then(|| coarse_plan(&plan));
@@ -46,11 +63,16 @@ pub fn estimate(
         coarse_ms = ms;
     }
     let (out, gpu_ms) = run_sweep(ctx, &plan, &images, &options.params, progress)?;
-    let param = out
+    let mut param: Vec<f32> = out
         .index
         .iter()
         .map(|&k| plan.param(k as f64) as f32)
         .collect();
+    if options.params.fit {
+        let t = Instant::now();
+        param = fit(lf, &plan, options, reference, &out.best_cost, &param);
+        log::info!("continuous fit: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
+    }
     Ok(DepthEstimate {
         width: plan.width,
         height: plan.height,
@@ -75,6 +97,99 @@ pub fn estimate(
         },
         device: ctx.info.name.clone(),
     })
+}
+
+/// The continuous fit of [`crate::depth::refine`] on the refinement views (every usable view
+/// of light fields of up to [`FIT_ALL_VIEWS`] views, the sweep's own set beyond), equalised
+/// like the sweep's and weighted by their gain; on noisy views
+/// ([`photometric::is_noisy`]) all images are smoothed once first.
+fn fit(
+    lf: &LightField,
+    plan: &crate::depth::sweep::SweepPlan,
+    options: &DepthOptions,
+    reference: &RgbaImage,
+    best_cost: &[f32],
+    param: &[f32],
+) -> Vec<f32> {
+    let set = if lf.views.len() <= FIT_ALL_VIEWS {
+        crate::depth::ViewSet::All
+    } else {
+        options.views
+    };
+    let fit_plan = depth::with_views(lf, plan, set, options.include_dark);
+    let equalised: Vec<Option<photometric::Equalised>> = fit_plan
+        .views
+        .iter()
+        .map(|v| photometric::equalise(reference, &lf.views[v.index].image))
+        .collect();
+    let weights: Vec<f64> = equalised
+        .iter()
+        .map(|e| {
+            e.as_ref()
+                .map_or(1.0, |e| 1.0 / (e.gain * e.gain).max(1e-6))
+        })
+        .collect();
+    let images: Vec<&RgbaImage> = std::iter::once(reference)
+        .chain(
+            fit_plan
+                .views
+                .iter()
+                .zip(&equalised)
+                .map(|(v, e)| e.as_ref().map_or(&lf.views[v.index].image, |e| &e.image)),
+        )
+        .collect();
+    let passes = u32::from(photometric::is_noisy(best_cost));
+    let smoothed: Vec<RgbaImage>;
+    let images = if passes > 0 {
+        smoothed = images
+            .iter()
+            .map(|i| photometric::smooth(i, passes))
+            .collect();
+        smoothed.iter().collect()
+    } else {
+        images
+    };
+    refine(
+        &fit_plan,
+        &images,
+        &weights,
+        param,
+        &RefineParams::default(),
+    )
+}
+
+/// Light fields of at most this many views are fitted on all of them (more views, more
+/// precision under noise); larger ones on the sweep's views, which bounds the fit's time.
+pub const FIT_ALL_VIEWS: usize = 25;
+
+/// Estimates every scene of `set` with every variant of `variants` (name, options) and
+/// scores it ([`crate::depth::testset`]); `progress` advances by scene and variant.
+pub fn score_set(
+    ctx: &GpuContext,
+    set: &[SetScene],
+    variants: &[(String, DepthOptions)],
+    progress: &ProgressBar,
+) -> Result<Vec<SetRow>> {
+    progress.set_length((set.len() * variants.len()) as u64);
+    let mut rows = Vec::new();
+    for (name, options) in variants {
+        for scene in set {
+            progress.set_message(format!("{} ({name})", scene.name));
+            let est = estimate(ctx, &scene.light_field, options, &ProgressBar::hidden())?;
+            let disparity = est.values(crate::depth::DepthKind::Disparity)?;
+            rows.push(score_row(
+                scene,
+                name,
+                &disparity,
+                &est.confidence,
+                MIN_CONFIDENCE,
+                est.timings.gpu_ms,
+                est.timings.total_ms,
+            ));
+            progress.inc(1);
+        }
+    }
+    Ok(rows)
 }
 
 /// Makes sure `lf` has a depth map, estimating it on `ctx` (with `progress`) when it has none

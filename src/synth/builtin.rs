@@ -201,6 +201,7 @@ fn demo() -> BuiltinScene {
         scene: Scene {
             quads: vec![floor, wall, painting, card],
             background: colours::SKY,
+            solids: Vec::new(),
         },
         rig,
         grid: GridSize { cols: 7, rows: 7 },
@@ -250,6 +251,7 @@ fn planes() -> BuiltinScene {
         scene: Scene {
             quads: vec![back, near],
             background: [0.0; 3],
+            solids: Vec::new(),
         },
         rig,
         grid: GridSize { cols: 5, rows: 5 },
@@ -290,6 +292,7 @@ fn tilted() -> BuiltinScene {
         scene: Scene {
             quads: vec![plane],
             background: [0.0; 3],
+            solids: Vec::new(),
         },
         rig,
         grid: GridSize { cols: 5, rows: 5 },

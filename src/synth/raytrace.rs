@@ -294,6 +294,7 @@ mod tests {
         let scene = Scene {
             quads: vec![white.clone()],
             background: [0.0; 3],
+            solids: Vec::new(),
         };
         let grid = GridSize { cols: 3, rows: 3 };
         let mut cams = rig().cameras(grid, 40, 30);
@@ -371,6 +372,7 @@ mod tests {
                 texture: Texture::Solid([1.0; 3]),
             }],
             background: [0.0; 3],
+            solids: Vec::new(),
         };
         let (img, _) = render_view(&scene, &cam, 20, 20, 2);
         assert_eq!(img.get_pixel(9, 5).0, [0, 0, 0, 255]);

@@ -1,4 +1,5 @@
-//! Scenes of textured parallelograms ("quads") and their exact ray intersection.
+//! Scenes of textured parallelograms ("quads") and smooth solids (ellipsoids, open cylinders:
+//! the curved surfaces of the depth test set) and their exact ray intersection.
 //!
 //! A [`Quad`] is the parallelogram `centre + a·half_u + b·half_v`, a, b ∈ [−1, 1], with texture
 //! coordinates u = (a + 1)/2, v = (b + 1)/2 and plane normal `normalize(half_u × half_v)`.
@@ -27,18 +28,116 @@ pub struct Hit {
     pub t: f64,
     /// World position of the hit.
     pub point: DVec3,
-    /// Index into [`Scene::quads`].
+    /// Index into [`Scene::quads`], or `quads.len() + k` for [`Scene::solids`]`[k]`.
     pub quad_index: usize,
     /// Texture coordinates in [0, 1]².
     pub uv: DVec2,
 }
 
-/// Quads plus a background colour for rays that hit nothing.
-#[derive(Debug, Clone, PartialEq)]
+/// Quads and solids plus a background colour for rays that hit nothing.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct Scene {
     pub quads: Vec<Quad>,
     /// Linear-light background colour.
     pub background: Rgb,
+    /// Curved surfaces, traced by the CPU ray tracer only (the rasterizer's meshes are baked
+    /// from the quads: [`crate::synth::mesh`]).
+    pub solids: Vec<Solid>,
+}
+
+/// A smooth textured solid.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Solid {
+    /// The ellipsoid `Σ ((x − centre)ᵢ / radiiᵢ)² = 1` (axis-aligned; a sphere for equal radii).
+    /// Texture u runs once around the vertical (y) axis, v from top (0) to bottom (1).
+    Ellipsoid {
+        centre: DVec3,
+        radii: DVec3,
+        texture: Texture,
+    },
+    /// The open tube of `radius` around the segment `centre ± half_height·axis` (no caps: a ray
+    /// past the near wall sees the inside of the far wall). Texture u runs around the axis, v
+    /// along it.
+    Cylinder {
+        centre: DVec3,
+        axis: DVec3,
+        radius: f64,
+        half_height: f64,
+        texture: Texture,
+    },
+}
+
+impl Solid {
+    pub fn texture(&self) -> &Texture {
+        match self {
+            Solid::Ellipsoid { texture, .. } | Solid::Cylinder { texture, .. } => texture,
+        }
+    }
+
+    /// The nearest `(t, uv)` with t > 0 of the ray `origin + t·dir` on this surface.
+    pub fn intersect(&self, origin: DVec3, dir: DVec3) -> Option<(f64, DVec2)> {
+        match *self {
+            Solid::Ellipsoid { centre, radii, .. } => {
+                if radii.min_element().is_nan() || radii.min_element() <= 0.0 {
+                    return None;
+                }
+                // In the frame scaled by the radii the ellipsoid is the unit sphere.
+                let o = (origin - centre) / radii;
+                let d = dir / radii;
+                let q = o + first_root(
+                    d.length_squared(),
+                    o.dot(d),
+                    o.length_squared() - 1.0,
+                    |_| true,
+                )? * d;
+                let t = (q * radii + centre - origin).dot(dir) / dir.length_squared();
+                let u = 0.5 + q.x.atan2(-q.z) / std::f64::consts::TAU;
+                let v = q.y.clamp(-1.0, 1.0).acos() / std::f64::consts::PI;
+                Some((t, DVec2::new(u, v)))
+            }
+            Solid::Cylinder {
+                centre,
+                axis,
+                radius,
+                half_height,
+                ..
+            } => {
+                let a = axis.normalize_or_zero();
+                if a == DVec3::ZERO || !(radius > 0.0 && half_height > 0.0) {
+                    return None;
+                }
+                let e1 = a.any_orthonormal_vector();
+                let e2 = a.cross(e1);
+                let rel = origin - centre;
+                // The ray's component across the axis, in units of the radius.
+                let o = DVec2::new(rel.dot(e1), rel.dot(e2)) / radius;
+                let d = DVec2::new(dir.dot(e1), dir.dot(e2)) / radius;
+                let height = |t: f64| (rel + t * dir).dot(a);
+                let t = first_root(
+                    d.length_squared(),
+                    o.dot(d),
+                    o.length_squared() - 1.0,
+                    |t| height(t).abs() <= half_height,
+                )?;
+                let p = o + t * d;
+                let u = 0.5 + p.y.atan2(p.x) / std::f64::consts::TAU;
+                let v = (height(t) / half_height + 1.0) / 2.0;
+                Some((t, DVec2::new(u, v)))
+            }
+        }
+    }
+}
+
+/// The smaller root t > 0 of `a t² + 2 b t + c = 0` that `keep` accepts, else the larger.
+fn first_root(a: f64, b: f64, c: f64, keep: impl Fn(f64) -> bool) -> Option<f64> {
+    let disc = b * b - a * c;
+    if !(a > 0.0 && disc >= 0.0 && disc.is_finite()) {
+        return None;
+    }
+    let r = disc.sqrt();
+    [(-b - r) / a, (-b + r) / a]
+        .into_iter()
+        .find(|&t| t > 0.0 && t.is_finite() && keep(t))
 }
 
 impl Quad {
@@ -116,21 +215,48 @@ impl Prepared {
 }
 
 /// A scene with its quads prepared for many rays; `prepared[i]` is `None` for a degenerate quad.
-pub(crate) struct PreparedScene {
+pub(crate) struct PreparedScene<'a> {
     prepared: Vec<Option<Prepared>>,
+    solids: &'a [Solid],
 }
 
-impl PreparedScene {
-    pub(crate) fn new(scene: &Scene) -> Self {
+impl<'a> PreparedScene<'a> {
+    pub(crate) fn new(scene: &'a Scene) -> Self {
         PreparedScene {
             prepared: scene.quads.iter().map(Prepared::new).collect(),
+            solids: &scene.solids,
         }
     }
 
     /// See [`Scene::intersect`].
     pub(crate) fn intersect(&self, origin: DVec3, dir: DVec3) -> Option<Hit> {
-        nearest(origin, dir, self.prepared.iter().copied())
+        let hit = nearest(origin, dir, self.prepared.iter().copied());
+        nearest_solid(hit, self.prepared.len(), self.solids, origin, dir)
     }
+}
+
+/// `hit` or a nearer hit on one of `solids` (indices after the `quads` quads).
+fn nearest_solid(
+    hit: Option<Hit>,
+    quads: usize,
+    solids: &[Solid],
+    origin: DVec3,
+    dir: DVec3,
+) -> Option<Hit> {
+    let mut best = hit;
+    for (k, solid) in solids.iter().enumerate() {
+        if let Some((t, uv)) = solid.intersect(origin, dir) {
+            if best.map_or(true, |b| t < b.t) {
+                best = Some(Hit {
+                    t,
+                    point: origin + t * dir,
+                    quad_index: quads + k,
+                    uv,
+                });
+            }
+        }
+    }
+    best
 }
 
 /// The nearest hit among `quads` (in scene order, `None` = degenerate).
@@ -161,15 +287,23 @@ impl Scene {
     /// quads) go to the quad listed first, so results are deterministic. For many rays the
     /// renderer prepares the quads once; the arithmetic is the same.
     pub fn intersect(&self, origin: DVec3, dir: DVec3) -> Option<Hit> {
-        nearest(origin, dir, self.quads.iter().map(Prepared::new))
+        let hit = nearest(origin, dir, self.quads.iter().map(Prepared::new));
+        nearest_solid(hit, self.quads.len(), &self.solids, origin, dir)
     }
 
-    /// Linear-light colour seen along the ray: the hit quad's texture, or the background.
+    /// Linear-light colour seen along the ray: the hit surface's texture, or the background.
     pub fn radiance(&self, hit: Option<&Hit>) -> Rgb {
-        match hit.and_then(|h| self.quads.get(h.quad_index).map(|q| (q, h.uv))) {
-            Some((q, uv)) => q.texture.eval(uv),
-            None => self.background,
-        }
+        let Some(h) = hit else {
+            return self.background;
+        };
+        let texture = match self.quads.get(h.quad_index) {
+            Some(q) => Some(&q.texture),
+            None => self
+                .solids
+                .get(h.quad_index - self.quads.len())
+                .map(Solid::texture),
+        };
+        texture.map_or(self.background, |t| t.eval(h.uv))
     }
 }
 
@@ -201,6 +335,7 @@ pub fn plane_scene(normal: DVec3, point: DVec3, half_size: f64, texture: Texture
             texture,
         }],
         background: [0.0; 3],
+        solids: Vec::new(),
     }
 }
 
@@ -270,6 +405,7 @@ mod tests {
                 white(DVec3::new(0.0, 0.0, 2.0), DVec3::X, DVec3::Y),
             ],
             background: [0.0; 3],
+            solids: Vec::new(),
         };
         let h = scene.intersect(DVec3::ZERO, DVec3::Z).unwrap();
         assert_eq!(h.quad_index, 1);
@@ -279,6 +415,68 @@ mod tests {
             .is_none());
         assert_eq!(scene.radiance(None), [0.0; 3]);
         assert_eq!(scene.radiance(Some(&h)), [1.0; 3]);
+    }
+
+    #[test]
+    fn solids_are_hit_at_their_surface_and_the_nearest_surface_wins() {
+        let ball = Solid::Ellipsoid {
+            centre: DVec3::new(0.0, 0.0, 3.0),
+            radii: DVec3::new(1.0, 2.0, 0.5),
+            texture: Texture::Solid([0.5; 3]),
+        };
+        let (t, _) = ball.intersect(DVec3::ZERO, DVec3::Z).unwrap();
+        assert!((t - 2.5).abs() < 1e-12, "{t}");
+        // Every hit lies on the surface.
+        for dir in [DVec3::new(0.2, 0.3, 1.0), DVec3::new(-0.1, 0.5, 1.0)] {
+            let (t, _) = ball.intersect(DVec3::ZERO, dir).unwrap();
+            let q = (t * dir - DVec3::new(0.0, 0.0, 3.0)) / DVec3::new(1.0, 2.0, 0.5);
+            assert!((q.length() - 1.0).abs() < 1e-12);
+        }
+        assert!(ball
+            .intersect(DVec3::ZERO, DVec3::new(1.0, 0.0, 1.0))
+            .is_none());
+        let tube = Solid::Cylinder {
+            centre: DVec3::new(0.0, 0.0, 4.0),
+            axis: DVec3::Y,
+            radius: 0.5,
+            half_height: 1.0,
+            texture: Texture::Solid([0.25; 3]),
+        };
+        let (t, uv) = tube.intersect(DVec3::ZERO, DVec3::Z).unwrap();
+        assert!((t - 3.5).abs() < 1e-12 && (uv.y - 0.5).abs() < 1e-12);
+        // Above the tube's top: a miss; degenerate solids miss.
+        assert!(tube
+            .intersect(DVec3::ZERO, DVec3::new(0.0, 0.5, 1.0))
+            .is_none());
+        let flat = Solid::Ellipsoid {
+            centre: DVec3::Z,
+            radii: DVec3::new(1.0, 0.0, 1.0),
+            texture: Texture::Solid([1.0; 3]),
+        };
+        assert!(flat.intersect(DVec3::ZERO, DVec3::Z).is_none());
+        let scene = Scene {
+            quads: vec![white(DVec3::new(0.0, 0.0, 3.2), DVec3::X, DVec3::Y)],
+            solids: vec![ball, tube],
+            ..Default::default()
+        };
+        let h = scene.intersect(DVec3::ZERO, DVec3::Z).unwrap();
+        assert_eq!(h.quad_index, 1);
+        assert_eq!(scene.radiance(Some(&h)), [0.5; 3]);
+        // Without the ball the quad (z = 3.2) is nearer than the tube (z = 3.5); the prepared
+        // scene the renderer uses agrees.
+        let scene = Scene {
+            solids: scene.solids[1..].to_vec(),
+            ..scene
+        };
+        let h = PreparedScene::new(&scene)
+            .intersect(DVec3::ZERO, DVec3::Z)
+            .unwrap();
+        assert_eq!(h.quad_index, 0);
+        let far = Scene {
+            quads: vec![white(DVec3::new(0.0, 0.0, 9.0), DVec3::X, DVec3::Y)],
+            ..scene
+        };
+        assert_eq!(far.intersect(DVec3::ZERO, DVec3::Z).unwrap().quad_index, 1);
     }
 
     #[test]

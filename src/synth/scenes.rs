@@ -167,6 +167,7 @@ fn room() -> SynthScene {
         scene: Scene {
             quads,
             background: [0.0; 3],
+            solids: Vec::new(),
         },
         focal_per_width: 1.0,
         baseline: 0.02,
@@ -256,6 +257,7 @@ fn tower() -> SynthScene {
         scene: Scene {
             quads,
             background: [0.35, 0.55, 0.85],
+            solids: Vec::new(),
         },
         focal_per_width: 1.1,
         baseline: 0.03,
@@ -309,6 +311,7 @@ fn depths() -> SynthScene {
         scene: Scene {
             quads,
             background: [0.0; 3],
+            solids: Vec::new(),
         },
         focal_per_width: 1.1,
         baseline: 0.03,

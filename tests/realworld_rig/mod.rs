@@ -116,6 +116,7 @@ impl Rig {
         Scene {
             quads: vec![self.wall(frame), card],
             background: [0.0; 3],
+            solids: Vec::new(),
         }
     }
 

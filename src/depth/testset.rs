@@ -1,0 +1,377 @@
+//! The depth test set: every scene of [`DepthScene::SET`] (one per known failure mode, exact
+//! ground truth) plus any HCI folders with a ground-truth disparity, scored together so that an
+//! estimator is judged on the whole set and never on one scene (`tiltfield depth-set`,
+//! docs/depth.md). GPU-free: the estimates come from the caller.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::metrics::{score, DisparityScores, HCI_BORDER};
+use super::scenes::{truth, DepthScene};
+use super::{DepthOptions, SweepParams};
+use crate::error::{Error, Result};
+use crate::lightfield::pfm::read_pfm_depth;
+use crate::lightfield::{DepthKind, GridCameraOptions, LightField};
+
+/// The border left out of the scores of the small synthetic scenes (HCI's 15 px is a sixth of
+/// a 96-px view).
+pub const SYNTH_BORDER: u32 = 8;
+
+/// One light field of the set with its ground-truth disparity of the reference view.
+pub struct SetScene {
+    pub name: String,
+    /// What the scene tests.
+    pub failure_mode: String,
+    /// The light field with its own depth maps removed (the estimator must not see them).
+    pub light_field: LightField,
+    /// Ground-truth disparity (the light field's convention), row-major; NaN where none.
+    pub truth: Vec<f32>,
+    /// Border excluded from the scores, px.
+    pub border: u32,
+}
+
+/// The synthetic scenes of [`DepthScene::SET`] (or those named in `only`) as `grid × grid`
+/// views of `size²` px.
+pub fn synthetic(grid: usize, size: u32, only: Option<&[String]>) -> Result<Vec<SetScene>> {
+    let scenes: Vec<DepthScene> = match only {
+        None => DepthScene::SET.to_vec(),
+        Some(names) => names
+            .iter()
+            .map(|n| {
+                DepthScene::from_name(n).ok_or_else(|| {
+                    Error::Invalid(format!(
+                        "no depth test scene '{n}'; the set: {}",
+                        DepthScene::SET.map(|s| s.name()).join(", ")
+                    ))
+                })
+            })
+            .collect::<Result<_>>()?,
+    };
+    if !(3..=9).contains(&grid) || grid % 2 == 0 {
+        return Err(Error::Invalid(format!(
+            "the test set's grid must be 3, 5, 7 or 9 views a side, got {grid}"
+        )));
+    }
+    if !(48..=512).contains(&size) {
+        return Err(Error::Invalid(format!(
+            "the test set's views must be 48 to 512 px a side, got {size}"
+        )));
+    }
+    Ok(scenes
+        .into_iter()
+        .map(|scene| {
+            let mut lf = scene.light_field(grid, size);
+            let t = truth(&lf, DepthKind::Disparity);
+            lf.depth.clear();
+            SetScene {
+                name: scene.name().into(),
+                failure_mode: scene.failure_mode().into(),
+                light_field: lf,
+                truth: t,
+                border: SYNTH_BORDER,
+            }
+        })
+        .collect())
+}
+
+/// An HCI folder with `gt_disp_lowres.pfm`, as a member of the set (scored with HCI's 15-px
+/// border).
+pub fn hci(folder: &Path) -> Result<SetScene> {
+    let gt = folder.join("gt_disp_lowres.pfm");
+    let truth = read_pfm_depth(&gt, DepthKind::Disparity)?;
+    let mut lf = crate::lightfield::open(folder, &GridCameraOptions::default())?;
+    if (truth.width, truth.height) != (lf.width, lf.height) {
+        return Err(Error::bad_file(
+            &gt,
+            format!(
+                "the ground truth is {}×{}, the views {}×{}",
+                truth.width, truth.height, lf.width, lf.height
+            ),
+        ));
+    }
+    lf.depth.clear();
+    Ok(SetScene {
+        name: lf.name.clone(),
+        failure_mode: "real renderer output (HCI)".into(),
+        light_field: lf,
+        truth: truth.values,
+        border: HCI_BORDER,
+    })
+}
+
+/// The estimator variants the set compares, by name: `default` (today's defaults), `naive`
+/// (SAD over the same views with box aggregation) and `sweep` (the default without the
+/// continuous fit).
+pub const VARIANTS: [&str; 3] = ["default", "sweep", "naive"];
+
+/// The options of variant `name` ([`VARIANTS`]).
+pub fn variant(name: &str) -> Result<DepthOptions> {
+    let base = DepthOptions::default();
+    match name {
+        "default" => Ok(base),
+        "sweep" => Ok(DepthOptions {
+            params: SweepParams {
+                fit: false,
+                ..SweepParams::default()
+            },
+            ..base
+        }),
+        "naive" => Ok(DepthOptions {
+            params: SweepParams::baseline(),
+            ..base
+        }),
+        _ => Err(Error::Invalid(format!(
+            "unknown depth variant '{name}': expected one of {}",
+            VARIANTS.join(", ")
+        ))),
+    }
+}
+
+/// The scores of one estimate of one scene.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct SetRow {
+    pub scene: String,
+    pub failure_mode: String,
+    pub variant: String,
+    pub scores: DisparityScores,
+    /// Share of the scored pixels at or above the confidence threshold, and BadPix 0.07 there.
+    pub confident_share: f64,
+    pub confident_bad_pix_007: f64,
+    /// GPU time of the estimate, ms.
+    pub gpu_ms: Option<f64>,
+    /// Wall-clock time of the whole estimate (sweep and fit), ms.
+    pub total_ms: f64,
+    /// Per threshold of [`CALIBRATION_THRESHOLDS`]: scored pixels at or above it, and how
+    /// many of them are off by more than 0.07 px.
+    pub calibration: Vec<(usize, usize)>,
+}
+
+/// The confidence thresholds of the calibration table.
+pub const CALIBRATION_THRESHOLDS: [f32; 6] = [0.0, 0.005, 0.01, 0.02, 0.05, 0.1];
+
+/// Scores `disparity` (with its `confidence`) of `scene` against its truth.
+pub fn score_row(
+    scene: &SetScene,
+    variant: &str,
+    disparity: &[f32],
+    confidence: &[f32],
+    min_confidence: f32,
+    gpu_ms: Option<f64>,
+    total_ms: f64,
+) -> SetRow {
+    let (w, h) = (scene.light_field.width, scene.light_field.height);
+    let all = score(disparity, &scene.truth, w, h, scene.border, None);
+    let confident: Vec<bool> = confidence.iter().map(|&c| c >= min_confidence).collect();
+    let sure = score(
+        disparity,
+        &scene.truth,
+        w,
+        h,
+        scene.border,
+        Some(&confident),
+    );
+    let calibration = CALIBRATION_THRESHOLDS
+        .iter()
+        .map(|&t| {
+            let mask: Vec<bool> = confidence.iter().map(|&c| c >= t).collect();
+            let s = score(disparity, &scene.truth, w, h, scene.border, Some(&mask));
+            (
+                s.pixels,
+                (s.bad_pix_007 / 100.0 * s.pixels as f64).round() as usize,
+            )
+        })
+        .collect();
+    SetRow {
+        scene: scene.name.clone(),
+        failure_mode: scene.failure_mode.clone(),
+        variant: variant.into(),
+        scores: all,
+        confident_share: 100.0 * sure.pixels as f64 / all.pixels.max(1) as f64,
+        confident_bad_pix_007: sure.bad_pix_007,
+        gpu_ms,
+        total_ms,
+        calibration,
+    }
+}
+
+/// The mean of each score over `rows` of one variant (every scene weighs the same).
+pub fn mean(rows: &[&SetRow]) -> DisparityScores {
+    let n = rows.len().max(1) as f64;
+    let sum = |f: fn(&DisparityScores) -> f64| rows.iter().map(|r| f(&r.scores)).sum::<f64>() / n;
+    DisparityScores {
+        bad_pix_007: sum(|s| s.bad_pix_007),
+        bad_pix_003: sum(|s| s.bad_pix_003),
+        bad_pix_001: sum(|s| s.bad_pix_001),
+        mse_x100: sum(|s| s.mse_x100),
+        pixels: rows.iter().map(|r| r.scores.pixels).sum(),
+    }
+}
+
+/// A Markdown table of `rows`: one line per scene and variant, then each variant's mean.
+pub fn markdown(rows: &[SetRow]) -> String {
+    let mut out = String::from(
+        "| scene | tests | variant | BadPix 0.07 | 0.03 | MSE × 100 | confident: share, BadPix 0.07 | GPU ms | total ms |\n\
+         |---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            out,
+            "| {} | {} | {} | {:.2} | {:.2} | {:.3} | {:.1} %, {:.2} | {} | {:.0} |",
+            r.scene,
+            r.failure_mode,
+            r.variant,
+            r.scores.bad_pix_007,
+            r.scores.bad_pix_003,
+            r.scores.mse_x100,
+            r.confident_share,
+            r.confident_bad_pix_007,
+            r.gpu_ms.map_or("–".into(), |ms| format!("{ms:.0}")),
+            r.total_ms,
+        );
+    }
+    let mut variants: Vec<&str> = rows.iter().map(|r| r.variant.as_str()).collect();
+    variants.dedup();
+    variants.sort_unstable();
+    variants.dedup();
+    for v in variants {
+        let of: Vec<&SetRow> = rows.iter().filter(|r| r.variant == v).collect();
+        let m = mean(&of);
+        let gpu: f64 = of.iter().filter_map(|r| r.gpu_ms).sum();
+        let total: f64 = of.iter().map(|r| r.total_ms).sum();
+        let _ = writeln!(
+            out,
+            "| **mean of {} scenes** | | {v} | **{:.2}** | {:.2} | **{:.3}** | | {gpu:.0} (sum) | {total:.0} (sum) |",
+            of.len(),
+            m.bad_pix_007,
+            m.bad_pix_003,
+            m.mse_x100,
+        );
+    }
+    out
+}
+
+/// The confidence calibration of each variant, pooled over its scenes: for every threshold of
+/// [`CALIBRATION_THRESHOLDS`], the share of the scored pixels at or above it and BadPix 0.07
+/// among them (Markdown).
+pub fn calibration_markdown(rows: &[SetRow]) -> String {
+    let mut out = String::from("| variant |");
+    for t in CALIBRATION_THRESHOLDS {
+        let _ = write!(out, " confidence ≥ {t}: kept, BadPix 0.07 |");
+    }
+    out.push_str("\n|---|");
+    out.push_str(&"---|".repeat(CALIBRATION_THRESHOLDS.len()));
+    out.push('\n');
+    let mut variants: Vec<&str> = rows.iter().map(|r| r.variant.as_str()).collect();
+    variants.sort_unstable();
+    variants.dedup();
+    for v in variants {
+        let _ = write!(out, "| {v} |");
+        let all: usize = rows
+            .iter()
+            .filter(|r| r.variant == v)
+            .map(|r| r.calibration.first().map_or(0, |c| c.0))
+            .sum();
+        for k in 0..CALIBRATION_THRESHOLDS.len() {
+            let (kept, bad) = rows
+                .iter()
+                .filter(|r| r.variant == v)
+                .filter_map(|r| r.calibration.get(k))
+                .fold((0, 0), |(a, b), c| (a + c.0, b + c.1));
+            let _ = write!(
+                out,
+                " {:.1} %, {:.2} |",
+                100.0 * kept as f64 / all.max(1) as f64,
+                100.0 * bad as f64 / kept.max(1) as f64
+            );
+        }
+        out.push('\n');
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_set_covers_every_failure_mode_and_refuses_unknown_scenes_and_sizes() {
+        assert!(DepthScene::SET.len() >= 6);
+        let names: Vec<&str> = DepthScene::SET.iter().map(|s| s.name()).collect();
+        for n in &names {
+            assert_eq!(DepthScene::from_name(n).map(|s| s.name()), Some(*n));
+        }
+        let e = synthetic(5, 64, Some(&["moon".into()]))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(e.contains("moon") && e.contains("bust"), "{e}");
+        assert!(synthetic(4, 64, None).is_err());
+        assert!(synthetic(5, 16, None).is_err());
+    }
+
+    #[test]
+    fn every_scene_has_finite_truth_inside_its_border_and_hides_it_from_the_estimator() {
+        let set = synthetic(3, 48, None).unwrap();
+        for s in &set {
+            assert!(s.light_field.depth.is_empty(), "{}", s.name);
+            let sc = score(&s.truth, &s.truth, 48, 48, s.border, None);
+            assert!(
+                sc.pixels > 48 * 48 / 3,
+                "{}: {} scored pixels",
+                s.name,
+                sc.pixels
+            );
+            assert_eq!(sc.bad_pix_007, 0.0);
+        }
+        // The plenoptic scene is darker at the grid's rim than in its middle view.
+        let p = set.iter().find(|s| s.name == "plenoptic").unwrap();
+        let mean = |i: usize| {
+            let img = &p.light_field.views[i].image;
+            img.pixels().map(|px| px.0[1] as f64).sum::<f64>() / (48.0 * 48.0)
+        };
+        assert!(mean(0) < 0.75 * mean(4), "{} vs {}", mean(0), mean(4));
+    }
+
+    #[test]
+    fn the_table_has_a_line_per_scene_and_a_mean_per_variant() {
+        let s = |b: f64| DisparityScores {
+            bad_pix_007: b,
+            bad_pix_003: 2.0 * b,
+            bad_pix_001: 3.0 * b,
+            mse_x100: b / 10.0,
+            pixels: 100,
+        };
+        let row = |scene: &str, v: &str, b| SetRow {
+            scene: scene.into(),
+            failure_mode: "x".into(),
+            variant: v.into(),
+            scores: s(b),
+            confident_share: 90.0,
+            confident_bad_pix_007: 1.0,
+            gpu_ms: Some(10.0),
+            total_ms: 20.0,
+            calibration: vec![(100, 10), (50, 1)],
+        };
+        let rows = [
+            row("a", "default", 2.0),
+            row("b", "default", 4.0),
+            row("a", "naive", 10.0),
+        ];
+        let t = markdown(&rows);
+        assert_eq!(t.lines().count(), 2 + 3 + 2, "{t}");
+        assert!(
+            t.contains("| **mean of 2 scenes** | | default | **3.00**"),
+            "{t}"
+        );
+        assert!(
+            t.contains("| **mean of 1 scenes** | | naive | **10.00**"),
+            "{t}"
+        );
+        // Calibration pools the scenes: 200 pixels, 20 bad at threshold 0; 100, 2 at 0.005.
+        let c = calibration_markdown(&rows[..2]);
+        assert!(
+            c.contains("| default | 100.0 %, 10.00 | 50.0 %, 2.00 |"),
+            "{c}"
+        );
+    }
+}
