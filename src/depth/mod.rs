@@ -255,9 +255,9 @@ impl SweepParams {
 pub const MAX_RADIUS: u32 = 64;
 
 /// Automatic plane count: one plane per this many pixels of motion in the farthest view.
-pub const AUTO_PLANE_MOTION: f64 = 0.5;
+pub const AUTO_PLANE_MOTION: f64 = 1.0;
 /// Fewest planes of the automatic count.
-pub const AUTO_MIN_PLANES: usize = 16;
+pub const AUTO_MIN_PLANES: usize = 8;
 /// Most planes of the automatic count.
 pub const AUTO_MAX_PLANES: usize = 256;
 

@@ -139,6 +139,15 @@ fn fit(
         )
         .collect();
     let passes = u32::from(photometric::is_noisy(best_cost));
+    log::info!(
+        "continuous fit on {} views{}",
+        fit_plan.views.len(),
+        if passes > 0 {
+            ", smoothed (noisy views)"
+        } else {
+            ""
+        }
+    );
     let smoothed: Vec<RgbaImage>;
     let images = if passes > 0 {
         smoothed = images
