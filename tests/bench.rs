@@ -245,6 +245,9 @@ fn render_bicubic_with_half_float_accumulation_follows_the_bicubic_model() {
         "bicubic",
         "--accumulation",
         "rgba16f",
+        // The plain sum's model (the light field ships depth, so anti-aliasing would be on).
+        "--antialias",
+        "off",
         "-o",
         png.to_str().unwrap(),
         "--json",

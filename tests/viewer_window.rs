@@ -62,6 +62,9 @@ fn render_state(lf: &str, state: &serde_json::Value, focus: &[String], out: &Pat
         state["averaging"].as_str().unwrap().into(),
         "--storage".into(),
         "linear16".into(),
+        // The viewer draws the plain sum.
+        "--antialias".into(),
+        "off".into(),
     ];
     if let Some(r) = aperture["radius"].as_f64() {
         args.push(format!("--aperture-radius={r:?}"));

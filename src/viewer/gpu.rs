@@ -569,6 +569,7 @@ impl ViewerGpu {
                 strategy: self.strategy,
                 filter: Default::default(),
                 averaging,
+                antialias: 0,
             };
             let mut recorded = Ok(());
             let ran = submission.run(&ctx, |d, cmd| {
@@ -642,6 +643,7 @@ impl RefocusTargets {
             strategy: work.strategy,
             filter: Default::default(),
             averaging: work.averaging,
+            antialias: 0,
         };
         let target = if batch.divisor > 1 {
             match self.preview.as_mut() {
