@@ -126,21 +126,24 @@ void footprint(vec3 y0, uint k, float d, ViewWarp w, vec2 lo, vec2 hi, inout vec
     uint ns = samples(footprints[k].span_s.xyz, d, y0.z);
     uint nt = samples(footprints[k].span_t.xyz, d, y0.z);
     float wk = w.b_weight.w / float(ns * nt);
-    for (uint b = 0u; b < nt; ++b) {
-        float v = (float(b) + 0.5) / float(nt);
-        for (uint a = 0u; a < ns; ++a) {
-            float u = (float(a) + 0.5) / float(ns);
-            vec3 y = o + u * es + v * et;
-            if (y.z <= 0.0) {
-                continue;
-            }
-            vec2 p = y.xy / y.z;
-            if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
-                continue;
-            }
-            sum += wk * fetch(p, w.a0.w);
-            wsum += wk;
+    // One flat loop over the n_s x n_t grid: on llvmpipe a nested loop of per-lane trip counts
+    // took 24 % longer (23.3 vs 18.8 ms, 21 views of 128^2, at most 4 x 4), and a loop bounded
+    // by the specialisation constant (unrolled, with an early exit) 19 % longer.
+    vec2 inv = 1.0 / vec2(float(ns), float(nt));
+    uint n = ns * nt;
+    for (uint j = 0u; j < n; ++j) {
+        uint b = j / ns;
+        vec2 uv = (vec2(float(j - b * ns), float(b)) + 0.5) * inv;
+        vec3 y = o + uv.x * es + uv.y * et;
+        if (y.z <= 0.0) {
+            continue;
         }
+        vec2 p = y.xy / y.z;
+        if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
+            continue;
+        }
+        sum += wk * fetch(p, w.a0.w);
+        wsum += wk;
     }
 }
 
