@@ -361,8 +361,10 @@ pub struct RefocusPass {
     /// The scene's inverse depth per reference pixel at the views' size (storage buffer,
     /// binding 5).
     scene_depth: Buffer,
-    /// Footprint records written by the last [`RefocusPass::set_antialias`] (0: none).
-    footprint_count: usize,
+    /// What the footprint and scene-depth buffers hold (empty: nothing for these views), so
+    /// an unchanged anti-aliasing plan is not rewritten.
+    uploaded_footprints: Vec<GpuFootprint>,
+    uploaded_depth: Vec<f32>,
     accum_pipelines: Vec<(AccumKey, vk::Pipeline)>,
     resolve_pipelines: Vec<(ResolveKey, vk::Pipeline)>,
 }
@@ -556,7 +558,8 @@ impl RefocusPass {
             uploaded: Vec::new(),
             footprints,
             scene_depth,
-            footprint_count: 0,
+            uploaded_footprints: Vec::new(),
+            uploaded_depth: Vec::new(),
             accum_pipelines: Vec::new(),
             resolve_pipelines: Vec::new(),
         })
@@ -675,6 +678,8 @@ impl RefocusPass {
         let bytes = as_bytes(&records);
         self.warps.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
         self.uploaded = records;
+        // The footprints belonged to the previous views.
+        self.uploaded_footprints.clear();
         Ok(true)
     }
 
@@ -705,12 +710,30 @@ impl RefocusPass {
         }
         let changed = self.set_views(&aa.plan)?;
         let records: Vec<GpuFootprint> = aa.footprints.iter().map(GpuFootprint::new).collect();
-        let bytes = as_bytes(&records);
-        self.footprints.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
-        let depth = as_bytes(&aa.depth.inverse_depth);
-        self.scene_depth.bytes_mut()[..depth.len()].copy_from_slice(depth);
-        self.footprint_count = records.len();
+        if records != self.uploaded_footprints {
+            let bytes = as_bytes(&records);
+            self.footprints.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
+            self.uploaded_footprints = records;
+        }
+        if aa.depth.inverse_depth != self.uploaded_depth {
+            let depth = as_bytes(&aa.depth.inverse_depth);
+            self.scene_depth.bytes_mut()[..depth.len()].copy_from_slice(depth);
+            self.uploaded_depth = aa.depth.inverse_depth.clone();
+        }
         Ok(changed)
+    }
+
+    /// Whether [`RefocusPass::set_antialias`] would rewrite anything for `aa`: a caller with
+    /// frames in flight waits for them first.
+    pub fn antialias_differs(&self, aa: &AntialiasPlan) -> bool {
+        self.views_differ(&aa.plan)
+            || self.uploaded_footprints.len() != aa.footprints.len()
+            || aa
+                .footprints
+                .iter()
+                .zip(&self.uploaded_footprints)
+                .any(|(f, u)| GpuFootprint::new(f) != *u)
+            || aa.depth.inverse_depth != self.uploaded_depth
     }
 
     /// Whether [`RefocusPass::set_views`] would rewrite the warps for `plan`: a caller with
@@ -744,7 +767,7 @@ impl RefocusPass {
                 self.uploaded.len()
             )));
         }
-        if a.antialias > 0 && self.footprint_count != self.uploaded.len() {
+        if a.antialias > 0 && self.uploaded_footprints.len() != self.uploaded.len() {
             return Err(Error::Invalid(
                 "anti-aliased accumulation without the footprints of the uploaded views \
                  (RefocusPass::set_antialias)"
