@@ -632,3 +632,53 @@ fn render_reports_antialiasing_and_its_depth() {
         &["1 to 16"],
     );
 }
+
+/// On by default only where it can be: a light field with depth but no rig focused by
+/// `--disparity` (classic shift-and-sum) renders the plain sum with a warning; asked for
+/// explicitly, it is an error that says why.
+#[test]
+fn default_antialiasing_falls_back_where_it_cannot_apply() {
+    let dir = tempfile::tempdir().unwrap();
+    let lf = dir.path().join("conv");
+    let lf = lf.to_str().unwrap();
+    let o = tiltfield(&[
+        "synth",
+        "builtin:planes",
+        "--rig",
+        "converging",
+        "--layout",
+        "manifest",
+        "--grid",
+        "3x3",
+        "--size",
+        "32x32",
+        "-o",
+        lf,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = dir.path().join("c.png");
+    let out = out.to_str().unwrap();
+    let o = tiltfield(&["render", lf, "--disparity", "0", "-o", out, "--json"]);
+    assert_eq!(json_of(&o)["antialias"]["used"], false);
+    assert!(
+        stderr(&o).contains("classic shift-and-sum"),
+        "{}",
+        stderr(&o)
+    );
+    fails_with(
+        &[
+            "render",
+            lf,
+            "--disparity",
+            "0",
+            "--antialias",
+            "on",
+            "-o",
+            out,
+        ],
+        &["classic shift-and-sum", "--antialias off"],
+    );
+    // A focus with a plane anti-aliases on the same light field (a rotated rig).
+    let o = tiltfield(&["render", lf, "--focus", "3", "-o", out, "--json"]);
+    assert_eq!(json_of(&o)["antialias"]["used"], true);
+}

@@ -123,7 +123,9 @@ pub fn make_plan_with_window(
 pub use crate::refocus::plan_json;
 
 /// The anti-aliasing plan of `args` for `plan` on `lf`, when it is on (`aa_on`); `lf` must
-/// then carry depth (the caller ensured it).
+/// then carry depth (the caller ensured it). When anti-aliasing was not asked for but is on
+/// by default (the light field ships depth), a render it cannot anti-alias (classic
+/// shift-and-sum, more than 256 views in the aperture) is the plain sum, with a warning.
 pub fn antialias_plan(
     lf: &LightField,
     args: &RenderArgs,
@@ -134,14 +136,21 @@ pub fn antialias_plan(
         return Ok(None);
     }
     let excluded = lf.excluded_views(args.aperture.include_dark);
-    refocus::antialias::plan_for(
+    let made = refocus::antialias::plan_for(
         lf,
         plan,
         args.aperture.aperture(),
         &excluded,
         args.antialias.settings()?,
-    )
-    .map(Some)
+    );
+    match made {
+        Ok(aa) => Ok(Some(aa)),
+        Err(e) if args.antialias.requested().is_none() => {
+            log::warn!("rendering without anti-aliasing: {e}");
+            Ok(None)
+        }
+        Err(e) => Err(e),
+    }
 }
 
 /// Refuses an output size the device cannot hold (its image size limit, or its largest

@@ -39,6 +39,10 @@ use crate::lightfield::LightField;
 /// interactive frame can afford.
 pub const MAX_SAMPLES_LIMIT: u32 = 16;
 
+/// Most views an anti-aliased aperture may hold: the pass reads the footprints from a
+/// uniform buffer of this many records (`passes::refocus::UBO_WARPS`).
+pub const MAX_VIEWS: usize = 256;
+
 /// Sub-samples of the aperture cells per grid step of the area weights' quadrature.
 const AREA_GRID: usize = 64;
 
@@ -350,6 +354,13 @@ pub fn plan_antialias(
             warp,
         });
         footprints.push(fp);
+    }
+    if views.len() > MAX_VIEWS {
+        return Err(Error::Invalid(format!(
+            "anti-aliasing handles at most {MAX_VIEWS} views in the aperture, this one has {}; \
+             use a smaller --aperture-radius or --antialias off",
+            views.len()
+        )));
     }
     Ok(AntialiasPlan {
         plan: RefocusPlan {

@@ -1260,6 +1260,11 @@ mod tests {
     use super::*;
 
     #[test]
+    fn antialiasing_view_limit_is_the_uniform_buffers() {
+        assert_eq!(crate::refocus::antialias::MAX_VIEWS, UBO_WARPS);
+    }
+
+    #[test]
     fn strategies_parse_and_name_round_trip() {
         for s in ["fragment", "batched:4", "compute"] {
             assert_eq!(s.parse::<Strategy>().unwrap().name(), s);
