@@ -38,7 +38,15 @@ layout(std140, set = 0, binding = 2) uniform Decode { vec4 srgb_to_linear4[64]; 
 layout(std140, set = 0, binding = 3) uniform WarpsU { ViewWarp warps_u[UBO_WARPS]; };
 
 layout(std140, set = 0, binding = 4) uniform Footprints { ViewFootprint footprints[UBO_WARPS]; };
+// Per reference pixel: the scene's inverse depth sigma and the nearest surface's around it
+// (the front), interleaved; -1 where unknown.
 layout(std430, set = 0, binding = 5) readonly buffer SceneDepth { float scene_sigma[]; };
+
+// Index of the reference pixel nearest position p (clamped to the views).
+int depth_index(vec2 p) {
+    ivec2 ip = clamp(ivec2(floor(p + 0.5)), ivec2(0), ivec2(pc.view_size) - 1);
+    return ip.y * int(pc.view_size.x) + ip.x;
+}
 
 float srgb_to_linear(int i) {
     return srgb_to_linear4[i >> 2][i & 3];
@@ -161,10 +169,15 @@ vec4 accumulate(vec2 frag) {
     // Residual inverse depth of the scene point seen at this pixel (nearest texel: never
     // interpolated across a depth edge); no footprint where the depth is unknown.
     float d = 0.0;
+    float front = -1.0;
     if (ANTIALIAS != 0u) {
-        ivec2 ip = clamp(ivec2(floor(x.xy + 0.5)), ivec2(0), ivec2(pc.view_size) - 1);
-        float sigma = scene_sigma[ip.y * int(pc.view_size.x) + ip.x];
+        int i = depth_index(x.xy);
+        float sigma = scene_sigma[2 * i];
         d = sigma < 0.0 ? 0.0 : s - sigma;
+        // A nearer surface around: the views that see it take its residual
+        // (refocus::antialias::view_residual).
+        front = sigma >= 0.0 && scene_sigma[2 * i + 1] > sigma + 1e-6 ? scene_sigma[2 * i + 1]
+                                                                       : -1.0;
     }
     for (uint k = pc.first_view; k < pc.first_view + pc.view_count; ++k) {
         // Member by member, not `UNIFORM_WARPS != 0u ? warps_u[k] : warps[k]`: the two blocks'
@@ -184,7 +197,20 @@ vec4 accumulate(vec2 frag) {
         }
         vec3 y = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz) * x + w.b_weight.xyz * s;
         if (ANTIALIAS != 0u) {
-            footprint(y, k, d, w, lo, hi, sum, wsum);
+            float dv = d;
+            if (front >= 0.0) {
+                vec3 g = vec3(footprints[k].origin.w, footprints[k].span_s.w,
+                              footprints[k].span_t.w);
+                vec3 q = x + g * (s - front);
+                if (q.z > 0.0) {
+                    float seen = scene_sigma[2 * depth_index(q.xy / q.z)];
+                    float tol = min(0.5 / max(length(g.xy), 1e-9), 0.05 * front);
+                    if (seen >= 0.0 && abs(seen - front) <= tol) {
+                        dv = s - front;
+                    }
+                }
+            }
+            footprint(y, k, dv, w, lo, hi, sum, wsum);
             continue;
         }
         if (y.z <= 0.0) {

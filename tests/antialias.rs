@@ -251,11 +251,11 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
 
     let front = Plane::new(DVec3::new(0.0, 0.0, zm), DVec3::new(0.0, 0.0, -1.0)).unwrap();
     let (p, a) = against_the_lens(&mut r, &mut h, &lf, front, "frontoparallel at 0 px");
-    // Measured on lavapipe: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 38.7 / 37.4 / 59.1 dB.
+    // Measured on lavapipe: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 40.3 / 38.8 / 59.1 dB.
     // The issue's targets (42 / 40 / 55) are met on the focused plane and inside the layers
     // (back wall 46.5 dB, the +2 panel 51 dB away from edges) but not overall: the rest is at
     // occlusion edges (docs/conventions.md §11).
-    assert!(a.overall >= 37.5 && a.out_of_focus >= 36.0 && a.focused >= 55.0);
+    assert!(a.overall >= 39.5 && a.out_of_focus >= 38.0 && a.focused >= 55.0);
     assert!(a.out_of_focus >= p.out_of_focus + 8.0);
     assert!(a.focused >= p.focused - 0.5);
 
@@ -273,7 +273,7 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
     .unwrap();
     let (pe, ae) =
         against_the_lens_masked(&mut r, &mut h, &estimated, &lf, front, "estimated depth");
-    // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 33.1 / 37.8 / 34.2 dB (the issue
+    // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 33.1 / 38.1 / 34.2 dB (the issue
     // asks 38 overall). Out of focus as good as with the true depth; the focused plane loses
     // 25 dB where the estimate puts its paper's plain areas off the plane, so their
     // footprints blur what should stay sharp (a documented failure mode).
@@ -286,7 +286,7 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
     let normal = (p2 - p1).cross(DVec3::Y).normalize();
     let tilted = Plane::new(p1, if normal.z > 0.0 { -normal } else { normal }).unwrap();
     let (p, a) = against_the_lens(&mut r, &mut h, &lf, tilted, "tilted through two layers");
-    // Measured: plain 28.7 / 28.5 / 29.5 dB, anti-aliased 32.3 / 35.3 / 29.3 dB (the issue's
+    // Measured: plain 28.7 / 28.5 / 29.5 dB, anti-aliased 32.4 / 35.7 / 29.3 dB (the issue's
     // 34 / 38 / 36 are not met: the focused plane's resampling limits both sums alike).
     assert!(a.out_of_focus >= p.out_of_focus + 5.0);
     assert!(a.focused >= p.focused - 0.5);
@@ -373,7 +373,7 @@ fn antialiasing_on_a_rotated_rig_approaches_the_lens() {
     let [_, zm, _, _] = tiltfield::synth::scenes::LAYER_DEPTHS;
     let front = Plane::new(DVec3::new(0.0, 0.0, zm), DVec3::new(0.0, 0.0, -1.0)).unwrap();
     let (p, a) = against_the_lens(&mut r, &mut h, &lf, front, "converging rig");
-    // Measured: plain 25.9 / 29.1 / 23.0 dB, anti-aliased 27.3 / 37.8 / 23.1 dB. (The
+    // Measured: plain 25.9 / 29.1 / 23.0 dB, anti-aliased 27.4 / 39.3 / 23.1 dB. (The
     // focused plane scores low for both against this truth on the converging rig; the plain
     // sum's resampling of the rotated views, not anti-aliasing, which leaves it unchanged.)
     assert!(a.out_of_focus >= p.out_of_focus + 6.0);
@@ -383,10 +383,11 @@ fn antialiasing_on_a_rotated_rig_approaches_the_lens() {
     assert_raster_clean(&r);
 }
 
-/// An occlusion edge: focused on the back wall, the pixels of the wall next to the nearest
-/// card stay as close to the lens as the plain sum's (the footprint follows the depth at the
-/// output pixel, so the card is not smeared over the focused wall), while the card's own
-/// pixels improve.
+/// An occlusion edge: focused on the back wall, the pixels of the wall next to the nearer
+/// layers come closer to the lens than the plain sum's (measured 32.7 vs 27.1 dB): the views
+/// that see an occluder there blur it with the occluder's footprint, while those that see the
+/// wall keep it sharp (no footprint: it is in focus), so the occluder is not smeared over the
+/// focused wall. Out of focus, anti-aliasing wins by far (37.4 vs 25.8 dB).
 #[test]
 fn occlusion_edges_keep_the_focused_background() {
     let mut r = rasterizer();
@@ -431,7 +432,7 @@ fn occlusion_edges_keep_the_focused_background() {
          {ae:.1} dB; out of focus plain {po:.1} dB, anti-aliased {ao:.1} dB",
         edge.iter().filter(|&&e| e).count()
     );
-    assert!(ae >= pe - 1.0, "{ae} vs {pe}");
+    assert!(ae >= pe + 3.0, "{ae} vs {pe}");
     assert!(ao >= po + 6.0, "{ao} vs {po}");
     assert_no_validation_errors(&h);
     assert_raster_clean(&r);

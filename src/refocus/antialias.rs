@@ -21,6 +21,10 @@
 //! Views weigh by the area of their cell inside the aperture (a partial rim view by the part
 //! inside), so an aperture of radius R integrates exactly the disk of radius R.
 //!
+//! Occlusion: next to a nearer surface, a view that sees that surface at its plain sample
+//! takes the occluder's residual instead of the pixel's ([`view_residual`]), so the
+//! occluder's copies blur while a focused background stays sharp.
+//!
 //! Pixels without a valid scene depth (NaN, ≤ 0, unreachable by the reprojection) get no
 //! footprint: they are the plain sum there, with the area weights.
 
@@ -86,6 +90,10 @@ pub struct Footprint {
     pub origin: DVec3,
     pub span_s: DVec3,
     pub span_t: DVec3,
+    /// `K_r R_r (C_r − C_i)`: where the reference sees a point that view i sees at its plain
+    /// sample, per unit of inverse depth off the focus surface (the occlusion test of
+    /// [`view_residual`]).
+    pub parallax: DVec3,
 }
 
 impl Footprint {
@@ -103,6 +111,10 @@ pub struct SceneDepth {
     pub width: u32,
     pub height: u32,
     pub inverse_depth: Vec<f32>,
+    /// The nearest surface (largest σ) within [`SceneDepth::front_radius`] pixels, −1 where
+    /// none: the occluder whose blur may reach the pixel.
+    pub front: Vec<f32>,
+    pub front_radius: u32,
     /// Pixels without a valid depth (no footprint there).
     pub unknown: usize,
     /// Where the depth came from, for reports.
@@ -113,10 +125,29 @@ impl SceneDepth {
     /// σ at output pixel position `x` (reference pixel coordinates): the nearest texel,
     /// never interpolated across a depth edge; `None` where unknown.
     pub fn at(&self, x: DVec2) -> Option<f64> {
+        let v = self.inverse_depth[self.index(x)];
+        (v >= 0.0).then_some(v as f64)
+    }
+
+    /// The nearest surface's σ around `x` ([`SceneDepth::front`]).
+    pub fn front_at(&self, x: DVec2) -> Option<f64> {
+        let v = self.front[self.index(x)];
+        (v >= 0.0).then_some(v as f64)
+    }
+
+    fn index(&self, x: DVec2) -> usize {
         let i = ((x.x + 0.5).floor() as i64).clamp(0, self.width as i64 - 1) as usize;
         let j = ((x.y + 0.5).floor() as i64).clamp(0, self.height as i64 - 1) as usize;
-        let v = self.inverse_depth[j * self.width as usize + i];
-        (v >= 0.0).then_some(v as f64)
+        j * self.width as usize + i
+    }
+
+    /// σ and the front σ interleaved per pixel, as the pass's storage buffer holds them.
+    pub fn interleaved(&self) -> Vec<f32> {
+        self.inverse_depth
+            .iter()
+            .zip(&self.front)
+            .flat_map(|(a, b)| [*a, *b])
+            .collect()
     }
 }
 
@@ -204,10 +235,59 @@ pub fn scene_depth(
     Ok(SceneDepth {
         width,
         height,
+        front: sigma.clone(),
+        front_radius: 0,
         inverse_depth: sigma,
         unknown,
         source: depth.source.clone(),
     })
+}
+
+/// Most pixels the front search reaches (the window is (2r + 1)² px).
+const MAX_FRONT_RADIUS: u32 = 64;
+
+/// The largest σ within `r` pixels (a square window; −1 where none is valid), separable.
+fn max_filter(v: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
+    let mut rows = vec![-1f32; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (a, b) = (x.saturating_sub(r), (x + r).min(w - 1));
+            rows[y * w + x] = v[y * w + a..=y * w + b]
+                .iter()
+                .fold(-1f32, |m, &s| m.max(s));
+        }
+    }
+    let mut out = vec![-1f32; w * h];
+    for y in 0..h {
+        let (a, b) = (y.saturating_sub(r), (y + r).min(h - 1));
+        for x in 0..w {
+            out[y * w + x] = (a..=b).fold(-1f32, |m, j| m.max(rows[j * w + x]));
+        }
+    }
+    out
+}
+
+/// The residual `s − σ` view i's footprint uses at pixel `x` (plane term `s`): the scene's at
+/// the pixel, unless a nearer surface lies within the front radius and view i sees it at its
+/// plain sample — the reference pixel where view i's sample would lie on that surface,
+/// `x + parallax·(s − σ_front)`, holds it (within half a pixel of residual disparity per grid
+/// step, or 5 %) — then the occluder's, so its copies blur like the lens blurs it. `None`:
+/// no depth at the pixel (no footprint).
+pub fn view_residual(depth: &SceneDepth, fp: &Footprint, x: DVec2, s: f64) -> Option<f64> {
+    let sigma = depth.at(x)?;
+    if let Some(front) = depth.front_at(x) {
+        if front > sigma + 1e-6 {
+            let q = x.extend(1.0) + fp.parallax * (s - front);
+            if q.z > 0.0 {
+                let seen = depth.at(DVec2::new(q.x / q.z, q.y / q.z));
+                let tol = (0.5 / fp.parallax.truncate().length().max(1e-9)).min(0.05 * front);
+                if seen.is_some_and(|v| (v - front).abs() <= tol) {
+                    return Some(s - front);
+                }
+            }
+        }
+    }
+    Some(s - sigma)
 }
 
 /// A refocus plan whose views are the aperture cells: every view whose cell overlaps the
@@ -335,10 +415,12 @@ pub fn plan_antialias(
         let (ds, dt) = centre_steps(lf, v.s, v.t);
         let kr = v.camera.k * v.camera.r;
         let (es, et) = (-(kr * ds), -(kr * dt));
+        let rc = &base.reference_camera;
         let fp = Footprint {
             origin: u0 * es + v0 * et,
             span_s: (u1 - u0) * es,
             span_t: (v1 - v0) * et,
+            parallax: rc.k * (rc.r * (rc.centre() - v.camera.centre())),
         };
         if !(warp.a.is_finite() && warp.b.is_finite() && fp.origin.is_finite()) {
             return Err(Error::Geometry(format!(
@@ -354,6 +436,26 @@ pub fn plan_antialias(
             warp,
         });
         footprints.push(fp);
+    }
+    // The front search reaches as far as any view's parallax over the scene's depth range:
+    // farther than that, no view can see an occluder at a pixel.
+    let mut scene = scene;
+    let valid = scene.inverse_depth.iter().filter(|&&v| v >= 0.0);
+    let (lo, hi) = valid.fold((f32::INFINITY, -1f32), |(a, b), &v| (a.min(v), b.max(v)));
+    if hi > lo {
+        let reach = footprints
+            .iter()
+            .map(|f| f.parallax.truncate().length())
+            .fold(0.0, f64::max)
+            * (hi - lo) as f64;
+        let r = (reach.ceil() as u32 + 1).min(MAX_FRONT_RADIUS);
+        scene.front = max_filter(
+            &scene.inverse_depth,
+            scene.width as usize,
+            scene.height as usize,
+            r as usize,
+        );
+        scene.front_radius = r;
     }
     if views.len() > MAX_VIEWS {
         return Err(Error::Invalid(format!(
@@ -561,6 +663,43 @@ mod tests {
         assert_eq!(samples(span, 2.5 / fb, 1.0, 4), 3);
         assert_eq!(samples(span, 100.0, 1.0, 4), 4);
         assert_eq!(samples(span, 100.0, -1.0, 4), 1);
+    }
+
+    #[test]
+    fn views_that_see_a_nearer_surface_take_its_residual() {
+        // A 20×1 map: background σ = 0.25 on the left, a nearer surface σ = 0.5 from x = 12.
+        let (w, h) = (20u32, 1u32);
+        let sigma: Vec<f32> = (0..w).map(|x| if x >= 12 { 0.5 } else { 0.25 }).collect();
+        let depth = SceneDepth {
+            width: w,
+            height: h,
+            front: max_filter(&sigma, w as usize, 1, 6),
+            front_radius: 6,
+            inverse_depth: sigma,
+            unknown: 0,
+            source: "test".into(),
+        };
+        assert_eq!(depth.front_at(DVec2::new(6.0, 0.0)), Some(0.5));
+        assert_eq!(depth.front_at(DVec2::new(5.0, 0.0)), Some(0.25));
+        let fp = |gx: f64| Footprint {
+            origin: DVec3::ZERO,
+            span_s: DVec3::ZERO,
+            span_t: DVec3::ZERO,
+            parallax: DVec3::new(gx, 0.0, 0.0),
+        };
+        // Focus on the background (s = σ = 0.25) at x = 8: a view whose parallax carries the
+        // sample 5 px right lands on the nearer surface and blurs it; the opposite view and the
+        // centre view see the background (in focus: residual 0).
+        let (x, s) = (DVec2::new(8.0, 0.0), 0.25);
+        let g = 5.0 / (s - 0.5);
+        assert_eq!(view_residual(&depth, &fp(g), x, s), Some(s - 0.5));
+        assert_eq!(view_residual(&depth, &fp(-g), x, s), Some(0.0));
+        assert_eq!(view_residual(&depth, &fp(0.0), x, s), Some(0.0));
+        // On the nearer surface itself: its own residual.
+        assert_eq!(
+            view_residual(&depth, &fp(g), DVec2::new(14.0, 0.0), s),
+            Some(s - 0.5)
+        );
     }
 
     #[test]

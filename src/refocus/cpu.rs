@@ -10,7 +10,7 @@
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::antialias::{samples, AntialiasPlan};
+use super::antialias::{samples, view_residual, AntialiasPlan};
 use super::{Averaging, RefocusImage, RefocusPlan};
 use crate::color;
 use crate::lightfield::LightField;
@@ -135,10 +135,10 @@ pub fn render_antialiased(
             for (x, out) in row.iter_mut().enumerate() {
                 let px = (DVec2::new(x as f64, y as f64) + 0.5) * scale - 0.5;
                 let s = plan.m.dot(px.extend(1.0)).max(0.0);
-                let d = aa.depth.at(px).map_or(0.0, |sigma| s - sigma);
                 let mut sum = [0f64; 3];
                 let mut wsum = 0f64;
                 for (v, fp) in plan.views.iter().zip(&aa.footprints) {
+                    let d = view_residual(&aa.depth, fp, px, s).unwrap_or(0.0);
                     let y0 = v.warp.apply(plan.m, px);
                     let ns = samples(fp.span_s, d, y0.z, max);
                     let nt = samples(fp.span_t, d, y0.z, max);
@@ -205,8 +205,19 @@ pub fn ambiguous_antialiased(
             let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
             let px = (DVec2::new(x, y) + 0.5) * scale - 0.5;
             let s = plan.m.dot(px.extend(1.0)).max(0.0);
-            let d = aa.depth.at(px).map_or(0.0, |sigma| s - sigma);
             plan.views.iter().zip(&aa.footprints).any(|(v, fp)| {
+                let d = view_residual(&aa.depth, fp, px, s).unwrap_or(0.0);
+                // The occlusion test's lookup rounds a position: near a rounding tie, f32 may
+                // read the neighbouring pixel.
+                if let (Some(sigma), Some(front)) = (aa.depth.at(px), aa.depth.front_at(px)) {
+                    if front > sigma + 1e-6 {
+                        let q = px.extend(1.0) + fp.parallax * (s - front);
+                        let tie = |v: f64| near(v + 0.5, (v + 0.5).round());
+                        if q.z <= eps || tie(q.x / q.z) || tie(q.y / q.z) {
+                            return true;
+                        }
+                    }
+                }
                 let y0 = v.warp.apply(plan.m, px);
                 if y0.z <= eps {
                     return true;

@@ -37,7 +37,8 @@ impl GpuViewWarp {
 }
 
 /// One view's aperture-cell footprint as the shaders read it (`ViewFootprint` in GLSL; see
-/// [`crate::refocus::antialias::Footprint`]): homogeneous offsets in xyz, `w` unused.
+/// [`crate::refocus::antialias::Footprint`]): homogeneous offsets in xyz; the three `w`s hold
+/// the parallax vector (x, y, z).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct GpuFootprint {
@@ -49,11 +50,12 @@ pub struct GpuFootprint {
 impl GpuFootprint {
     /// The record of `f` (rounded to f32).
     pub fn new(f: &Footprint) -> Self {
-        let v = |d: glam::DVec3| [d.x as f32, d.y as f32, d.z as f32, 0.0];
+        let v = |d: glam::DVec3, w: f64| [d.x as f32, d.y as f32, d.z as f32, w as f32];
+        let g = f.parallax;
         GpuFootprint {
-            origin: v(f.origin),
-            span_s: v(f.span_s),
-            span_t: v(f.span_t),
+            origin: v(f.origin, g.x),
+            span_s: v(f.span_s, g.y),
+            span_t: v(f.span_t, g.z),
         }
     }
 }

@@ -447,7 +447,8 @@ impl RefocusPass {
             "anti-aliasing footprints",
         )
         .and_then(|footprints| {
-            let bytes = (texture.width as u64 * texture.height as u64 * 4).max(4);
+            // σ and the front σ per pixel.
+            let bytes = (texture.width as u64 * texture.height as u64 * 8).max(8);
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
             match Buffer::new(ctx, bytes, usage, true, "scene inverse depth") {
                 Ok(depth) => Ok((footprints, depth)),
@@ -702,6 +703,7 @@ impl RefocusPass {
         let px = self.view_size[0] as usize * self.view_size[1] as usize;
         if (aa.depth.width as usize * aa.depth.height as usize) != px
             || aa.depth.inverse_depth.len() != px
+            || aa.depth.front.len() != px
         {
             return Err(Error::Invalid(format!(
                 "the scene depth is {}×{}, the views {}×{}",
@@ -715,10 +717,11 @@ impl RefocusPass {
             self.footprints.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
             self.uploaded_footprints = records;
         }
-        if aa.depth.inverse_depth != self.uploaded_depth {
-            let depth = as_bytes(&aa.depth.inverse_depth);
+        let interleaved = aa.depth.interleaved();
+        if interleaved != self.uploaded_depth {
+            let depth = as_bytes(&interleaved);
             self.scene_depth.bytes_mut()[..depth.len()].copy_from_slice(depth);
-            self.uploaded_depth = aa.depth.inverse_depth.clone();
+            self.uploaded_depth = interleaved;
         }
         Ok(changed)
     }
@@ -733,7 +736,7 @@ impl RefocusPass {
                 .iter()
                 .zip(&self.uploaded_footprints)
                 .any(|(f, u)| GpuFootprint::new(f) != *u)
-            || aa.depth.inverse_depth != self.uploaded_depth
+            || aa.depth.interleaved() != self.uploaded_depth
     }
 
     /// Whether [`RefocusPass::set_views`] would rewrite the warps for `plan`: a caller with
