@@ -23,6 +23,11 @@ layout(constant_id = 1) const uint TEXEL = 0;
 // and branch per lane, a uniform buffer load into one gather: measured ~10x faster there.
 layout(constant_id = 2) const uint UNIFORM_WARPS = 1;
 const uint UBO_WARPS = 256; // passes::refocus::UBO_WARPS
+// ANTIALIAS 0: the plain sum (one sample per view, the method's definition). N > 0: each view
+// is integrated over its aperture cell's footprint with at most N x N sub-samples
+// (refocus::antialias; footprints in binding 4, the scene's inverse depth per reference pixel
+// in binding 5, -1 where unknown).
+layout(constant_id = 3) const uint ANTIALIAS = 0;
 
 layout(set = 0, binding = 0) uniform sampler2DArray views;
 layout(std430, set = 0, binding = 1) readonly buffer Warps { ViewWarp warps[]; };
@@ -31,6 +36,17 @@ layout(std430, set = 0, binding = 1) readonly buffer Warps { ViewWarp warps[]; }
 // arrays to 16 bytes, so the 256 values are packed four to a vec4.
 layout(std140, set = 0, binding = 2) uniform Decode { vec4 srgb_to_linear4[64]; };
 layout(std140, set = 0, binding = 3) uniform WarpsU { ViewWarp warps_u[UBO_WARPS]; };
+
+layout(std140, set = 0, binding = 4) uniform Footprints { ViewFootprint footprints[UBO_WARPS]; };
+// Per reference pixel: the scene's inverse depth sigma and the nearest surface's around it
+// (the front), interleaved; -1 where unknown.
+layout(std430, set = 0, binding = 5) readonly buffer SceneDepth { float scene_sigma[]; };
+
+// Index of the reference pixel nearest position p (clamped to the views).
+int depth_index(vec2 p) {
+    ivec2 ip = clamp(ivec2(floor(p + 0.5)), ivec2(0), ivec2(pc.view_size) - 1);
+    return ip.y * int(pc.view_size.x) + ip.x;
+}
 
 float srgb_to_linear(int i) {
     return srgb_to_linear4[i >> 2][i & 3];
@@ -98,6 +114,47 @@ vec3 fetch(vec2 p, float layer) {
     return textureLod(views, vec3((p + 0.5) / pc.view_size, layer), 0.0).rgb;
 }
 
+// Sub-samples per axis of a footprint span (refocus::antialias::samples): its length in
+// pixels rounded up, from 1 to ANTIALIAS.
+uint samples(vec3 span, float d, float yz) {
+    if (yz <= 0.0) {
+        return 1u;
+    }
+    float len = length(span.xy * d) / yz;
+    return uint(clamp(ceil(len), 1.0, float(ANTIALIAS)));
+}
+
+// Adds view k's footprint integral: stratified sub-samples of its aperture cell, each masked
+// like a plain sample and weighing weight / (n_s n_t).
+void footprint(vec3 y0, uint k, float d, ViewWarp w, vec2 lo, vec2 hi, inout vec3 sum,
+               inout float wsum) {
+    vec3 o = y0 + footprints[k].origin.xyz * d;
+    vec3 es = footprints[k].span_s.xyz * d;
+    vec3 et = footprints[k].span_t.xyz * d;
+    uint ns = samples(footprints[k].span_s.xyz, d, y0.z);
+    uint nt = samples(footprints[k].span_t.xyz, d, y0.z);
+    float wk = w.b_weight.w / float(ns * nt);
+    // One flat loop over the n_s x n_t grid: on llvmpipe a nested loop of per-lane trip counts
+    // took 24 % longer (23.3 vs 18.8 ms, 21 views of 128^2, at most 4 x 4), and a loop bounded
+    // by the specialisation constant (unrolled, with an early exit) 19 % longer.
+    vec2 inv = 1.0 / vec2(float(ns), float(nt));
+    uint n = ns * nt;
+    for (uint j = 0u; j < n; ++j) {
+        uint b = j / ns;
+        vec2 uv = (vec2(float(j - b * ns), float(b)) + 0.5) * inv;
+        vec3 y = o + uv.x * es + uv.y * et;
+        if (y.z <= 0.0) {
+            continue;
+        }
+        vec2 p = y.xy / y.z;
+        if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
+            continue;
+        }
+        sum += wk * fetch(p, w.a0.w);
+        wsum += wk;
+    }
+}
+
 // frag: the output pixel's centre in output pixels (gl_FragCoord.xy, or id + 0.5).
 vec4 accumulate(vec2 frag) {
     // Pixel-index coordinates of the reference view: pixel (i, j)'s centre is at (i, j).
@@ -109,6 +166,19 @@ vec4 accumulate(vec2 frag) {
     vec2 hi = pc.view_size - 0.5;
     vec3 sum = vec3(0.0);
     float wsum = 0.0;
+    // Residual inverse depth of the scene point seen at this pixel (nearest texel: never
+    // interpolated across a depth edge); no footprint where the depth is unknown.
+    float d = 0.0;
+    float front = -1.0;
+    if (ANTIALIAS != 0u) {
+        int i = depth_index(x.xy);
+        float sigma = scene_sigma[2 * i];
+        d = sigma < 0.0 ? 0.0 : s - sigma;
+        // A nearer surface around: the views that see it take its residual
+        // (refocus::antialias::view_residual).
+        front = sigma >= 0.0 && scene_sigma[2 * i + 1] > sigma + 1e-6 ? scene_sigma[2 * i + 1]
+                                                                       : -1.0;
+    }
     for (uint k = pc.first_view; k < pc.first_view + pc.view_count; ++k) {
         // Member by member, not `UNIFORM_WARPS != 0u ? warps_u[k] : warps[k]`: the two blocks'
         // structs have different layouts (std140, std430), and glslang 12 with the SPIR-V
@@ -126,6 +196,23 @@ vec4 accumulate(vec2 frag) {
             w.b_weight = warps[k].b_weight;
         }
         vec3 y = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz) * x + w.b_weight.xyz * s;
+        if (ANTIALIAS != 0u) {
+            float dv = d;
+            if (front >= 0.0) {
+                vec3 g = vec3(footprints[k].origin.w, footprints[k].span_s.w,
+                              footprints[k].span_t.w);
+                vec3 q = x + g * (s - front);
+                if (q.z > 0.0) {
+                    float seen = scene_sigma[2 * depth_index(q.xy / q.z)];
+                    float tol = min(0.5 / max(length(g.xy), 1e-9), 0.05 * front);
+                    if (seen >= 0.0 && abs(seen - front) <= tol) {
+                        dv = s - front;
+                    }
+                }
+            }
+            footprint(y, k, dv, w, lo, hi, sum, wsum);
+            continue;
+        }
         if (y.z <= 0.0) {
             continue; // behind camera i
         }

@@ -13,6 +13,16 @@ struct ViewWarp {
     vec4 b_weight;
 };
 
+// Anti-aliasing (docs/conventions.md §11): view i's aperture cell as homogeneous offsets per
+// unit of residual inverse depth s - sigma; the sub-sample at (u, v) in [0, 1]^2 lies at
+// origin + u span_s + v span_t (xyz). The three w components hold the parallax vector
+// g_i = K_r R_r (C_r - C_i) of the occlusion test. Mirrored by `GpuFootprint`.
+struct ViewFootprint {
+    vec4 origin;
+    vec4 span_s;
+    vec4 span_t;
+};
+
 layout(push_constant) uniform RefocusPush {
     vec4 plane;      // m = K_r^-T n_r / d_r in xyz
     vec2 view_size;  // W, H of the views in pixels

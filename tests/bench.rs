@@ -81,6 +81,20 @@ fn quick_bench_writes_report_csv_and_both_charts() {
     let lf = &report["light_field"];
     assert_eq!(lf["synthetic"], true);
     assert!(lf["views_used"].as_u64().unwrap() >= 9);
+    // The anti-aliasing study: the plain sum first (cost ratio 1), then each cap, timed in the
+    // same run; anti-aliasing beats the plain sum off the focus plane against the lens.
+    let aa = report["antialias"]["points"]
+        .as_array()
+        .expect("antialias points");
+    assert_eq!(aa[0]["name"], "plain");
+    assert_eq!(number(&aa[0], "cost_ratio"), 1.0);
+    let aa4 = aa.iter().find(|p| p["name"] == "aa4").expect("aa4");
+    assert!(number(aa4, "cost_ratio") > 0.0);
+    assert!(
+        number(aa4, "psnr_out_of_focus_db") > number(&aa[0], "psnr_out_of_focus_db") + 3.0,
+        "{aa4} vs {}",
+        aa[0]
+    );
     let variants = report["variants"].as_array().expect("variants");
     let names: Vec<&str> = variants
         .iter()
@@ -245,6 +259,9 @@ fn render_bicubic_with_half_float_accumulation_follows_the_bicubic_model() {
         "bicubic",
         "--accumulation",
         "rgba16f",
+        // The plain sum's model (the light field ships depth, so anti-aliasing would be on).
+        "--antialias",
+        "off",
         "-o",
         png.to_str().unwrap(),
         "--json",

@@ -162,6 +162,8 @@ fn info_and_demo_run() {
     for i in images {
         assert!(Path::new(i["file"].as_str().unwrap()).is_file());
     }
+    // Built-in scenes have exact depth: their refocus images are anti-aliased.
+    assert_eq!(images[1]["antialias"]["used"], true, "{}", images[1]);
 }
 
 #[test]

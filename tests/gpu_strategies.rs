@@ -369,6 +369,7 @@ fn frames_in_flight_release_their_resources_only_after_completion() {
             strategy: Strategy::Fragment,
             filter: Filter::Shader,
             averaging: Averaging::Linear,
+            antialias: 0,
         };
         pass.record_accumulate(&ctx, frame.cmd, target, &a).unwrap();
         pass.record_resolve(

@@ -623,3 +623,68 @@ fn world_frame_is_the_calibrations() {
     let down = lf.view(0, 1).camera.centre() - lf.view(0, 0).camera.centre();
     assert!((down - r.m * DVec3::new(0.0, 0.08, 0.0)).length() < 1e-9);
 }
+
+/// `render --frames --antialias on` on a video without depth: the depth is estimated once,
+/// from the first frame, and the first frame equals `render --frame --antialias on` of it.
+#[test]
+fn frames_render_anti_aliased_with_the_first_frames_estimated_depth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().join("video");
+    std::fs::create_dir(&d).unwrap();
+    video(&d);
+    let cache = tmp.path().join("cache");
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+            .args(args)
+            .env("TILTFIELD_VALIDATION", "1")
+            .env("TILTFIELD_CACHE_DIR", &cache)
+            .env_remove("RUST_LOG")
+            .output()
+            .unwrap()
+    };
+    let pattern = tmp.path().join("aa_{frame}.png");
+    let plane = [
+        "--focus",
+        "2.4",
+        "--aperture-radius",
+        "1.5",
+        "--antialias",
+        "on",
+    ];
+    let mut args = vec![
+        "render",
+        s(&d),
+        "--frames",
+        "1..2",
+        "-o",
+        s(&pattern),
+        "--json",
+    ];
+    args.extend(plane);
+    let report = json_of(&run(&args));
+    assert_eq!(report["antialias"]["used"], true, "{report}");
+    assert_eq!(
+        report["antialias"]["depth_origin"]["origin"], "estimated",
+        "{report}"
+    );
+    let single = tmp.path().join("single.png");
+    let mut args = vec!["render", s(&d), "--frame", "1", "-o", s(&single)];
+    args.extend(plane);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let batch = image::open(tmp.path().join("aa_1.png")).unwrap().to_rgba8();
+    assert_eq!(batch, image::open(&single).unwrap().to_rgba8());
+    // Off (the default here: a video ships no depth) is the plain sum.
+    let mut args = vec![
+        "render",
+        s(&d),
+        "--frames",
+        "1..1",
+        "-o",
+        s(&pattern),
+        "--json",
+    ];
+    args.extend(["--focus", "2.4", "--aperture-radius", "1.5"]);
+    let report = json_of(&run(&args));
+    assert_eq!(report["antialias"]["used"], false, "{report}");
+}

@@ -63,6 +63,15 @@ fn render_state(lf: &str, state: &serde_json::Value, focus: &[String], out: &Pat
         "--storage".into(),
         "linear16".into(),
     ];
+    // Anti-aliasing as the screenshot recorded it (on by default: these light fields have depth).
+    match state["antialias"]["max_samples"].as_u64() {
+        Some(n) if state["antialias"]["used"] == true => args.extend([
+            "--antialias".into(),
+            "on".into(),
+            format!("--antialias-samples={n}"),
+        ]),
+        _ => args.extend(["--antialias".into(), "off".into()]),
+    }
     if let Some(r) = aperture["radius"].as_f64() {
         args.push(format!("--aperture-radius={r:?}"));
     }
@@ -107,6 +116,10 @@ fn scripted_session_matches_render_and_has_no_validation_errors() {
          click refocus 32 40\n\
          wait-converged\n\
          screenshot {d}/c\n\
+         key X\n\
+         wait-converged\n\
+         screenshot {d}/c2\n\
+         key X\n\
          key P\n\
          resize 640 400\n\
          drag scene 100 100 140 110\n\
@@ -141,6 +154,7 @@ fn scripted_session_matches_render_and_has_no_validation_errors() {
     // a: the initial focus is disparity 0 (the scene's focus distance).
     let a = json_file(&d.join("a.json"));
     assert_eq!(a["focus_how"], "disparity");
+    assert_eq!(a["antialias"]["used"], true, "{a}");
     let want = render_state(lf, &a, &["--disparity=0".into()], &d.join("ra.png"));
     assert_eq!(
         std::fs::read(d.join("a_refocus.png")).unwrap(),
@@ -182,6 +196,14 @@ fn scripted_session_matches_render_and_has_no_validation_errors() {
         want,
         "c: viewer ≠ render"
     );
+    // c2: X turned anti-aliasing off: the plain sum, as render --antialias off draws it.
+    let c2 = json_file(&d.join("c2.json"));
+    assert_eq!(c["antialias"]["used"], true, "{c}");
+    assert_eq!(c2["antialias"]["used"], false, "{c2}");
+    let want = render_state(lf, &c2, &["--click=32,40".into()], &d.join("rc2.png"));
+    let got = std::fs::read(d.join("c2_refocus.png")).unwrap();
+    assert_eq!(got, want, "c2: viewer ≠ render --antialias off");
+    assert_ne!(got, std::fs::read(d.join("c_refocus.png")).unwrap());
 
     // The P key wrote the same set of files with the prefix and a counter.
     for suffix in ["_refocus.png", "_scene.png", "_window.png", ".json"] {

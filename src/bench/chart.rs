@@ -152,8 +152,23 @@ where
                 .map(|p| (v.gpu_ms_median, p))
         })
         .collect();
+    // The anti-aliasing study's points: (GPU ms, PSNR against its lens, name with the cost
+    // ratio to the plain sum).
+    let aa: Vec<(f64, f64, String)> = report
+        .antialias
+        .iter()
+        .flat_map(|a| &a.points)
+        .filter(|p| p.gpu_ms_median > 0.0 && p.psnr_vs_truth_db.is_finite())
+        .map(|p| {
+            let label = format!("{} ×{:.1}", p.name, p.cost_ratio);
+            (p.gpu_ms_median, p.psnr_vs_truth_db, label)
+        })
+        .collect();
     let (tlo, thi) = span(
-        points.iter().map(|v| v.gpu_ms_median.ln()),
+        points
+            .iter()
+            .map(|v| v.gpu_ms_median.ln())
+            .chain(aa.iter().map(|a| a.0.ln())),
         0.08,
         (0.0, 1.0),
     );
@@ -163,7 +178,8 @@ where
         points
             .iter()
             .map(|v| v.psnr_vs_reference_db)
-            .chain(truth.iter().map(|t| t.1)),
+            .chain(truth.iter().map(|t| t.1))
+            .chain(aa.iter().map(|a| a.1)),
         0.08,
         (0.0, 100.0),
     );
@@ -217,6 +233,24 @@ where
             .map_err(chart_err)?
             .label("vs the optical ground truth")
             .legend(move |(x, y)| TriangleMarker::new((x, y), 6, orange.stroke_width(2)));
+    }
+    if !aa.is_empty() {
+        let green = RGBColor(30, 140, 60);
+        chart
+            .draw_series(aa.iter().map(|(t, p, _)| {
+                Rectangle::new([(*t * 0.97, p - 0.4), (*t * 1.03, p + 0.4)], green.filled())
+            }))
+            .map_err(chart_err)?
+            .label("anti-aliasing study vs its lens (× plain sum's time)")
+            .legend(move |(x, y)| Rectangle::new([(x - 5, y - 5), (x + 5, y + 5)], green.filled()));
+        // Alternately below and above, since neighbouring caps often sit close together.
+        for (k, (t, p, label)) in aa.iter().enumerate() {
+            let (px, py) = chart.backend_coord(&(*t, *p));
+            let style = TextStyle::from((FONT, 13).into_font()).color(&green);
+            let dy = if k % 2 == 0 { 4 } else { -18 };
+            root.draw(&Text::new(label.clone(), (px + 8, py + dy), style))
+                .map_err(chart_err)?;
+        }
     }
     // Labels: beside each point, moved up or down where they would overlap one already placed
     // (sizes estimated from the font size: about 0.6 em per character).

@@ -15,8 +15,12 @@
 //! A scaling sweep times render's default over apertures × output sizes and fits
 //! `time = fixed + cost · views · pixels` ([`stats::fit_cost`]).
 //!
+//! The anti-aliasing study ([`antialias`]) times the plain sum and anti-aliased refocus at
+//! several sub-sample caps on a layered synthetic scene and scores them against its lens.
+//!
 //! Benchmarks measure; they never assert speed.
 
+pub mod antialias;
 pub mod chart;
 pub mod output;
 pub mod roof;
@@ -325,6 +329,9 @@ pub struct BenchReport {
     /// The fastest variant that uses every view at full size and keeps the default's bound
     /// against the f64 bilinear reference.
     pub fastest_full_quality: Option<String>,
+    /// The anti-aliasing study ([`antialias`]; `bench --antialias off` leaves it out).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub antialias: Option<antialias::AntialiasReport>,
 }
 
 /// Per-view homographies of a plan, for tools that redo the same work (tools/opencv_shift_sum.py).
@@ -905,5 +912,6 @@ fn report(
         scaling,
         scaling_fit,
         fastest_full_quality,
+        antialias: None,
     }
 }

@@ -48,6 +48,10 @@ pub struct BenchArgs {
     /// The device's memory bandwidth in GB/s (default: a table of common GPUs).
     #[arg(long, value_name = "G")]
     pub peak_gbps: Option<f64>,
+    /// The anti-aliasing study (plain sum and anti-aliased refocus at several sub-sample caps
+    /// on a layered synthetic scene, against its lens): on (default) or off.
+    #[arg(long, value_name = "on|off")]
+    pub antialias: Option<super::Switch>,
     /// Print the report as JSON on stdout too.
     #[arg(long)]
     pub json: bool,
@@ -198,6 +202,24 @@ pub fn table(report: &BenchReport) -> String {
     if let Some(f) = &report.fastest_full_quality {
         out.push_str(&format!("fastest at full quality: {f}\n"));
     }
+    if let Some(aa) = &report.antialias {
+        out.push_str(&format!(
+            "anti-aliasing on {} ({} truth pinholes; PSNR overall / out of focus / focused):\n",
+            aa.scene, aa.truth_pinholes
+        ));
+        for p in &aa.points {
+            out.push_str(&format!(
+                "  {:<6} {:>3} views {:>9.2} ms  ×{:<5.2} {:>5.1} / {:>5.1} / {:>5.1} dB\n",
+                p.name,
+                p.views,
+                p.gpu_ms_median,
+                p.cost_ratio,
+                p.psnr_vs_truth_db,
+                p.psnr_out_of_focus_db,
+                p.psnr_focused_db
+            ));
+        }
+    }
     out
 }
 
@@ -208,7 +230,14 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     let ctx = Arc::new(GpuContext::new(&args.gpu.options())?);
     let scene = scene(args, &ctx)?;
     check_variant_sizes(&options, scene.lf.width, scene.lf.height)?;
-    let report = bench::run(Arc::clone(&ctx), &scene, &options)?;
+    let mut report = bench::run(Arc::clone(&ctx), &scene, &options)?;
+    if args.antialias != Some(super::Switch::Off) {
+        report.antialias = Some(bench::antialias::run(
+            Arc::clone(&ctx),
+            args.quick,
+            options.frames,
+        )?);
+    }
     let plan = bench::plan_for(&scene, ApertureShape::Disk, None)?;
     let homographies = bench::homographies(&scene.lf, &plan);
     let written = bench::output::write_all(&report, &homographies, &args.out)?;

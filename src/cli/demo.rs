@@ -10,7 +10,7 @@ use glam::DVec2;
 use serde_json::json;
 
 use super::render::{plan_json, save};
-use super::{default_demo_dir, GpuArgs};
+use super::{default_demo_dir, AntialiasArgs, GpuArgs};
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::geometry::plane::Plane;
@@ -31,6 +31,9 @@ pub struct DemoArgs {
     /// List the built-in scenes and exit.
     #[arg(long)]
     pub list: bool,
+    /// Anti-aliased refocus (default on: the built-in scenes have exact depth).
+    #[command(flatten)]
+    pub antialias: AntialiasArgs,
     #[command(flatten)]
     pub gpu: GpuArgs,
 }
@@ -48,6 +51,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         return Ok(());
     }
     let dir = args.output.clone().unwrap_or_else(default_demo_dir);
+    let aa_settings = args.antialias.settings()?;
     // Checked now, made when the first image is written (and removed again on failure).
     crate::io::check_writable_folder(&dir, "demo.json")?;
     let scene = synth::builtin(&args.scene).ok_or_else(|| {
@@ -113,9 +117,25 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         output: OutputFormat::Srgb8,
         ..RenderSettings::default()
     };
+    let aa_on = refocus::antialias::wanted(args.antialias.requested(), &lf);
     for (file, what, req) in jobs {
-        let plan = refocus::plan(&lf, &req, &[])?;
-        let (image, timings) = renderer.render(&plan, &settings)?;
+        let plain = refocus::plan(&lf, &req, &[])?;
+        let aa = if aa_on {
+            Some(refocus::antialias::plan_for(
+                &lf,
+                &plain,
+                req.aperture,
+                &[],
+                aa_settings,
+            )?)
+        } else {
+            None
+        };
+        let (image, timings) = match &aa {
+            Some(aa) => renderer.render_antialiased(aa, &settings)?,
+            None => renderer.render(&plain, &settings)?,
+        };
+        let plan = aa.as_ref().map_or(&plain, |a| &a.plan);
         let path = dir.join(&file);
         folder.track(&path, |p| save(&image, p))?;
         let ms = timings.map(|t| t.refocus_ms);
@@ -124,8 +144,12 @@ pub fn run(args: &DemoArgs) -> Result<()> {
             file,
             ms.map_or(String::new(), |ms| format!(" ({ms:.1} ms GPU)"))
         );
-        let mut entry = plan_json(&plan);
+        let mut entry = plan_json(plan);
         if let Some(o) = entry.as_object_mut() {
+            o.insert(
+                "antialias".into(),
+                refocus::antialias::antialias_json(aa.as_ref(), None),
+            );
             o.insert("file".into(), json!(path));
             o.insert("what".into(), json!(what));
             o.insert("gpu_refocus_ms".into(), json!(ms));

@@ -7,12 +7,14 @@ use std::sync::Arc;
 use serde_json::json;
 
 use super::focus::{focus_json, focus_summary};
-use super::render::{make_plan_with_window, plan_json, render_settings, RenderArgs};
+use super::render::{
+    antialias_plan, make_plan_with_window, plan_json, render_settings, RenderArgs,
+};
 use super::{check_output, device_load_limits};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::io::OutputKind;
-use crate::jobs::batch::{render_frames, BatchJob, OutputPattern};
+use crate::jobs::batch::{render_frames, BatchJob, FramePlan, OutputPattern};
 use crate::lightfield::technicolor::describe_frames;
 use crate::lightfield::video::{FrameRange, FrameSequence};
 use crate::passes::texture::ViewStorage;
@@ -32,6 +34,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         check_output(&pattern.path(f))?;
     }
     let settings = render_settings(args, kind)?;
+    args.antialias.settings()?;
     let storage = args
         .storage
         .unwrap_or_else(|| ViewStorage::for_averaging(args.aperture.average));
@@ -56,7 +59,8 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
     }
     bar.set_message(format!("refocusing {}", sequence.name()));
     let mut focus = None;
-    let (report, plan) = render_frames(
+    let mut depth_origin = None;
+    let (report, frame_plan) = render_frames(
         Arc::clone(&ctx),
         &job,
         |lf| {
@@ -64,7 +68,19 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
             // carries (the range does not estimate one per frame).
             let (plan, f) = make_plan_with_window(lf, args, super::focus::GIVEN_DEPTH_WINDOW)?;
             focus = Some(f);
-            Ok(plan)
+            // Anti-aliasing's depth too comes from the first frame: the one the video
+            // carries, or one estimated from it (`--antialias on`).
+            let aa_on = crate::refocus::antialias::wanted(args.antialias.requested(), lf);
+            let antialias = if aa_on {
+                let mut first = lf.clone();
+                depth_origin = Some(super::depth::ensure_for(&ctx, &mut first)?.0);
+                let (plan, _) =
+                    make_plan_with_window(&first, args, super::focus::GIVEN_DEPTH_WINDOW)?;
+                antialias_plan(&first, args, &plan, true)?
+            } else {
+                None
+            };
+            Ok(FramePlan { plan, antialias })
         },
         |_| bar.inc(1),
     )?;
@@ -75,6 +91,10 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
             "{errors} validation errors while rendering (see the log above)"
         )));
     }
+    let plan = frame_plan
+        .antialias
+        .as_ref()
+        .map_or(&frame_plan.plan, |a| &a.plan);
     let (out_w, out_h) = settings.size.unwrap_or((plan.width, plan.height));
     let mean = |f: fn(&crate::jobs::batch::FrameTimes) -> Option<f64>| report.mean(f);
     // The first frame's upload includes the whole set-up; the steady state leaves it out.
@@ -86,7 +106,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         .sum::<f64>()
         / (report.frames.len() - usize::from(report.frames.len() > 1)).max(1) as f64;
     if args.json {
-        let mut out = plan_json(&plan);
+        let mut out = plan_json(plan);
         let extra = json!({
             "light_field": {
                 "name": sequence.name(),
@@ -97,6 +117,10 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
             "frames": frames,
             "outputs": frames.iter().map(|&f| pattern.path(f)).collect::<Vec<_>>(),
             "averaging": args.aperture.average,
+            "antialias": crate::refocus::antialias::antialias_json(
+                frame_plan.antialias.as_ref(),
+                depth_origin.as_ref().map(super::depth::origin_json)
+            ),
             "strategy": settings.strategy.name(),
             "filter": settings.filter,
             "storage": storage,

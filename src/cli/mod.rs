@@ -143,6 +143,44 @@ impl ApertureArgs {
     }
 }
 
+/// Anti-aliased refocus options, flattened into `render`, `view` and `bench`.
+#[derive(Debug, Clone, Args)]
+pub struct AntialiasArgs {
+    /// Anti-aliased refocus, on or off: each view is integrated over its cell of the aperture
+    /// along the scene's depth, so out-of-focus content blurs into smooth discs instead of a
+    /// lattice of copies. Default: on when the light field ships a depth map, else off; `on`
+    /// estimates the depth where it is missing (cached).
+    #[arg(long, value_name = "on|off")]
+    pub antialias: Option<Switch>,
+    /// Anti-aliasing: most sub-samples per axis of each view's aperture cell (1 to 16; more
+    /// is smoother and slower).
+    #[arg(long, value_name = "N", default_value_t = crate::refocus::antialias::AntialiasSettings::default().max_samples)]
+    pub antialias_samples: u32,
+}
+
+impl AntialiasArgs {
+    /// `--antialias` as a request (`None`: the light field's default).
+    pub fn requested(&self) -> Option<bool> {
+        self.antialias.map(|s| s == Switch::On)
+    }
+
+    /// The sampling settings (validated).
+    pub fn settings(&self) -> Result<crate::refocus::antialias::AntialiasSettings> {
+        let s = crate::refocus::antialias::AntialiasSettings {
+            max_samples: self.antialias_samples,
+        };
+        s.validate()?;
+        Ok(s)
+    }
+}
+
+/// `on` or `off`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Switch {
+    On,
+    Off,
+}
+
 /// Vulkan device options.
 #[derive(Debug, Clone, Args)]
 pub struct GpuArgs {

@@ -8,8 +8,8 @@ use serde_json::json;
 
 use super::focus::{focus_json, focus_summary, FocusArgs, FOCUS_OPTIONS};
 use super::{
-    check_output, device_load_limits, load_light_field_within, ApertureArgs, GpuArgs,
-    LightFieldArgs,
+    check_output, device_load_limits, load_light_field_within, AntialiasArgs, ApertureArgs,
+    GpuArgs, LightFieldArgs,
 };
 use crate::error::{Error, Result};
 use crate::gpu::timing::median;
@@ -19,6 +19,7 @@ use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::LightField;
 use crate::passes::refocus::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
 use crate::passes::texture::ViewStorage;
+use crate::refocus::antialias::{antialias_json, AntialiasPlan};
 use crate::refocus::{self, RefocusPlan, ResolvedFocus};
 
 /// Most `--repeat` timing frames.
@@ -41,6 +42,8 @@ pub struct RenderArgs {
     pub focus: FocusArgs,
     #[command(flatten)]
     pub aperture: ApertureArgs,
+    #[command(flatten)]
+    pub antialias: AntialiasArgs,
     /// How views are summed: fragment (one draw), batched[:N] (draws of N views) or compute.
     #[arg(long, value_name = "STRATEGY")]
     pub strategy: Option<Strategy>,
@@ -119,6 +122,37 @@ pub fn make_plan_with_window(
 
 pub use crate::refocus::plan_json;
 
+/// The anti-aliasing plan of `args` for `plan` on `lf`, when it is on (`aa_on`); `lf` must
+/// then carry depth (the caller ensured it). When anti-aliasing was not asked for but is on
+/// by default (the light field ships depth), a render it cannot anti-alias (classic
+/// shift-and-sum, more than 256 views in the aperture) is the plain sum, with a warning.
+pub fn antialias_plan(
+    lf: &LightField,
+    args: &RenderArgs,
+    plan: &RefocusPlan,
+    aa_on: bool,
+) -> Result<Option<AntialiasPlan>> {
+    if !aa_on {
+        return Ok(None);
+    }
+    let excluded = lf.excluded_views(args.aperture.include_dark);
+    let made = refocus::antialias::plan_for(
+        lf,
+        plan,
+        args.aperture.aperture(),
+        &excluded,
+        args.antialias.settings()?,
+    );
+    match made {
+        Ok(aa) => Ok(Some(aa)),
+        Err(e) if args.antialias.requested().is_none() => {
+            log::warn!("rendering without anti-aliasing: {e}");
+            Ok(None)
+        }
+        Err(e) => Err(e),
+    }
+}
+
 /// Refuses an output size the device cannot hold (its image size limit, or its largest
 /// allocation for the float accumulation target), naming `--size`.
 pub(crate) fn check_output_fits(ctx: &GpuContext, (w, h): (u32, u32)) -> Result<()> {
@@ -192,6 +226,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         )));
     }
     let settings = render_settings(args, kind)?;
+    args.antialias.settings()?;
     check_output(&args.output)?;
     // The device first, so a light field it cannot hold is refused before decoding its views.
     let ctx = GpuContext::new(&args.gpu.options())?;
@@ -207,7 +242,14 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     } else {
         (None, super::focus::GIVEN_DEPTH_WINDOW)
     };
+    // Anti-aliasing needs the scene's depth too: given, or estimated when asked for.
+    let aa_on = refocus::antialias::wanted(args.antialias.requested(), &lf);
+    let depth = match depth {
+        None if aa_on => Some(super::depth::ensure_for(&ctx, &mut lf)?.0),
+        d => d,
+    };
     let (plan, focus) = make_plan_with_window(&lf, args, window)?;
+    let aa = antialias_plan(&lf, args, &plan, aa_on)?;
     if !args.json {
         if let Some(line) = focus_summary(&focus) {
             eprintln!("{line}");
@@ -220,7 +262,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let mut renderer = HeadlessRenderer::with_context(std::sync::Arc::new(ctx), &lf, storage)?;
     let t_upload = t1.elapsed().as_secs_f64() * 1e3;
     let t2 = Instant::now();
-    let (image, timings) = renderer.render(&plan, &settings)?;
+    let (image, timings) = match &aa {
+        Some(aa) => renderer.render_antialiased(aa, &settings)?,
+        None => renderer.render(&plan, &settings)?,
+    };
     let t_render = t2.elapsed().as_secs_f64() * 1e3;
     let mut gpu_times: Vec<f64> = timings.iter().map(|t| t.refocus_ms).collect();
     if args.repeat > 0 {
@@ -230,7 +275,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         }
         let bar = indicatif::ProgressBar::new(args.repeat as u64).with_message("timing frames");
         for _ in 0..args.repeat {
-            if let Some(t) = renderer.render_timed(&plan, &settings)? {
+            let t = match &aa {
+                Some(aa) => renderer.render_timed_antialiased(aa, &settings)?,
+                None => renderer.render_timed(&plan, &settings)?,
+            };
+            if let Some(t) = t {
                 gpu_times.push(t.refocus_ms);
             }
             bar.inc(1);
@@ -248,10 +297,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         )));
     }
     let gpu_median = median(&gpu_times);
+    let views_used = aa.as_ref().map_or(plan.views.len(), |a| a.plan.views.len());
     let (out_w, out_h) = settings.size.unwrap_or((plan.width, plan.height));
     let pixels = out_w as f64 * out_h as f64;
     if args.json {
-        let mut report = plan_json(&plan);
+        let mut report = plan_json(aa.as_ref().map_or(&plan, |a| &a.plan));
         let extra = json!({
             "light_field": {
                 "name": lf.name,
@@ -260,6 +310,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             },
             "focus": focus_json(&focus),
             "depth": depth.as_ref().map(super::depth::origin_json),
+            "antialias": antialias_json(aa.as_ref(), depth.as_ref().map(super::depth::origin_json)),
             "output": args.output,
             "averaging": args.aperture.average,
             "strategy": settings.strategy.name(),
@@ -279,7 +330,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                 "gpu_refocus_median": gpu_median,
                 "frames": gpu_times.len(),
             },
-            "view_samples_per_second": gpu_median.map(|ms| plan.views.len() as f64 * pixels / (ms / 1e3)),
+            "view_samples_per_second": gpu_median.map(|ms| views_used as f64 * pixels / (ms / 1e3)),
         });
         if let (Some(obj), Some(extra)) = (report.as_object_mut(), extra.as_object()) {
             obj.extend(extra.clone());
@@ -290,11 +341,12 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         );
     } else {
         eprintln!(
-            "wrote {} ({}×{}, {} views, {}{})",
+            "wrote {} ({}×{}, {} views{}, {}{})",
             args.output.display(),
             out_w,
             out_h,
-            plan.views.len(),
+            views_used,
+            if aa.is_some() { ", anti-aliased" } else { "" },
             gpu_median.map_or("no GPU timer".to_string(), |ms| format!(
                 "GPU refocus {ms:.2} ms on {device}"
             )),

@@ -9,7 +9,7 @@ use serde_json::json;
 
 use super::focus::{focus_json, FocusArgs};
 use super::render::{dark_views, plan_json};
-use super::{load_light_field, ApertureArgs, GpuArgs, LightFieldArgs, ReadArgs};
+use super::{load_light_field, AntialiasArgs, ApertureArgs, GpuArgs, LightFieldArgs, ReadArgs};
 use crate::error::{Error, Result};
 use crate::gpu::swapchain::PresentMode;
 use crate::lightfield::video::FrameSequence;
@@ -29,6 +29,10 @@ pub struct ViewArgs {
     pub focus: FocusArgs,
     #[command(flatten)]
     pub aperture: ApertureArgs,
+    /// Anti-aliasing (the X key toggles it); default: on wherever depth is available (the
+    /// light field's own map or an estimate).
+    #[command(flatten)]
+    pub antialias: AntialiasArgs,
     /// Presentation: fifo (vsync), mailbox or immediate (for profiling).
     #[arg(long, default_value = "fifo")]
     pub present: PresentMode,
@@ -76,6 +80,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         log::warn!("--screenshot-prefix: {e}; the P key will not be able to save");
     }
     let reference = args.aperture.reference()?;
+    let antialias = args.antialias.settings()?;
     let aperture = args.aperture.aperture();
     aperture.validate()?;
     let focus = args.focus.request()?;
@@ -105,6 +110,16 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         }
     };
     drop(ctx);
+    let antialias_on = match args.antialias.requested() {
+        Some(true) if depth_origin.is_none() => {
+            return Err(Error::Invalid(format!(
+                "--antialias on needs depth, and none could be estimated for '{}'",
+                lf.name
+            )))
+        }
+        Some(on) => on,
+        None => depth_origin.is_some(),
+    };
     let opts = ViewerOptions {
         focus,
         aperture,
@@ -120,6 +135,8 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         screenshot_prefix: args.screenshot_prefix.clone(),
         video,
         normal_window,
+        antialias,
+        antialias_on,
     };
     let report = viewer::run(&lf, opts)?;
     let state = &report.state;
@@ -134,6 +151,11 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             "focus": focus_json(&state.resolved),
             "depth": depth_origin.as_ref().map(super::depth::origin_json),
             "averaging": state.averaging(),
+            "antialias": {
+                "used": state.antialias() && depth_origin.is_some(),
+                "max_samples": antialias.max_samples,
+                "depth_origin": depth_origin.as_ref().map(super::depth::origin_json),
+            },
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},
             "storage": ViewStorage::default(),
             "size": [lf.width, lf.height],

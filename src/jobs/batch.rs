@@ -25,6 +25,7 @@ use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::video::{FrameLoader, FrameSequence};
 use crate::lightfield::{LightField, LoadLimits};
 use crate::passes::texture::ViewStorage;
+use crate::refocus::antialias::AntialiasPlan;
 use crate::refocus::RefocusPlan;
 
 /// An output path with the frame number in it: `{frame}` (the number as is) or `{frame:0N}`
@@ -157,15 +158,23 @@ pub struct BatchJob<'a> {
     pub limits: LoadLimits,
 }
 
+/// The plan of every frame: the refocus plan, and the anti-aliasing plan when it is on (its
+/// scene depth, like the plane, comes from the first frame).
+#[derive(Debug, Clone)]
+pub struct FramePlan {
+    pub plan: RefocusPlan,
+    pub antialias: Option<AntialiasPlan>,
+}
+
 /// Renders every frame of `job` (see the module docs). `make_plan` turns the first frame into
 /// the plan used for all; `progress` is called after each frame is rendered. Returns the
 /// report and the plan.
 pub fn render_frames(
     ctx: Arc<GpuContext>,
     job: &BatchJob,
-    make_plan: impl FnOnce(&LightField) -> Result<RefocusPlan>,
+    make_plan: impl FnOnce(&LightField) -> Result<FramePlan>,
     mut progress: impl FnMut(u64),
-) -> Result<(BatchReport, RefocusPlan)> {
+) -> Result<(BatchReport, FramePlan)> {
     let t0 = Instant::now();
     if job.frames.is_empty() {
         return Err(Error::Invalid("no frames to render".into()));
@@ -193,7 +202,7 @@ pub fn render_frames(
 
     let mut times: Vec<FrameTimes> = Vec::with_capacity(job.frames.len());
     let mut renderer: Option<HeadlessRenderer> = None;
-    let mut plan: Option<RefocusPlan> = None;
+    let mut plan: Option<FramePlan> = None;
     let mut make_plan = Some(make_plan);
     let mut done: Vec<(u64, f64, usize)> = Vec::new();
     let result: Result<()> = (|| {
@@ -229,7 +238,10 @@ pub fn render_frames(
                 return Err(Error::Vulkan("no renderer".into()));
             };
             let tr = Instant::now();
-            let (image, gpu) = r.render(p, &job.settings)?;
+            let (image, gpu) = match &p.antialias {
+                Some(aa) => r.render_antialiased(aa, &job.settings)?,
+                None => r.render(&p.plan, &job.settings)?,
+            };
             let render_ms = tr.elapsed().as_secs_f64() * 1e3;
             times.push(FrameTimes {
                 frame: expected,

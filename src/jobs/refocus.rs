@@ -23,6 +23,7 @@ use crate::passes::refocus::{
     WarpMemory,
 };
 use crate::passes::texture::{LightFieldTexture, ViewStorage};
+use crate::refocus::antialias::AntialiasPlan;
 use crate::refocus::{Averaging, RefocusImage, RefocusPlan};
 
 /// Per-render settings.
@@ -176,8 +177,29 @@ impl HeadlessRenderer {
         settings: &RenderSettings,
     ) -> Result<(GpuImage, Option<PassTimings>)> {
         let views = 0..plan.views.len();
-        let timings = self.frame(plan, settings, views, true, true)?;
+        let timings = self.frame(plan, None, settings, views, true, true)?;
         Ok((self.read_image(settings)?, timings))
+    }
+
+    /// Renders the anti-aliased refocus of `aa` (docs/conventions.md §11) and reads it back.
+    pub fn render_antialiased(
+        &mut self,
+        aa: &AntialiasPlan,
+        settings: &RenderSettings,
+    ) -> Result<(GpuImage, Option<PassTimings>)> {
+        let views = 0..aa.plan.views.len();
+        let timings = self.frame(&aa.plan, Some(aa), settings, views, true, true)?;
+        Ok((self.read_image(settings)?, timings))
+    }
+
+    /// [`Self::render_antialiased`] without readback, for timing.
+    pub fn render_timed_antialiased(
+        &mut self,
+        aa: &AntialiasPlan,
+        settings: &RenderSettings,
+    ) -> Result<Option<PassTimings>> {
+        let views = 0..aa.plan.views.len();
+        self.frame(&aa.plan, Some(aa), settings, views, true, false)
     }
 
     /// Renders `plan` without readback and returns the GPU timings (for benchmarks).
@@ -186,7 +208,7 @@ impl HeadlessRenderer {
         plan: &RefocusPlan,
         settings: &RenderSettings,
     ) -> Result<Option<PassTimings>> {
-        self.frame(plan, settings, 0..plan.views.len(), true, false)
+        self.frame(plan, None, settings, 0..plan.views.len(), true, false)
     }
 
     /// Progressive accumulation: adds the views `views` of `plan` (plan order) to the sum, in a
@@ -199,13 +221,14 @@ impl HeadlessRenderer {
         views: Range<usize>,
         restart: bool,
     ) -> Result<GpuImage> {
-        self.frame(plan, settings, views, restart, true)?;
+        self.frame(plan, None, settings, views, restart, true)?;
         self.read_image(settings)
     }
 
     fn frame(
         &mut self,
         plan: &RefocusPlan,
+        aa: Option<&AntialiasPlan>,
         settings: &RenderSettings,
         views: Range<usize>,
         restart: bool,
@@ -237,7 +260,10 @@ impl HeadlessRenderer {
             )?);
         }
         pass.set_warp_memory(settings.warps)?;
-        pass.set_views(plan)?;
+        match aa {
+            Some(aa) => pass.set_antialias(aa)?,
+            None => pass.set_views(plan)?,
+        };
         let (Some(target), Some(submission), Some(readback_buffer)) = (
             self.target.as_mut(),
             self.submission.as_ref(),
@@ -253,6 +279,7 @@ impl HeadlessRenderer {
             strategy: settings.strategy,
             filter: settings.filter,
             averaging: settings.averaging,
+            antialias: aa.map_or(0, |a| a.settings.max_samples),
         };
         let ts = self.timestamps.as_ref();
         let all = vk::PipelineStageFlags2::ALL_COMMANDS;

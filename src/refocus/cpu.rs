@@ -10,6 +10,7 @@
 use glam::DVec2;
 use rayon::prelude::*;
 
+use super::antialias::{samples, view_residual, AntialiasPlan};
 use super::{Averaging, RefocusImage, RefocusPlan};
 use crate::color;
 use crate::lightfield::LightField;
@@ -105,6 +106,146 @@ pub fn render_with(
         averaging,
         pixels,
     }
+}
+
+/// The f64 model of the anti-aliased sum (docs/conventions.md §11, [`super::antialias`]):
+/// per view, `n_s × n_t` stratified sub-samples of its aperture cell at
+/// `A_i x + b_i s + footprint(u, v)·(s − σ)`, each masked like a plain sample and weighing
+/// `weight / (n_s n_t)`; bilinear, as the GPU's default filter.
+pub fn render_antialiased(
+    lf: &LightField,
+    aa: &AntialiasPlan,
+    averaging: Averaging,
+    w: u32,
+    h: u32,
+) -> RefocusImage {
+    let plan = &aa.plan;
+    let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
+    let table: [f64; 256] = match averaging {
+        Averaging::Linear => color::decode_table(),
+        Averaging::Encoded => std::array::from_fn(|i| i as f64 / 255.0),
+    };
+    let (wf, hf) = (lf.width as f64, lf.height as f64);
+    let max = aa.settings.max_samples;
+    let mut pixels = vec![[0f32; 4]; w as usize * h as usize];
+    pixels
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, out) in row.iter_mut().enumerate() {
+                let px = (DVec2::new(x as f64, y as f64) + 0.5) * scale - 0.5;
+                let s = plan.m.dot(px.extend(1.0)).max(0.0);
+                let mut sum = [0f64; 3];
+                let mut wsum = 0f64;
+                for (v, fp) in plan.views.iter().zip(&aa.footprints) {
+                    let d = view_residual(&aa.depth, fp, px, s).unwrap_or(0.0);
+                    let y0 = v.warp.apply(plan.m, px);
+                    let ns = samples(fp.span_s, d, y0.z, max);
+                    let nt = samples(fp.span_t, d, y0.z, max);
+                    let wk = v.weight / (ns * nt) as f64;
+                    let img = &lf.views[v.index].image;
+                    for b in 0..nt {
+                        let vv = (b as f64 + 0.5) / nt as f64;
+                        for a in 0..ns {
+                            let u = (a as f64 + 0.5) / ns as f64;
+                            let q = y0 + fp.offset(u, vv, d);
+                            if q.z.is_nan() || q.z <= 0.0 {
+                                continue;
+                            }
+                            let p = DVec2::new(q.x / q.z, q.y / q.z);
+                            if !(p.x >= -0.5 && p.x <= wf - 0.5 && p.y >= -0.5 && p.y <= hf - 0.5) {
+                                continue;
+                            }
+                            let c = bilinear(img, &table, p);
+                            for k in 0..3 {
+                                sum[k] += wk * c[k];
+                            }
+                            wsum += wk;
+                        }
+                    }
+                }
+                *out = if wsum > 0.0 {
+                    [
+                        (sum[0] / wsum) as f32,
+                        (sum[1] / wsum) as f32,
+                        (sum[2] / wsum) as f32,
+                        1.0,
+                    ]
+                } else {
+                    [0.0; 4]
+                };
+            }
+        });
+    RefocusImage {
+        width: w,
+        height: h,
+        averaging,
+        pixels,
+    }
+}
+
+/// Output pixels where the anti-aliased model is ambiguous in f32: a view's sub-sample count
+/// sits within `eps` (relative) of a step of its rounding, or a sub-sample lies within `eps`
+/// pixels of a view's border. There the GPU may take one sub-sample more or fewer, a
+/// different but equally valid quadrature of the same cell.
+pub fn ambiguous_antialiased(
+    lf: &LightField,
+    aa: &AntialiasPlan,
+    (w, h): (u32, u32),
+    eps: f64,
+) -> Vec<bool> {
+    let plan = &aa.plan;
+    let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
+    let (wf, hf) = (lf.width as f64, lf.height as f64);
+    let max = aa.settings.max_samples;
+    let near = |v: f64, edge: f64| (v - edge).abs() <= eps * edge.abs().max(1.0);
+    (0..w as usize * h as usize)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
+            let px = (DVec2::new(x, y) + 0.5) * scale - 0.5;
+            let s = plan.m.dot(px.extend(1.0)).max(0.0);
+            plan.views.iter().zip(&aa.footprints).any(|(v, fp)| {
+                let d = view_residual(&aa.depth, fp, px, s).unwrap_or(0.0);
+                // The occlusion test's lookup rounds a position: near a rounding tie, f32 may
+                // read the neighbouring pixel.
+                if let (Some(sigma), Some(front)) = (aa.depth.at(px), aa.depth.front_at(px)) {
+                    if front > sigma + 1e-6 {
+                        let q = px.extend(1.0) + fp.parallax * (s - front);
+                        let tie = |v: f64| near(v + 0.5, (v + 0.5).round());
+                        if q.z <= eps || tie(q.x / q.z) || tie(q.y / q.z) {
+                            return true;
+                        }
+                    }
+                }
+                let y0 = v.warp.apply(plan.m, px);
+                if y0.z <= eps {
+                    return true;
+                }
+                let len = |span: glam::DVec3| (span.truncate() * d).length() / y0.z;
+                let (ls, lt) = (len(fp.span_s), len(fp.span_t));
+                let step = |l: f64| l > 0.5 && l < max as f64 + 0.5 && near(l, l.round());
+                if step(ls) || step(lt) {
+                    return true;
+                }
+                let ns = samples(fp.span_s, d, y0.z, max);
+                let nt = samples(fp.span_t, d, y0.z, max);
+                (0..nt).any(|b| {
+                    (0..ns).any(|a| {
+                        let u = (a as f64 + 0.5) / ns as f64;
+                        let vv = (b as f64 + 0.5) / nt as f64;
+                        let q = y0 + fp.offset(u, vv, d);
+                        let p = DVec2::new(q.x / q.z, q.y / q.z);
+                        q.z <= eps
+                            || near(p.x, -0.5)
+                            || near(p.x, wf - 0.5)
+                            || near(p.y, -0.5)
+                            || near(p.y, hf - 0.5)
+                    })
+                })
+            })
+        })
+        .collect()
 }
 
 /// Exact bilinear interpolation at pixel position `p` (pixel centres at integers) with

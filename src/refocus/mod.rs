@@ -2,6 +2,7 @@
 //! ([`mod@plan`]), the f64 CPU reference renderer ([`cpu`]) and the refocus image type shared
 //! with the GPU pass. Writing images to files is [`crate::io`]'s job.
 
+pub mod antialias;
 pub mod cpu;
 pub mod focus;
 pub mod plan;

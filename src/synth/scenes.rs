@@ -11,6 +11,7 @@
 //! | `room`   | a room 2.4 m wide: floor, ceiling, back wall at 5 m, two side walls each with two paintings hung flat on them (planes through a side wall span two paintings and the wall) | 1.0 | 0.02 m | 3.5 m |
 //! | `tower`  | three boxes stacked and turned (25°, 50°, 10°) on a checkered floor in front of a wall at 7 m: flat faces for single-click normals | 1.1 | 0.03 m | 3.5 m |
 //! | `depths` | seven cards with fine texture (grain, rings, stripes) from 1.2 m to 6 m in front of a finely checkered wall at 9 m: aliasing at many depths | 1.1 | 0.03 m | 2.5 m |
+//! | `layers` | four textured frontoparallel layers at HCI disparities −3, 0, +2 and +6 px per grid step for a 128-pixel-wide view (back wall 3.765 m, a panel at 2 m on the left, a panel at 1.52 m lower right, a card at 1.03 m): a sparse light field's angular aliasing and occlusion edges ([`layers`]) | 1.0 | 0.1 m | 2 m |
 //! | `planes` | two frontoparallel planes at 4 m and 2 m ([`mod@super::builtin`]) | 1.25 | 0.1 m | 3 m |
 //! | `tilted` | one plane tilted 40° about x through (0, 0, 3 m) ([`mod@super::builtin`]) | 1.25 | 0.1 m | 3 m |
 
@@ -41,7 +42,9 @@ impl SynthScene {
 
 /// Names accepted by [`synth_scene`].
 pub fn synth_scene_names() -> &'static [&'static str] {
-    &["demo", "room", "tower", "depths", "planes", "tilted"]
+    &[
+        "demo", "room", "tower", "depths", "layers", "planes", "tilted",
+    ]
 }
 
 /// The built-in synth scene called `name`.
@@ -65,6 +68,7 @@ pub fn synth_scene(name: &str) -> Option<SynthScene> {
         "room" => Some(room()),
         "tower" => Some(tower()),
         "depths" => Some(depths()),
+        "layers" => Some(layers()),
         _ => None,
     }
 }
@@ -316,6 +320,78 @@ fn depths() -> SynthScene {
         focal_per_width: 1.1,
         baseline: 0.03,
         focus_distance: 2.5,
+    }
+}
+
+/// Depths of [`layers`]' four planes (back to front): with f = W (f/W = 1), baseline 0.1 m and
+/// focus at 2 m, disparity `d = 0.1·W·(1/z − 1/2)` is −3, 0, +2 and +6 px per grid step at
+/// W = 128 (scaling with W).
+pub const LAYER_DEPTHS: [f64; 4] = [
+    1.0 / (0.5 - 3.0 / 12.8),
+    2.0,
+    1.0 / (0.5 + 2.0 / 12.8),
+    1.0 / (0.5 + 6.0 / 12.8),
+];
+
+/// Four textured frontoparallel layers (see the module table): the anti-aliasing test scene.
+/// Every view of a 5×5 rig at the default baseline sees only the scene (no background).
+pub fn layers() -> SynthScene {
+    let [zb, zm, zn, zc] = LAYER_DEPTHS;
+    let quads = vec![
+        quad(
+            DVec3::new(0.0, 0.0, zb),
+            DVec3::new(2.8, 0.0, 0.0),
+            DVec3::new(0.0, 2.8, 0.0),
+            Texture::Bricks {
+                rows: 18,
+                cols: 8,
+                seed: 3,
+                brick: [0.42, 0.13, 0.07],
+                mortar: [0.50, 0.48, 0.44],
+            },
+        ),
+        quad(
+            DVec3::new(-0.55 * zm / 2.0, -0.05, zm),
+            DVec3::new(0.45 * zm / 2.0, 0.0, 0.0),
+            DVec3::new(0.0, 0.4 * zm, 0.0),
+            Texture::Detail {
+                seed: 11,
+                grain: 48,
+                rings: 6,
+                text: "FOCUS".into(),
+                paper: PAPER,
+                ink: INK,
+            },
+        ),
+        quad(
+            DVec3::new(0.22 * zn, 0.24 * zn, zn),
+            DVec3::new(0.2 * zn, 0.0, 0.0),
+            DVec3::new(0.0, 0.17 * zn, 0.0),
+            Texture::Checker {
+                cells_u: 10,
+                cells_v: 8,
+                a: [0.85, 0.75, 0.2],
+                b: [0.05, 0.15, 0.4],
+            },
+        ),
+        quad(
+            DVec3::new(0.12 * zc, -0.22 * zc, zc),
+            DVec3::new(0.13 * zc, 0.0, 0.0),
+            DVec3::new(0.0, 0.1 * zc, 0.0),
+            Texture::ColourBars { stripes: 10 },
+        ),
+    ];
+    SynthScene {
+        name: "layers",
+        description: "four textured frontoparallel layers at −3, 0, +2 and +6 px of disparity \
+                      per grid step (128-pixel views): angular aliasing and occlusion edges",
+        scene: Scene {
+            quads,
+            background: [0.0; 3],
+        },
+        focal_per_width: 1.0,
+        baseline: 0.1,
+        focus_distance: 2.0,
     }
 }
 

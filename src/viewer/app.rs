@@ -35,6 +35,7 @@ use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::video::FrameSequence;
 use crate::lightfield::LightField;
 use crate::passes::texture::ViewStorage;
+use crate::refocus::antialias::AntialiasSettings;
 use crate::refocus::{Averaging, FocusRequest, FocusSpec};
 
 /// How long after the last input the view counts as "being interacted with".
@@ -70,6 +71,10 @@ pub struct ViewerOptions {
     pub video: Option<(FrameSequence, u64)>,
     /// Normal window of clicks (see [`crate::depth::DepthOrigin::normal_window`]).
     pub normal_window: u32,
+    /// Anti-aliasing's sampling (the X key toggles it; it needs the light field's depth) and
+    /// whether it starts on.
+    pub antialias: AntialiasSettings,
+    pub antialias_on: bool,
 }
 
 /// The final state and what the session measured.
@@ -221,7 +226,7 @@ fn initial_state(
     )?;
     state.normals = state.normals.with_window(opts.normal_window);
     state.frame = opts.video.as_ref().map(|(_, f)| *f);
-    Ok(state)
+    Ok(state.with_antialias(opts.antialias_on))
 }
 
 /// Opens the window on `lf` and runs until the user or the script quits.
@@ -262,7 +267,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         gpu.set_cloud(&c.vertices())?;
     }
     let refiner = Refiner::new(opts.frame_budget_ms, lf.width as u64 * lf.height as u64);
-    let session = Session::new(
+    let mut session = Session::new(
         lf,
         state,
         depth,
@@ -271,6 +276,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         opts.video.clone(),
         opts.screenshot_prefix.clone(),
     );
+    session.antialias = Some(opts.antialias);
     let viewer = Viewer {
         gpu,
         session,

@@ -39,6 +39,7 @@ use crate::passes::panel::{Compositor, PanelMode, Rect};
 use crate::passes::refocus::{Accumulate, OutputFormat, RefocusPass, RefocusTarget, Strategy};
 use crate::passes::scene::{SceneOverlay, ScenePass, SceneTarget, SceneView};
 use crate::passes::texture::{LightFieldTexture, ViewStorage};
+use crate::refocus::antialias::AntialiasPlan;
 use crate::refocus::{Averaging, RefocusPlan};
 
 use super::layout::Layout;
@@ -51,6 +52,8 @@ const OVERLAY_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
 pub struct FrameRequest<'a> {
     /// The plan in refinement order (the batch's ranges index it).
     pub plan: &'a RefocusPlan,
+    /// Anti-aliasing: its plan in the same order (`plan` is its `plan`), when on.
+    pub antialias: Option<&'a AntialiasPlan>,
     pub averaging: Averaging,
     /// Views to add, if refinement is not complete.
     pub batch: Option<Batch>,
@@ -403,10 +406,22 @@ impl ViewerGpu {
         if let Some(b) = &req.batch {
             self.ensure_preview(b.divisor)?;
         }
-        if self.pass.as_ref().is_some_and(|p| p.views_differ(req.plan)) {
-            self.wait_idle()?;
-            if let Some(p) = self.pass.as_mut() {
-                p.set_views(req.plan)?;
+        match req.antialias {
+            Some(aa) => {
+                if self.pass.as_ref().is_some_and(|p| p.antialias_differs(aa)) {
+                    self.wait_idle()?;
+                    if let Some(p) = self.pass.as_mut() {
+                        p.set_antialias(aa)?;
+                    }
+                }
+            }
+            None => {
+                if self.pass.as_ref().is_some_and(|p| p.views_differ(req.plan)) {
+                    self.wait_idle()?;
+                    if let Some(p) = self.pass.as_mut() {
+                        p.set_views(req.plan)?;
+                    }
+                }
             }
         }
         Ok(())
@@ -465,6 +480,7 @@ impl ViewerGpu {
         if let Some(batch) = &req.batch {
             let work = RefocusWork {
                 plan: req.plan,
+                antialias: req.antialias.map_or(0, |a| a.settings.max_samples),
                 batch,
                 averaging: req.averaging,
                 strategy: self.strategy,
@@ -540,6 +556,7 @@ impl ViewerGpu {
     pub fn capture_refocus(
         &mut self,
         plan: &RefocusPlan,
+        aa: Option<&AntialiasPlan>,
         averaging: Averaging,
         size: (u32, u32),
     ) -> Result<RgbaImage> {
@@ -548,7 +565,16 @@ impl ViewerGpu {
         let Some(pass) = self.pass.as_mut() else {
             return Err(Error::Vulkan("the viewer was not fully created".into()));
         };
-        pass.set_views(plan)?;
+        let plan = match aa {
+            Some(aa) => {
+                pass.set_antialias(aa)?;
+                &aa.plan
+            }
+            None => {
+                pass.set_views(plan)?;
+                plan
+            }
+        };
         let (w, h) = size;
         let mut target = pass.create_target(&ctx, w, h)?;
         let captured = (|| -> Result<RgbaImage> {
@@ -569,6 +595,7 @@ impl ViewerGpu {
                 strategy: self.strategy,
                 filter: Default::default(),
                 averaging,
+                antialias: aa.map_or(0, |a| a.settings.max_samples),
             };
             let mut recorded = Ok(());
             let ran = submission.run(&ctx, |d, cmd| {
@@ -618,6 +645,8 @@ impl ViewerGpu {
 /// One frame's refocus work: the batch of `plan` (refinement order) to accumulate.
 struct RefocusWork<'a> {
     plan: &'a RefocusPlan,
+    /// Anti-aliasing's sub-sample cap (0: the plain sum).
+    antialias: u32,
     batch: &'a Batch,
     averaging: Averaging,
     strategy: Strategy,
@@ -642,6 +671,7 @@ impl RefocusTargets {
             strategy: work.strategy,
             filter: Default::default(),
             averaging: work.averaging,
+            antialias: work.antialias,
         };
         let target = if batch.divisor > 1 {
             match self.preview.as_mut() {

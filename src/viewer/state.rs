@@ -52,6 +52,8 @@ pub enum Action {
     Recentre,
     /// Linear ↔ encoded averaging.
     ToggleAveraging,
+    /// Anti-aliased refocus on/off (where the session has depth for it).
+    ToggleAntialias,
     /// Back to the state the viewer started in.
     Reset,
     /// Single-click plane at a pixel of the depth view (as `render --click`).
@@ -104,6 +106,8 @@ struct Core {
     aperture: Aperture,
     reference: DVec2,
     averaging: Averaging,
+    /// Anti-aliased refocus wanted (the session draws it where it has depth).
+    antialias: bool,
 }
 
 /// The viewer's state.
@@ -177,6 +181,7 @@ impl ViewerState {
             aperture,
             reference: reference.unwrap_or_else(|| lf.grid.centre()),
             averaging,
+            antialias: false,
         };
         let (resolved, plan) = resolve(lf, &core, &excluded)?;
         let anchor = anchor_of(&resolved);
@@ -226,6 +231,18 @@ impl ViewerState {
 
     pub fn averaging(&self) -> Averaging {
         self.core.averaging
+    }
+
+    /// Whether anti-aliased refocus is wanted.
+    pub fn antialias(&self) -> bool {
+        self.core.antialias
+    }
+
+    /// The state starting with anti-aliasing `on` (what R returns to).
+    pub fn with_antialias(mut self, on: bool) -> Self {
+        self.core.antialias = on;
+        self.initial.antialias = on;
+        self
     }
 
     /// Where the plane quad is centred.
@@ -574,6 +591,10 @@ fn modify(
         Action::Recentre => {
             world_fixed(core, resolved);
             core.reference = lf.grid.centre();
+            Ok(())
+        }
+        Action::ToggleAntialias => {
+            core.antialias = !core.antialias;
             Ok(())
         }
         Action::ToggleAveraging => {

@@ -6,6 +6,7 @@
 
 use crate::geometry::homography::ViewWarp;
 use crate::gpu::pod::Pod;
+use crate::refocus::antialias::Footprint;
 
 /// One view's warp `H_i = A_i + b_i mᵀ` as the shaders read it (`ViewWarp` in GLSL).
 #[repr(C)]
@@ -35,6 +36,30 @@ impl GpuViewWarp {
     }
 }
 
+/// One view's aperture-cell footprint as the shaders read it (`ViewFootprint` in GLSL; see
+/// [`crate::refocus::antialias::Footprint`]): homogeneous offsets in xyz; the three `w`s hold
+/// the parallax vector (x, y, z).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GpuFootprint {
+    pub origin: [f32; 4],
+    pub span_s: [f32; 4],
+    pub span_t: [f32; 4],
+}
+
+impl GpuFootprint {
+    /// The record of `f` (rounded to f32).
+    pub fn new(f: &Footprint) -> Self {
+        let v = |d: glam::DVec3, w: f64| [d.x as f32, d.y as f32, d.z as f32, w as f32];
+        let g = f.parallax;
+        GpuFootprint {
+            origin: v(f.origin, g.x),
+            span_s: v(f.span_s, g.y),
+            span_t: v(f.span_t, g.z),
+        }
+    }
+}
+
 /// The push constants of the accumulation shaders (`RefocusPush` in GLSL).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -54,6 +79,8 @@ pub struct RefocusPush {
 
 // SAFETY: repr(C), only f32 arrays: no padding.
 unsafe impl Pod for GpuViewWarp {}
+// SAFETY: repr(C), only f32 arrays: no padding.
+unsafe impl Pod for GpuFootprint {}
 // SAFETY: repr(C), f32 arrays then u32s, 48 bytes: no padding.
 unsafe impl Pod for RefocusPush {}
 
@@ -80,6 +107,23 @@ mod tests {
             .collect();
         assert_eq!(glsl, rust);
         assert_eq!(size_of::<GpuViewWarp>(), 64);
+    }
+
+    #[test]
+    fn footprint_matches_the_glsl_struct() {
+        let glsl = glsl_block(GLSL, "struct ViewFootprint");
+        let rust = [
+            ("origin", offset_of!(GpuFootprint, origin), 16),
+            ("span_s", offset_of!(GpuFootprint, span_s), 16),
+            ("span_t", offset_of!(GpuFootprint, span_t), 16),
+        ];
+        let rust: Vec<_> = rust
+            .iter()
+            .map(|(n, o, s)| (n.to_string(), *o, *s))
+            .collect();
+        assert_eq!(glsl, rust);
+        // std140 arrays of this struct have a 48-byte stride: no padding between records.
+        assert_eq!(size_of::<GpuFootprint>(), 48);
     }
 
     #[test]

@@ -28,8 +28,12 @@
 //! Output pixel (i, j) has its centre at reference-view pixel position
 //! ((i + ½)·W_view/W_out − ½, (j + ½)·H_view/H_out − ½), so any output size is exact.
 //!
+//! - [`RefocusPass::set_antialias`] uploads an anti-aliasing plan (views by aperture cell,
+//!   their footprints, the scene's inverse depth per reference pixel); accumulations with
+//!   `antialias > 0` integrate each view over its footprint (docs/conventions.md §11).
+//!
 //! Destruction order: pipelines → pipeline layouts → descriptor pool (frees the sets) → set
-//! layouts → samplers → warp buffer → decode table. Targets are the caller's and destroyed by it.
+//! layouts → samplers → warp buffer → decode table → anti-aliasing buffers. Targets are the caller's and destroyed by it.
 
 mod interface;
 mod target;
@@ -39,7 +43,7 @@ use std::ops::Range;
 use ash::vk;
 
 use crate::gpu::pod::as_bytes;
-pub use interface::{GpuViewWarp, RefocusPush};
+pub use interface::{GpuFootprint, GpuViewWarp, RefocusPush};
 pub use target::{OutputFormat, RefocusTarget};
 
 use super::texture::{LightFieldTexture, ViewStorage, VIEW_SRGB, VIEW_STORED};
@@ -51,6 +55,7 @@ use crate::gpu::pipeline::{compute_pipeline, graphics_pipeline, Blend, PipelineD
 use crate::gpu::resources::Buffer;
 use crate::gpu::shaders;
 use crate::gpu::GpuContext;
+use crate::refocus::antialias::AntialiasPlan;
 use crate::refocus::{Averaging, RefocusPlan};
 
 /// Workgroup edge of `refocus.comp` (8 × 8 invocations).
@@ -285,6 +290,10 @@ pub struct Accumulate {
     pub strategy: Strategy,
     pub filter: Filter,
     pub averaging: Averaging,
+    /// Anti-aliasing: at most this many sub-samples per axis of each view's aperture cell,
+    /// from the footprints and scene depth of the last [`RefocusPass::set_antialias`]; 0: the
+    /// plain sum.
+    pub antialias: u32,
 }
 
 /// What the shader does to each texel before filtering (`TEXEL` in refocus_accumulate.glsl).
@@ -322,6 +331,7 @@ struct AccumKey {
     texel: u32,
     format: vk::Format,
     uniform_warps: bool,
+    antialias: u32,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -346,6 +356,15 @@ pub struct RefocusPass {
     warp_memory: WarpMemory,
     /// What `warps` holds now, so an unchanged view set is not rewritten.
     uploaded: Vec<GpuViewWarp>,
+    /// Anti-aliasing footprints (uniform buffer of [`UBO_WARPS`] records, binding 4).
+    footprints: Buffer,
+    /// The scene's inverse depth per reference pixel at the views' size (storage buffer,
+    /// binding 5).
+    scene_depth: Buffer,
+    /// What the footprint and scene-depth buffers hold (empty: nothing for these views), so
+    /// an unchanged anti-aliasing plan is not rewritten.
+    uploaded_footprints: Vec<GpuFootprint>,
+    uploaded_depth: Vec<f32>,
     accum_pipelines: Vec<(AccumKey, vk::Pipeline)>,
     resolve_pipelines: Vec<(ResolveKey, vk::Pipeline)>,
 }
@@ -418,6 +437,44 @@ impl RefocusPass {
                 return Err(e);
             }
         };
+        // Anti-aliasing's inputs exist from the start (a footprint per uniform warp, a float
+        // per view pixel), so the descriptor sets never change after creation.
+        let aa_buffers = Buffer::new(
+            ctx,
+            (UBO_WARPS * std::mem::size_of::<GpuFootprint>()) as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            true,
+            "anti-aliasing footprints",
+        )
+        .and_then(|footprints| {
+            // σ and the front σ per pixel.
+            let bytes = (texture.width as u64 * texture.height as u64 * 8).max(8);
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            match Buffer::new(ctx, bytes, usage, true, "scene inverse depth") {
+                Ok(depth) => Ok((footprints, depth)),
+                Err(e) => {
+                    footprints.destroy(ctx);
+                    Err(e)
+                }
+            }
+        });
+        let (footprints, scene_depth) = match aa_buffers {
+            Ok(x) => x,
+            Err(e) => {
+                warps.destroy(ctx);
+                decode.destroy(ctx);
+                b.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let footprint_info = [vk::DescriptorBufferInfo::default()
+            .buffer(footprints.buffer)
+            .offset(0)
+            .range(vk::WHOLE_SIZE)];
+        let depth_info = [vk::DescriptorBufferInfo::default()
+            .buffer(scene_depth.buffer)
+            .offset(0)
+            .range(vk::WHOLE_SIZE)];
         // The input sets never change: texture and warp buffer live as long as the pass.
         let buffer_info = [vk::DescriptorBufferInfo::default()
             .buffer(warps.buffer)
@@ -472,6 +529,20 @@ impl RefocusPass {
                     .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
                     .buffer_info(&ubo_info),
             );
+            writes.push(
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(4)
+                    .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+                    .buffer_info(&footprint_info),
+            );
+            writes.push(
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(5)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(&depth_info),
+            );
         }
         // SAFETY: new, unused sets; the infos reference live objects.
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
@@ -486,6 +557,10 @@ impl RefocusPass {
             warp_capacity: capacity,
             warp_memory: WarpMemory::for_views(capacity),
             uploaded: Vec::new(),
+            footprints,
+            scene_depth,
+            uploaded_footprints: Vec::new(),
+            uploaded_depth: Vec::new(),
             accum_pipelines: Vec::new(),
             resolve_pipelines: Vec::new(),
         })
@@ -604,7 +679,64 @@ impl RefocusPass {
         let bytes = as_bytes(&records);
         self.warps.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
         self.uploaded = records;
+        // The footprints belonged to the previous views.
+        self.uploaded_footprints.clear();
         Ok(true)
+    }
+
+    /// Uploads the views of `aa.plan` ([`RefocusPass::set_views`]) and anti-aliasing's
+    /// footprints and scene depth, for accumulations with `antialias > 0`. Same rules as
+    /// `set_views`: the GPU must not be reading the buffers. Returns whether the warps changed.
+    pub fn set_antialias(&mut self, aa: &AntialiasPlan) -> Result<bool> {
+        if aa.plan.views.len() > UBO_WARPS {
+            return Err(Error::Invalid(format!(
+                "anti-aliasing handles at most {UBO_WARPS} views in the aperture, this one has {}; \
+                 use a smaller --aperture-radius or --antialias off",
+                aa.plan.views.len()
+            )));
+        }
+        if aa.footprints.len() != aa.plan.views.len() {
+            return Err(Error::Invalid(
+                "the anti-aliasing plan has a footprint per view".into(),
+            ));
+        }
+        let px = self.view_size[0] as usize * self.view_size[1] as usize;
+        if (aa.depth.width as usize * aa.depth.height as usize) != px
+            || aa.depth.inverse_depth.len() != px
+            || aa.depth.front.len() != px
+        {
+            return Err(Error::Invalid(format!(
+                "the scene depth is {}×{}, the views {}×{}",
+                aa.depth.width, aa.depth.height, self.view_size[0], self.view_size[1]
+            )));
+        }
+        let changed = self.set_views(&aa.plan)?;
+        let records: Vec<GpuFootprint> = aa.footprints.iter().map(GpuFootprint::new).collect();
+        if records != self.uploaded_footprints {
+            let bytes = as_bytes(&records);
+            self.footprints.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
+            self.uploaded_footprints = records;
+        }
+        let interleaved = aa.depth.interleaved();
+        if interleaved != self.uploaded_depth {
+            let depth = as_bytes(&interleaved);
+            self.scene_depth.bytes_mut()[..depth.len()].copy_from_slice(depth);
+            self.uploaded_depth = interleaved;
+        }
+        Ok(changed)
+    }
+
+    /// Whether [`RefocusPass::set_antialias`] would rewrite anything for `aa`: a caller with
+    /// frames in flight waits for them first.
+    pub fn antialias_differs(&self, aa: &AntialiasPlan) -> bool {
+        self.views_differ(&aa.plan)
+            || self.uploaded_footprints.len() != aa.footprints.len()
+            || aa
+                .footprints
+                .iter()
+                .zip(&self.uploaded_footprints)
+                .any(|(f, u)| GpuFootprint::new(f) != *u)
+            || aa.depth.interleaved() != self.uploaded_depth
     }
 
     /// Whether [`RefocusPass::set_views`] would rewrite the warps for `plan`: a caller with
@@ -638,6 +770,13 @@ impl RefocusPass {
                 self.uploaded.len()
             )));
         }
+        if a.antialias > 0 && self.uploaded_footprints.len() != self.uploaded.len() {
+            return Err(Error::Invalid(
+                "anti-aliased accumulation without the footprints of the uploaded views \
+                 (RefocusPass::set_antialias)"
+                    .into(),
+            ));
+        }
         let (set_index, texel, filter) = sampling(self.storage, a.filter, a.averaging);
         let compute = a.strategy == Strategy::Compute;
         if compute && target.storage_set == vk::DescriptorSet::null() {
@@ -653,6 +792,7 @@ impl RefocusPass {
             texel: texel as u32,
             format: target.accum_format,
             uniform_warps: self.warp_memory == WarpMemory::Uniform,
+            antialias: a.antialias,
         };
         let pipeline = self.accum_pipeline(ctx, key)?;
         let d = &ctx.device;
@@ -857,9 +997,14 @@ impl RefocusPass {
         if let Some((_, p)) = self.accum_pipelines.iter().find(|(k, _)| *k == key) {
             return Ok(*p);
         }
-        let constants = [key.filter, key.texel, u32::from(key.uniform_warps)];
+        let constants = [
+            key.filter,
+            key.texel,
+            u32::from(key.uniform_warps),
+            key.antialias,
+        ];
         let name = format!(
-            "refocus {} pipeline (filter {}, texel {}, {} warps)",
+            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {})",
             if key.compute { "compute" } else { "fragment" },
             key.filter,
             key.texel,
@@ -867,7 +1012,8 @@ impl RefocusPass {
                 "uniform"
             } else {
                 "storage"
-            }
+            },
+            key.antialias
         );
         let pipeline = if key.compute {
             // The storage image's format is part of the shader: one module per format.
@@ -934,6 +1080,8 @@ impl RefocusPass {
         self.objects.destroy(ctx);
         self.warps.destroy(ctx);
         self.decode.destroy(ctx);
+        self.footprints.destroy(ctx);
+        self.scene_depth.destroy(ctx);
     }
 }
 
@@ -1038,6 +1186,8 @@ impl PassObjects {
             binding(1, T::STORAGE_BUFFER, shading),
             binding(2, T::UNIFORM_BUFFER, shading),
             binding(3, T::UNIFORM_BUFFER, shading),
+            binding(4, T::UNIFORM_BUFFER, shading),
+            binding(5, T::STORAGE_BUFFER, shading),
         ])?;
         self.resolve_set_layout = set_layout(&[binding(
             0,
@@ -1062,11 +1212,11 @@ impl PassObjects {
             },
             vk::DescriptorPoolSize {
                 ty: T::STORAGE_BUFFER,
-                descriptor_count: n,
+                descriptor_count: 2 * n,
             },
             vk::DescriptorPoolSize {
                 ty: T::UNIFORM_BUFFER,
-                descriptor_count: 2 * n,
+                descriptor_count: 3 * n,
             },
         ];
         // SAFETY: valid device and create info.
@@ -1111,6 +1261,11 @@ impl PassObjects {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn antialiasing_view_limit_is_the_uniform_buffers() {
+        assert_eq!(crate::refocus::antialias::MAX_VIEWS, UBO_WARPS);
+    }
 
     #[test]
     fn strategies_parse_and_name_round_trip() {

@@ -75,16 +75,21 @@ impl Status<'_> {
         let refiner = &self.refinement.refiner;
         let a = state.aperture();
         let (done, total) = refiner.progress();
+        let aa = self.refinement.ordered_aa.as_ref();
         format!(
-            "aperture {:?} r={:.1} ({} of {} views)  view ({:.2}, {:.2})  {:?}  GPU {}  {:.0} fps  \
-             {}",
+            "aperture {:?} r={:.1} ({} of {} views)  view ({:.2}, {:.2})  {:?}  {}  GPU {}  \
+             {:.0} fps  {}",
             a.shape,
             effective_radius(&a, lf),
-            state.plan.views.len(),
+            aa.map_or(state.plan.views.len(), |a| a.plan.views.len()),
             lf.views.len(),
             state.reference().x,
             state.reference().y,
             state.averaging(),
+            match aa {
+                Some(a) => format!("aa {}x{}", a.settings.max_samples, a.settings.max_samples),
+                None => "aa off".to_string(),
+            },
             self.refinement
                 .last_gpu_ms
                 .map_or("-".to_string(), |ms| format!("{ms:.1} ms")),

@@ -36,6 +36,7 @@ use crate::error::Result;
 use crate::lightfield::video::FrameSequence;
 use crate::lightfield::LightField;
 use crate::passes::scene::SceneView;
+use crate::refocus::antialias::{AntialiasPlan, AntialiasSettings};
 use depth::DepthCache;
 use hud::{Hud, Status};
 use refinement::{FramePlan, Refinement};
@@ -86,6 +87,12 @@ pub struct Session<'a> {
     pub stats: Stats,
     /// The last input that changed the image (interaction lasts a while after it).
     pub last_input: Instant,
+    /// Anti-aliasing's sampling, when the session can anti-alias (it has depth).
+    pub antialias: Option<AntialiasSettings>,
+    /// The anti-aliasing plan of the state (views in plan order, as `render` uses them), when
+    /// it is on, and the state version it was made for.
+    pub aa: Option<AntialiasPlan>,
+    aa_version: u64,
 }
 
 impl<'a> Session<'a> {
@@ -119,6 +126,10 @@ impl<'a> Session<'a> {
             screenshots: Screenshots::new(screenshot_prefix),
             stats: Stats::default(),
             last_input: Instant::now(),
+            antialias: None,
+            aa: None,
+            // No version yet: the first frame makes the plan.
+            aa_version: u64::MAX,
         }
     }
 
@@ -276,10 +287,14 @@ impl<'a> Session<'a> {
     /// Restarts refinement after a change (full size once the input stops) and plans the next
     /// frame; `None` when there is nothing to draw.
     pub fn next_frame(&mut self, interactive: bool) -> Option<FramePlan> {
+        if self.aa_version != self.state.version {
+            self.aa = self.antialias_plan();
+            self.aa_version = self.state.version;
+        }
         let state = &self.state;
         if self
             .refinement
-            .update(&state.plan, state.version, interactive)
+            .update(&state.plan, self.aa.as_ref(), state.version, interactive)
         {
             self.dirty.text = true;
         }
@@ -301,6 +316,26 @@ impl<'a> Session<'a> {
             self.dirty.text = true;
         }
         Some(FramePlan { batch, interactive })
+    }
+
+    /// The anti-aliasing plan of the current state, when it is on and the session has depth;
+    /// a plan that cannot be made (classic shift-and-sum) is the plain sum, with a warning.
+    fn antialias_plan(&self) -> Option<AntialiasPlan> {
+        let (settings, depth) = (self.antialias?, self.depth.depth.as_ref()?);
+        if !self.state.antialias() {
+            return None;
+        }
+        let s = &self.state;
+        crate::refocus::antialias::plan_antialias(
+            self.lf,
+            &s.plan,
+            s.aperture(),
+            s.excluded(),
+            depth,
+            settings,
+        )
+        .map_err(|e| log::warn!("anti-aliasing is off for this view: {e}"))
+        .ok()
     }
 
     /// Redraws the on-screen text if it changed; returns the new status line (for the title).
@@ -333,6 +368,7 @@ impl<'a> Session<'a> {
         };
         let result = gpu.frame(FrameRequest {
             plan: &self.refinement.ordered,
+            antialias: self.refinement.ordered_aa.as_ref(),
             averaging: self.state.averaging(),
             batch: plan.batch.take(),
             scene: overlay.as_ref().map(|o| (view, o, self.dirty.cloud)),
@@ -378,6 +414,7 @@ impl<'a> Session<'a> {
                 gpu,
                 self.lf,
                 &self.state,
+                self.aa.as_ref(),
                 &prefix,
                 result.window.as_ref(),
                 self.stats.frames,

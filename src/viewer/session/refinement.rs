@@ -10,6 +10,7 @@ use glam::DVec2;
 use super::super::gpu::FrameTiming;
 use super::super::refine::{spread_order, Batch, Refiner};
 use super::stats::Stats;
+use crate::refocus::antialias::AntialiasPlan;
 use crate::refocus::RefocusPlan;
 
 /// One frame's refinement work, decided before it is recorded.
@@ -31,8 +32,11 @@ impl FramePlan {
 /// Refinement of the current state.
 pub struct Refinement {
     pub refiner: Refiner,
-    /// The state's plan with its views in refinement order (the batches index it).
+    /// The state's plan with its views in refinement order (the batches index it): the
+    /// anti-aliasing plan's views when it is on.
     pub ordered: RefocusPlan,
+    /// The anti-aliasing plan in the same order, when it is on.
+    pub ordered_aa: Option<AntialiasPlan>,
     /// The state version `ordered` was made from.
     version: u64,
     /// Counts restarts; frame timings carry it, so only this refinement's add up.
@@ -45,17 +49,31 @@ pub struct Refinement {
     pub last_gpu_ms: Option<f64>,
 }
 
-/// The plan with its views in refinement order.
-fn refinement_plan(plan: &RefocusPlan) -> RefocusPlan {
+/// The refinement order of `plan`'s views.
+fn refinement_order(plan: &RefocusPlan) -> Vec<usize> {
     let positions: Vec<DVec2> = plan
         .views
         .iter()
         .map(|v| DVec2::new(v.s as f64, v.t as f64))
         .collect();
-    let order = spread_order(&positions, plan.reference);
+    spread_order(&positions, plan.reference)
+}
+
+/// The plan with its views in refinement order.
+fn refinement_plan(plan: &RefocusPlan) -> RefocusPlan {
+    let order = refinement_order(plan);
     let mut p = plan.clone();
     p.views = order.iter().map(|&i| plan.views[i]).collect();
     p
+}
+
+/// The anti-aliasing plan with its views (and their footprints) in refinement order.
+fn refinement_aa(aa: &AntialiasPlan) -> AntialiasPlan {
+    let order = refinement_order(&aa.plan);
+    let mut a = aa.clone();
+    a.plan.views = order.iter().map(|&i| aa.plan.views[i]).collect();
+    a.footprints = order.iter().map(|&i| aa.footprints[i]).collect();
+    a
 }
 
 impl Refinement {
@@ -63,6 +81,7 @@ impl Refinement {
         Refinement {
             refiner,
             ordered: refinement_plan(plan),
+            ordered_aa: None,
             // No version yet: the first frame starts a refinement.
             version: u64::MAX,
             id: 0,
@@ -77,11 +96,21 @@ impl Refinement {
         self.version == version
     }
 
-    /// Restarts after a change of the state (`plan` at `version`), or at full size once the
-    /// input stopped; true when the state changed.
-    pub fn update(&mut self, plan: &RefocusPlan, version: u64, interactive: bool) -> bool {
+    /// Restarts after a change of the state (`plan` at `version`, anti-aliased by `aa` when
+    /// given), or at full size once the input stopped; true when the state changed.
+    pub fn update(
+        &mut self,
+        plan: &RefocusPlan,
+        aa: Option<&AntialiasPlan>,
+        version: u64,
+        interactive: bool,
+    ) -> bool {
         if version != self.version {
-            self.ordered = refinement_plan(plan);
+            self.ordered_aa = aa.map(refinement_aa);
+            self.ordered = match &self.ordered_aa {
+                Some(a) => a.plan.clone(),
+                None => refinement_plan(plan),
+            };
             self.version = version;
             self.refiner.restart(self.ordered.views.len(), interactive);
             self.begin((self.refiner.divisor() == 1).then(Instant::now));

@@ -10,6 +10,7 @@ use super::super::gpu::ViewerGpu;
 use super::super::state::ViewerState;
 use crate::error::Result;
 use crate::lightfield::LightField;
+use crate::refocus::antialias::AntialiasPlan;
 
 /// Screenshots asked for and taken.
 pub struct Screenshots {
@@ -44,9 +45,10 @@ fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
 }
 
 /// The state of a screenshot: the plan as `render --json` reports it, with the focus method,
-/// aperture and averaging, so `render` can reproduce `PREFIX_refocus.png`.
-pub fn screenshot_json(state: &ViewerState) -> serde_json::Value {
-    let mut v = crate::refocus::plan_json(&state.plan);
+/// aperture, averaging and anti-aliasing (`aa`: its plan when on), so `render` can reproduce
+/// `PREFIX_refocus.png`.
+pub fn screenshot_json(state: &ViewerState, aa: Option<&AntialiasPlan>) -> serde_json::Value {
+    let mut v = crate::refocus::plan_json(aa.map_or(&state.plan, |a| &a.plan));
     if let Some(obj) = v.as_object_mut() {
         obj.insert("focus_how".into(), state.resolved.how.into());
         obj.insert(
@@ -56,6 +58,10 @@ pub fn screenshot_json(state: &ViewerState) -> serde_json::Value {
         obj.insert(
             "averaging".into(),
             serde_json::to_value(state.averaging()).unwrap_or_default(),
+        );
+        obj.insert(
+            "antialias".into(),
+            crate::refocus::antialias::antialias_json(aa, None),
         );
     }
     v
@@ -67,19 +73,20 @@ pub fn save(
     gpu: &mut ViewerGpu,
     lf: &LightField,
     state: &ViewerState,
+    aa: Option<&AntialiasPlan>,
     prefix: &Path,
     window: Option<&RgbaImage>,
     frames: usize,
 ) -> Result<()> {
     let full = state.plan.clone();
-    let refocus = gpu.capture_refocus(&full, state.averaging(), (lf.width, lf.height))?;
+    let refocus = gpu.capture_refocus(&full, aa, state.averaging(), (lf.width, lf.height))?;
     crate::io::save_png(&refocus, &with_suffix(prefix, "_refocus.png"))?;
     let scene = gpu.capture_scene()?;
     crate::io::save_png(&scene, &with_suffix(prefix, "_scene.png"))?;
     if let Some(w) = window {
         crate::io::save_png(w, &with_suffix(prefix, "_window.png"))?;
     }
-    let mut json = screenshot_json(state);
+    let mut json = screenshot_json(state, aa);
     if let Some(obj) = json.as_object_mut() {
         if let Some(f) = state.frame {
             obj.insert("frame".into(), f.into());

@@ -1,0 +1,250 @@
+//! The anti-aliasing study of `bench`: the plain sum and anti-aliased refocus at several
+//! sub-sample caps, on synth's `layers` scene (four textured planes at −3, 0, +2 and +6 px of
+//! disparity per grid step at 128-pixel views; a sparse 5×5 grid; a disk aperture of radius 2
+//! grid steps; focus on the 0-px panel), timed side by side in one run and scored against the
+//! optical ground truth of a lens with the same disk: overall, on the out-of-focus pixels and
+//! on the focused plane. Each point reports its GPU time as a ratio to the plain sum's.
+//!
+//! The truth uses 129 pinholes per side of the aperture grid (~13 000 in the disk; quick: 65):
+//! with ~800 the truth itself is still noisy on the scene's fine grain.
+
+use std::sync::Arc;
+
+use glam::{DVec2, DVec3};
+
+use super::stats;
+use crate::error::{Error, Result};
+use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::geometry::plane::Plane;
+use crate::gpu::GpuContext;
+use crate::jobs::raster::{render_light_field, Rasterizer};
+use crate::jobs::refocus::{GpuImage, HeadlessRenderer, PassTimings, RenderSettings};
+use crate::lightfield::{GridSize, LightField};
+use crate::passes::refocus::OutputFormat;
+use crate::refocus::antialias::{plan_for, AntialiasPlan, AntialiasSettings};
+use crate::refocus::{self, FocusSpec, RefocusImage, RefocusPlan, RefocusRequest};
+use crate::synth::scenes::LAYER_DEPTHS;
+use crate::synth::{synth_scene, RigKind, SynthRig};
+
+/// Sub-sample caps per axis the study measures.
+pub const CAPS: [u32; 4] = [1, 2, 4, 8];
+
+/// One point of the study.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct AntialiasPoint {
+    /// `plain` or `aaN` (at most N × N sub-samples per view).
+    pub name: String,
+    pub max_samples: Option<u32>,
+    pub views: usize,
+    pub gpu_ms_median: f64,
+    /// GPU time over the plain sum's, same run.
+    pub cost_ratio: f64,
+    pub psnr_vs_truth_db: f64,
+    pub psnr_out_of_focus_db: f64,
+    pub psnr_focused_db: f64,
+}
+
+/// The study's scene and results.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct AntialiasReport {
+    pub scene: String,
+    pub size: [u32; 2],
+    pub truth_pinholes: usize,
+    pub frames: usize,
+    pub points: Vec<AntialiasPoint>,
+}
+
+fn float(img: GpuImage) -> Result<RefocusImage> {
+    match img {
+        GpuImage::Float(f) => Ok(f),
+        GpuImage::Srgb8(_) => Err(Error::Vulkan("asked for float output".into())),
+    }
+}
+
+fn encoded(px: &[[f32; 4]]) -> Vec<[f64; 3]> {
+    px.iter()
+        .map(|p| {
+            std::array::from_fn(|k| crate::color::linear_to_srgb((p[k] as f64).clamp(0.0, 1.0)))
+        })
+        .collect()
+}
+
+fn psnr(a: &[[f64; 3]], b: &[[f64; 3]], mask: &[bool]) -> f64 {
+    let (mut se, mut n) = (0.0, 0usize);
+    for i in 0..a.len() {
+        if mask[i] {
+            for k in 0..3 {
+                se += (a[i][k] - b[i][k]).powi(2);
+            }
+            n += 3;
+        }
+    }
+    10.0 * (n as f64 / se.max(1e-300)).log10()
+}
+
+/// Masks (all, out of focus, focused clear of nearer layers' blur) from the true residual
+/// disparity against the plane, 4 px from the border.
+fn masks(lf: &LightField, plan: &RefocusPlan, bf: f64) -> Result<[Vec<bool>; 3]> {
+    let depth = lf.view_depth()?;
+    let (w, h) = (lf.width as i64, lf.height as i64);
+    let res: Vec<f64> = (0..w * h)
+        .map(|i| {
+            let (x, y) = ((i % w) as u32, (i / w) as u32);
+            let s = plan.m.dot(DVec3::new(x as f64, y as f64, 1.0)).max(0.0);
+            bf * (1.0 / depth.depth(x, y).unwrap_or(f64::INFINITY) - s)
+        })
+        .collect();
+    // The largest blur reach of a nearer layer: |residual| × radius, plus a pixel.
+    let reach = (res.iter().fold(0f64, |m, r| m.max(*r)) * 2.0).ceil() as i64 + 1;
+    let inner = |x: i64, y: i64| x >= 4 && y >= 4 && x < w - 4 && y < h - 4;
+    let mut all = vec![false; (w * h) as usize];
+    let mut out = all.clone();
+    let mut focused = all.clone();
+    for y in 0..h {
+        for x in 0..w {
+            if !inner(x, y) {
+                continue;
+            }
+            let i = (y * w + x) as usize;
+            all[i] = true;
+            out[i] = res[i].abs() > 0.5;
+            focused[i] = res[i].abs() <= 0.5
+                && (-reach..=reach).all(|dy| {
+                    (-reach..=reach).all(|dx| {
+                        let (u, v) = ((x + dx).clamp(0, w - 1), (y + dy).clamp(0, h - 1));
+                        res[(v * w + u) as usize] <= 0.5
+                    })
+                });
+        }
+    }
+    Ok([all, out, focused])
+}
+
+/// Runs the study on `ctx` with `frames` timed frames per point (after one warm-up frame),
+/// the points timed round-robin so that load changes affect all alike.
+pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<AntialiasReport> {
+    let scene = synth_scene("layers").ok_or_else(|| Error::Invalid("no layers scene".into()))?;
+    let (size, gt_grid) = if quick { (64, 65) } else { (128, 129) };
+    let rig = SynthRig {
+        grid: GridSize { cols: 5, rows: 5 },
+        width: size,
+        height: size,
+        focal_px: scene.focal_per_width * size as f64,
+        baseline: scene.baseline,
+        focus_distance: scene.focus_distance,
+        kind: RigKind::Parallel,
+    };
+    let mut r = Rasterizer::with_context(Arc::clone(&ctx), &scene.mesh())?;
+    let lf = render_light_field(&mut r, &rig, 3, false)?.light_field;
+    let plane = Plane::new(
+        DVec3::new(0.0, 0.0, LAYER_DEPTHS[1]),
+        DVec3::new(0.0, 0.0, -1.0),
+    )?;
+    let aperture = Aperture {
+        shape: ApertureShape::Disk,
+        radius: Some(2.0),
+    };
+    let plan = refocus::plan(
+        &lf,
+        &RefocusRequest {
+            focus: FocusSpec::Plane(plane),
+            aperture,
+            reference: None::<DVec2>,
+        },
+        &[],
+    )?;
+    let (gt, pinholes) = r.optical_ground_truth(
+        &plan.reference_camera,
+        &plane,
+        2.0 * rig.baseline,
+        gt_grid,
+        (size, size),
+        3,
+    )?;
+    drop(r);
+    let truth = encoded(&gt);
+    let [all, out, focused] = masks(&lf, &plan, rig.baseline * rig.focal_px)?;
+    let aa: Vec<AntialiasPlan> = CAPS
+        .iter()
+        .map(|&n| {
+            plan_for(
+                &lf,
+                &plan,
+                aperture,
+                &[],
+                AntialiasSettings { max_samples: n },
+            )
+        })
+        .collect::<Result<_>>()?;
+    let settings = RenderSettings {
+        output: OutputFormat::Float,
+        ..RenderSettings::default()
+    };
+    let mut h = HeadlessRenderer::with_context(Arc::clone(&ctx), &lf, Default::default())?;
+    let timed = |t: Option<PassTimings>| {
+        t.map(|t| t.refocus_ms).ok_or_else(|| {
+            Error::Vulkan(format!(
+                "{} has no timestamp queries: GPU times cannot be measured",
+                ctx.info.name
+            ))
+        })
+    };
+    // Point 0 is the plain sum, point k the cap CAPS[k − 1]; a warm-up frame each, which is
+    // also the image scored.
+    let mut images = Vec::new();
+    let (img, _) = h.render(&plan, &settings)?;
+    images.push(encoded(&float(img)?.pixels));
+    for a in &aa {
+        let (img, _) = h.render_antialiased(a, &settings)?;
+        images.push(encoded(&float(img)?.pixels));
+    }
+    let frames = frames.max(1);
+    let mut times = vec![Vec::with_capacity(frames); aa.len() + 1];
+    for _ in 0..frames {
+        times[0].push(timed(h.render_timed(&plan, &settings)?)?);
+        for (k, a) in aa.iter().enumerate() {
+            times[k + 1].push(timed(h.render_timed_antialiased(a, &settings)?)?);
+        }
+    }
+    let errors = h.context().validation().errors();
+    drop(h);
+    if errors > 0 {
+        return Err(Error::Vulkan(format!(
+            "{errors} validation errors in the anti-aliasing study"
+        )));
+    }
+    let medians: Vec<f64> = times
+        .iter()
+        .map(|t| stats::summarize(t).map_or(f64::NAN, |s| s.median))
+        .collect();
+    let points = (0..=aa.len())
+        .map(|k| AntialiasPoint {
+            name: if k == 0 {
+                "plain".into()
+            } else {
+                format!("aa{}", CAPS[k - 1])
+            },
+            max_samples: (k > 0).then(|| CAPS[k - 1]),
+            views: if k == 0 {
+                plan.views.len()
+            } else {
+                aa[k - 1].plan.views.len()
+            },
+            gpu_ms_median: medians[k],
+            cost_ratio: medians[k] / medians[0],
+            psnr_vs_truth_db: psnr(&images[k], &truth, &all),
+            psnr_out_of_focus_db: psnr(&images[k], &truth, &out),
+            psnr_focused_db: psnr(&images[k], &truth, &focused),
+        })
+        .collect();
+    Ok(AntialiasReport {
+        scene: format!(
+            "synthetic 'layers': 5×5 views of {size}², disk aperture of radius 2, focus on the \
+             0-px panel"
+        ),
+        size: [size, size],
+        truth_pinholes: pinholes,
+        frames,
+        points,
+    })
+}

@@ -1,0 +1,733 @@
+//! Anti-aliased refocus (docs/conventions.md §11): each view stands for a cell of the
+//! synthetic aperture, and instead of sampling the view once at its homography the pass
+//! integrates it over the footprint that cell sweeps for the scene point seen at the pixel.
+//!
+//! For output pixel x with focus-surface inverse depth `s = max(m·x, 0)` and scene inverse depth
+//! `σ(x)` (from the reference view's depth map, [`SceneDepth`]), a pinhole at grid offset
+//! `(Δs, Δt)` from view i sees, in view i's homogeneous image coordinates,
+//!
+//! ```text
+//!     y(Δs, Δt) = A_i x + b_i s + (Δs e_s,i + Δt e_t,i) (s − σ)
+//!     e_s,i = −K_i R_i ∂C/∂s,   e_t,i = −K_i R_i ∂C/∂t
+//! ```
+//!
+//! (∂C/∂s: how the camera centre moves per grid step, from the grid neighbours; exact for a
+//! parallel rig, a first-order model for a calibrated rotated rig, whose footprint is then a
+//! parallelogram that is not axis-aligned). The cell is the unit square around the view
+//! clipped to the aperture ([`Footprint`]); the pass averages `n_s × n_t` stratified
+//! sub-samples of it, with n per axis the footprint's length in pixels rounded up and capped at
+//! [`AntialiasSettings::max_samples`].
+//!
+//! Views weigh by the area of their cell inside the aperture (a partial rim view by the part
+//! inside), so an aperture of radius R integrates exactly the disk of radius R.
+//!
+//! Occlusion: next to a nearer surface, a view that sees that surface at its plain sample
+//! takes the occluder's residual instead of the pixel's ([`view_residual`]), so the
+//! occluder's copies blur while a focused background stays sharp.
+//!
+//! Pixels without a valid scene depth (NaN, ≤ 0, unreachable by the reprojection) get no
+//! footprint: they are the plain sum there, with the area weights.
+
+use glam::{DMat3, DVec2, DVec3};
+
+use super::plan::{PlannedView, RefocusPlan};
+use super::FocusMethod;
+use crate::error::{Error, Result};
+use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::geometry::camera::Camera;
+use crate::geometry::depth::ViewDepth;
+use crate::geometry::homography::ViewWarp;
+use crate::lightfield::LightField;
+
+/// Largest `max_samples` (per axis): 16² fetches per view is already far beyond what an
+/// interactive frame can afford.
+pub const MAX_SAMPLES_LIMIT: u32 = 16;
+
+/// Most views an anti-aliased aperture may hold: the pass reads the footprints from a
+/// uniform buffer of this many records (`passes::refocus::UBO_WARPS`).
+pub const MAX_VIEWS: usize = 256;
+
+/// Sub-samples of the aperture cells per grid step of the area weights' quadrature.
+const AREA_GRID: usize = 64;
+
+/// How the footprint is sampled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct AntialiasSettings {
+    /// Most sub-samples per axis of a view's cell (1: area weights only, no footprint).
+    pub max_samples: u32,
+}
+
+impl Default for AntialiasSettings {
+    fn default() -> Self {
+        AntialiasSettings { max_samples: 4 }
+    }
+}
+
+impl AntialiasSettings {
+    /// Checks the sample cap.
+    pub fn validate(&self) -> Result<()> {
+        if !(1..=MAX_SAMPLES_LIMIT).contains(&self.max_samples) {
+            return Err(Error::Invalid(format!(
+                "anti-aliasing samples per axis must be 1 to {MAX_SAMPLES_LIMIT}, got {}",
+                self.max_samples
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Whether to anti-alias: `requested` (`--antialias on|off`) or, when not given, on exactly
+/// when the light field ships a depth map, so a plain render never starts a depth estimate.
+pub fn wanted(requested: Option<bool>, lf: &LightField) -> bool {
+    requested.unwrap_or(!lf.depth.is_empty())
+}
+
+/// One view's aperture cell as homogeneous image offsets per unit of residual inverse depth
+/// `s − σ`: the cell's sub-sample at `(u, v) ∈ [0, 1]²` lies at
+/// `origin + u·span_s + v·span_t` (times `s − σ`) from the view's plain sample `A_i x + b_i s`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Footprint {
+    pub origin: DVec3,
+    pub span_s: DVec3,
+    pub span_t: DVec3,
+    /// `K_r R_r (C_r − C_i)`: where the reference sees a point that view i sees at its plain
+    /// sample, per unit of inverse depth off the focus surface (the occlusion test of
+    /// [`view_residual`]).
+    pub parallax: DVec3,
+}
+
+impl Footprint {
+    /// The homogeneous offset of cell coordinate (u, v) for residual `d = s − σ`.
+    pub fn offset(&self, u: f64, v: f64, d: f64) -> DVec3 {
+        (self.origin + u * self.span_s + v * self.span_t) * d
+    }
+}
+
+/// The scene's inverse depth along each reference pixel's ray, `σ = 1/z` in the reference
+/// camera's frame (the same parameter as the plane term's `m·x`), at the views' size. Unknown
+/// pixels hold −1.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneDepth {
+    pub width: u32,
+    pub height: u32,
+    pub inverse_depth: Vec<f32>,
+    /// The nearest surface (largest σ) within [`SceneDepth::front_radius`] pixels, −1 where
+    /// none: the occluder whose blur may reach the pixel.
+    pub front: Vec<f32>,
+    pub front_radius: u32,
+    /// Pixels without a valid depth (no footprint there).
+    pub unknown: usize,
+    /// Where the depth came from, for reports.
+    pub source: String,
+}
+
+impl SceneDepth {
+    /// σ at output pixel position `x` (reference pixel coordinates): the nearest texel,
+    /// never interpolated across a depth edge; `None` where unknown.
+    pub fn at(&self, x: DVec2) -> Option<f64> {
+        let v = self.inverse_depth[self.index(x)];
+        (v >= 0.0).then_some(v as f64)
+    }
+
+    /// The nearest surface's σ around `x` ([`SceneDepth::front`]).
+    pub fn front_at(&self, x: DVec2) -> Option<f64> {
+        let v = self.front[self.index(x)];
+        (v >= 0.0).then_some(v as f64)
+    }
+
+    fn index(&self, x: DVec2) -> usize {
+        let i = ((x.x + 0.5).floor() as i64).clamp(0, self.width as i64 - 1) as usize;
+        let j = ((x.y + 0.5).floor() as i64).clamp(0, self.height as i64 - 1) as usize;
+        j * self.width as usize + i
+    }
+
+    /// σ and the front σ interleaved per pixel, as the pass's storage buffer holds them.
+    pub fn interleaved(&self) -> Vec<f32> {
+        self.inverse_depth
+            .iter()
+            .zip(&self.front)
+            .flat_map(|(a, b)| [*a, *b])
+            .collect()
+    }
+}
+
+/// The scene inverse depth seen from `reference` at the views' size `(width, height)`.
+///
+/// When `reference` is the camera that owns `depth`, it is `1/z` per pixel. Otherwise (a
+/// virtual or other reference view) every valid depth pixel is reprojected into the reference
+/// and the nearest surface kept per pixel (a z-buffer); one-pixel cracks of the splat are filled
+/// from the farthest valid neighbour (disocclusions show background), and what remains is
+/// unknown.
+pub fn scene_depth(
+    depth: &ViewDepth,
+    reference: &Camera,
+    (width, height): (u32, u32),
+) -> Result<SceneDepth> {
+    if (depth.width, depth.height) != (width, height) {
+        return Err(Error::Invalid(format!(
+            "the depth map {} is {}×{} but the views are {width}×{height}; anti-aliasing needs \
+             the depth of every reference pixel",
+            depth.source, depth.width, depth.height
+        )));
+    }
+    let (w, h) = (width as usize, height as usize);
+    let same = (depth.camera.centre() - reference.centre()).length()
+        <= 1e-9 * (1.0 + reference.centre().length())
+        && (depth.camera.k - reference.k).abs_diff_eq(DMat3::ZERO, 1e-9)
+        && (depth.camera.r - reference.r).abs_diff_eq(DMat3::ZERO, 1e-12);
+    let mut sigma = vec![-1f32; w * h];
+    if same {
+        for y in 0..h {
+            for x in 0..w {
+                if let Some(z) = depth.depth(x as u32, y as u32) {
+                    if z.is_finite() && z > 0.0 {
+                        sigma[y * w + x] = (1.0 / z) as f32;
+                    }
+                }
+            }
+        }
+    } else {
+        let mut zbuf = vec![f64::INFINITY; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let Some(p) = depth.point(x as u32, y as u32) else {
+                    continue;
+                };
+                let pc = reference.to_camera(p);
+                if !(pc.z > 0.0 && pc.is_finite()) {
+                    continue;
+                }
+                let q = reference.k * (pc / pc.z);
+                let (i, j) = ((q.x + 0.5).floor(), (q.y + 0.5).floor());
+                if i < 0.0 || j < 0.0 || i >= w as f64 || j >= h as f64 {
+                    continue;
+                }
+                let k = j as usize * w + i as usize;
+                zbuf[k] = zbuf[k].min(pc.z);
+            }
+        }
+        for k in 0..w * h {
+            if zbuf[k].is_finite() {
+                sigma[k] = (1.0 / zbuf[k]) as f32;
+            }
+        }
+        let holes: Vec<usize> = (0..w * h).filter(|&k| sigma[k] < 0.0).collect();
+        let mut filled = sigma.clone();
+        for k in holes {
+            let (x, y) = ((k % w) as i64, (k / w) as i64);
+            let mut far: Option<f32> = None;
+            for (dx, dy) in [(-1, 0), (1, 0), (0, -1), (0, 1)] {
+                let (nx, ny) = (x + dx, y + dy);
+                if nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 {
+                    let v = sigma[ny as usize * w + nx as usize];
+                    if v >= 0.0 {
+                        far = Some(far.map_or(v, |f| f.min(v)));
+                    }
+                }
+            }
+            if let Some(v) = far {
+                filled[k] = v;
+            }
+        }
+        sigma = filled;
+    }
+    let unknown = sigma.iter().filter(|&&v| v < 0.0).count();
+    Ok(SceneDepth {
+        width,
+        height,
+        front: sigma.clone(),
+        front_radius: 0,
+        inverse_depth: sigma,
+        unknown,
+        source: depth.source.clone(),
+    })
+}
+
+/// Most pixels the front search reaches (the window is (2r + 1)² px).
+const MAX_FRONT_RADIUS: u32 = 64;
+
+/// The largest σ within `r` pixels (a square window; −1 where none is valid), separable.
+fn max_filter(v: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
+    let mut rows = vec![-1f32; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let (a, b) = (x.saturating_sub(r), (x + r).min(w - 1));
+            rows[y * w + x] = v[y * w + a..=y * w + b]
+                .iter()
+                .fold(-1f32, |m, &s| m.max(s));
+        }
+    }
+    let mut out = vec![-1f32; w * h];
+    for y in 0..h {
+        let (a, b) = (y.saturating_sub(r), (y + r).min(h - 1));
+        for x in 0..w {
+            out[y * w + x] = (a..=b).fold(-1f32, |m, j| m.max(rows[j * w + x]));
+        }
+    }
+    out
+}
+
+/// The residual `s − σ` view i's footprint uses at pixel `x` (plane term `s`): the scene's at
+/// the pixel, unless a nearer surface lies within the front radius and view i sees it at its
+/// plain sample — the reference pixel where view i's sample would lie on that surface,
+/// `x + parallax·(s − σ_front)`, holds it (within half a pixel of residual disparity per grid
+/// step, or 5 %) — then the occluder's, so its copies blur like the lens blurs it. `None`:
+/// no depth at the pixel (no footprint).
+pub fn view_residual(depth: &SceneDepth, fp: &Footprint, x: DVec2, s: f64) -> Option<f64> {
+    let sigma = depth.at(x)?;
+    if let Some(front) = depth.front_at(x) {
+        if front > sigma + 1e-6 {
+            let q = x.extend(1.0) + fp.parallax * (s - front);
+            if q.z > 0.0 {
+                let seen = depth.at(DVec2::new(q.x / q.z, q.y / q.z));
+                let tol = (0.5 / fp.parallax.truncate().length().max(1e-9)).min(0.05 * front);
+                if seen.is_some_and(|v| (v - front).abs() <= tol) {
+                    return Some(s - front);
+                }
+            }
+        }
+    }
+    Some(s - sigma)
+}
+
+/// A refocus plan whose views are the aperture cells: every view whose cell overlaps the
+/// aperture, weighted by the overlap's area, with its footprint; and the scene depth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AntialiasPlan {
+    /// The plan the pass uploads (views and weights by cell; the same plane term).
+    pub plan: RefocusPlan,
+    /// Parallel to `plan.views`.
+    pub footprints: Vec<Footprint>,
+    pub depth: SceneDepth,
+    pub settings: AntialiasSettings,
+}
+
+/// Cell rectangle `[u0, u1] × [v0, v1]` (grid steps around the view) covering the part of the
+/// unit cell inside the aperture, and the area-weighted aperture weight of the cell (its mean
+/// over the cell: the area inside for disk and square apertures).
+fn cell(
+    aperture: &Aperture,
+    pos: DVec2,
+    centre: DVec2,
+    cols: usize,
+    rows: usize,
+) -> (f64, [f64; 4]) {
+    let step = 1.0 / AREA_GRID as f64;
+    let mut sum = 0.0;
+    let (mut u0, mut u1, mut v0, mut v1) =
+        (f64::INFINITY, -f64::INFINITY, f64::INFINITY, -f64::INFINITY);
+    for j in 0..AREA_GRID {
+        let v = (j as f64 + 0.5) * step - 0.5;
+        for i in 0..AREA_GRID {
+            let u = (i as f64 + 0.5) * step - 0.5;
+            let w = aperture.weight(pos + DVec2::new(u, v), centre, cols, rows);
+            if w > 0.0 {
+                sum += w;
+                u0 = u0.min(u - 0.5 * step);
+                u1 = u1.max(u + 0.5 * step);
+                v0 = v0.min(v - 0.5 * step);
+                v1 = v1.max(v + 0.5 * step);
+            }
+        }
+    }
+    (sum * step * step, [u0, u1, v0, v1])
+}
+
+/// How view (s, t)'s camera centre moves per grid step along s and t: central differences of
+/// the neighbours' centres (one-sided on the grid's border, zero along an axis of one view).
+fn centre_steps(lf: &LightField, s: usize, t: usize) -> (DVec3, DVec3) {
+    let c = |s: usize, t: usize| lf.view(s, t).camera.centre();
+    let diff = |lo: (usize, usize), hi: (usize, usize), steps: usize| {
+        if steps == 0 {
+            DVec3::ZERO
+        } else {
+            (c(hi.0, hi.1) - c(lo.0, lo.1)) / steps as f64
+        }
+    };
+    let (cols, rows) = (lf.grid.cols, lf.grid.rows);
+    let (s0, s1) = (s.saturating_sub(1), (s + 1).min(cols - 1));
+    let (t0, t1) = (t.saturating_sub(1), (t + 1).min(rows - 1));
+    (
+        diff((s0, t), (s1, t), s1 - s0),
+        diff((s, t0), (s, t1), t1 - t0),
+    )
+}
+
+/// Plans the anti-aliased refocus of `base` (a plan from [`super::plan`] with the same
+/// `aperture`): views by aperture cell, footprints, and the scene depth of `depth` seen from
+/// the plan's reference camera. Classic shift-and-sum (no camera model) is refused: its
+/// warps have no parallax term to move along.
+pub fn plan_antialias(
+    lf: &LightField,
+    base: &RefocusPlan,
+    aperture: Aperture,
+    excluded: &[bool],
+    depth: &ViewDepth,
+    settings: AntialiasSettings,
+) -> Result<AntialiasPlan> {
+    settings.validate()?;
+    aperture.validate()?;
+    if base.method == FocusMethod::ClassicShift {
+        return Err(Error::Invalid(
+            "anti-aliasing needs the cameras' geometry, but --disparity on a light field \
+             without a rig is classic shift-and-sum; focus with --plane or --focus, or use \
+             --antialias off"
+                .into(),
+        ));
+    }
+    let scene = scene_depth(depth, &base.reference_camera, (lf.width, lf.height))?;
+    let mut cells = Vec::new();
+    for (index, v) in lf.views.iter().enumerate() {
+        if excluded.get(index).copied().unwrap_or(false) {
+            continue;
+        }
+        let pos = DVec2::new(v.s as f64, v.t as f64);
+        let (area, rect) = cell(&aperture, pos, base.reference, lf.grid.cols, lf.grid.rows);
+        // A gaussian has no rim: its views keep their point weights over whole cells.
+        let (weight, rect) = match aperture.shape {
+            ApertureShape::Gaussian => (
+                base.views
+                    .iter()
+                    .find(|p| p.index == index)
+                    .map_or(0.0, |p| p.weight),
+                [-0.5, 0.5, -0.5, 0.5],
+            ),
+            _ => (area, rect),
+        };
+        if weight > 0.0 {
+            cells.push((index, weight, rect));
+        }
+    }
+    // An aperture smaller than the quadrature's resolution (radius ≈ 0: a pinhole) has no
+    // measurable cell: then it is the plain plan's views, each a point (no footprint).
+    if cells.is_empty() {
+        cells = base
+            .views
+            .iter()
+            .map(|p| (p.index, p.weight, [0.0; 4]))
+            .collect();
+    }
+    let mut views = Vec::new();
+    let mut footprints = Vec::new();
+    for (index, weight, [u0, u1, v0, v1]) in cells {
+        let v = &lf.views[index];
+        let warp = ViewWarp::new(&v.camera, &base.reference_camera);
+        let (ds, dt) = centre_steps(lf, v.s, v.t);
+        let kr = v.camera.k * v.camera.r;
+        let (es, et) = (-(kr * ds), -(kr * dt));
+        let rc = &base.reference_camera;
+        let fp = Footprint {
+            origin: u0 * es + v0 * et,
+            span_s: (u1 - u0) * es,
+            span_t: (v1 - v0) * et,
+            parallax: rc.k * (rc.r * (rc.centre() - v.camera.centre())),
+        };
+        if !(warp.a.is_finite() && warp.b.is_finite() && fp.origin.is_finite()) {
+            return Err(Error::Geometry(format!(
+                "the warp of view ({}, {}) is not finite",
+                v.s, v.t
+            )));
+        }
+        views.push(PlannedView {
+            index,
+            s: v.s,
+            t: v.t,
+            weight,
+            warp,
+        });
+        footprints.push(fp);
+    }
+    // The front search reaches as far as any view's parallax over the scene's depth range:
+    // farther than that, no view can see an occluder at a pixel.
+    let mut scene = scene;
+    let valid = scene.inverse_depth.iter().filter(|&&v| v >= 0.0);
+    let (lo, hi) = valid.fold((f32::INFINITY, -1f32), |(a, b), &v| (a.min(v), b.max(v)));
+    if hi > lo {
+        let reach = footprints
+            .iter()
+            .map(|f| f.parallax.truncate().length())
+            .fold(0.0, f64::max)
+            * (hi - lo) as f64;
+        let r = (reach.ceil() as u32 + 1).min(MAX_FRONT_RADIUS);
+        scene.front = max_filter(
+            &scene.inverse_depth,
+            scene.width as usize,
+            scene.height as usize,
+            r as usize,
+        );
+        scene.front_radius = r;
+    }
+    if views.len() > MAX_VIEWS {
+        return Err(Error::Invalid(format!(
+            "anti-aliasing handles at most {MAX_VIEWS} views in the aperture, this one has {}; \
+             use a smaller --aperture-radius or --antialias off",
+            views.len()
+        )));
+    }
+    Ok(AntialiasPlan {
+        plan: RefocusPlan {
+            views,
+            ..base.clone()
+        },
+        footprints,
+        depth: scene,
+        settings,
+    })
+}
+
+/// [`plan_antialias`] with the depth of `lf`'s map-carrying view ([`LightField::view_depth`]);
+/// an error naming the light field when it has no depth.
+pub fn plan_for(
+    lf: &LightField,
+    base: &RefocusPlan,
+    aperture: Aperture,
+    excluded: &[bool],
+    settings: AntialiasSettings,
+) -> Result<AntialiasPlan> {
+    let depth = lf
+        .view_depth()
+        .map_err(|e| Error::Invalid(format!("anti-aliasing needs the scene's depth: {e}")))?;
+    plan_antialias(lf, base, aperture, excluded, &depth, settings)
+}
+
+/// Sub-samples per axis of a footprint span for residual `d` at a plain sample with
+/// homogeneous depth `yz`: its length in pixels rounded up, at least 1, at most `max`. The
+/// shader computes the same in f32 (`samples` in refocus_accumulate.glsl).
+pub fn samples(span: DVec3, d: f64, yz: f64, max: u32) -> u32 {
+    if yz <= 0.0 {
+        return 1;
+    }
+    let len = (span.truncate() * d).length() / yz;
+    len.ceil().clamp(1.0, max as f64) as u32
+}
+
+/// The JSON description of anti-aliasing for reports.
+pub fn antialias_json(
+    aa: Option<&AntialiasPlan>,
+    depth_origin: Option<serde_json::Value>,
+) -> serde_json::Value {
+    match aa {
+        None => serde_json::json!({"used": false}),
+        Some(aa) => serde_json::json!({
+            "used": true,
+            "max_samples": aa.settings.max_samples,
+            "views_by_cell": aa.plan.views.len(),
+            "depth_source": aa.depth.source,
+            "depth_origin": depth_origin,
+            "pixels_without_depth": aa.depth.unknown,
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lightfield::{GridSize, ParallelRig, Source, View};
+
+    const RIG: ParallelRig = ParallelRig {
+        focal_px: 40.0,
+        baseline: 0.1,
+        focus_distance: 2.0,
+    };
+
+    /// A 5×5 grid of 16×12 blank views on `RIG`, with a depth map of z = 4 (the centre view).
+    fn grid() -> LightField {
+        let grid = GridSize { cols: 5, rows: 5 };
+        let (w, h) = (16, 12);
+        let views = RIG
+            .cameras(grid, w, h)
+            .into_iter()
+            .enumerate()
+            .map(|(i, camera)| View {
+                s: i % 5,
+                t: i / 5,
+                camera,
+                image: image::RgbaImage::new(w, h),
+                source: format!("view {i}"),
+            })
+            .collect();
+        let depth = crate::lightfield::DepthMap {
+            width: w,
+            height: h,
+            kind: crate::lightfield::DepthKind::Depth,
+            values: vec![4.0; (w * h) as usize],
+            source: "test depth".into(),
+        };
+        LightField {
+            name: "grid".into(),
+            grid,
+            width: w,
+            height: h,
+            views,
+            depth: vec![(12, depth)],
+            rig: Some(RIG),
+            disparity_range: None,
+            source: Source::Generated {
+                scene: "grid".into(),
+            },
+        }
+    }
+
+    fn aa_plan(lf: &LightField, aperture: Aperture, reference: Option<DVec2>) -> AntialiasPlan {
+        let req = super::super::RefocusRequest {
+            focus: super::super::FocusSpec::Disparity(0.0),
+            aperture,
+            reference,
+        };
+        let base = super::super::plan(lf, &req, &[]).unwrap();
+        plan_for(lf, &base, aperture, &[], AntialiasSettings::default()).unwrap()
+    }
+
+    #[test]
+    fn cells_of_a_disk_weigh_by_their_area_inside_it() {
+        let lf = grid();
+        let disk = |r| Aperture {
+            shape: ApertureShape::Disk,
+            radius: Some(r),
+        };
+        let aa = aa_plan(&lf, disk(2.0), None);
+        let total: f64 = aa.plan.views.iter().map(|v| v.weight).sum();
+        // The cells tile the plane, so their areas inside the disk add up to π R².
+        let pi4 = std::f64::consts::PI * 4.0;
+        assert!((total - pi4).abs() < 0.01, "{total}");
+        // Rim views count partly; (4, 3) is 2.24 from the centre, outside the disk, yet part
+        // of its cell is inside; the corner (4, 4) has nothing inside.
+        let w = |s, t| {
+            aa.plan
+                .views
+                .iter()
+                .find(|v| (v.s, v.t) == (s, t))
+                .map(|v| v.weight)
+        };
+        assert_eq!(w(2, 2), Some(1.0));
+        assert!(w(4, 2).unwrap() > 0.3 && w(4, 2).unwrap() < 0.6);
+        assert!(w(4, 3).unwrap() > 0.1 && w(4, 3).unwrap() < 0.3);
+        assert_eq!(w(4, 4), None);
+        // The rim cell's rectangle is clipped on the far side only.
+        let i = aa
+            .plan
+            .views
+            .iter()
+            .position(|v| (v.s, v.t) == (4, 2))
+            .unwrap();
+        let f = aa.footprints[i];
+        let fb = RIG.focal_px * RIG.baseline;
+        assert!((f.origin.x - 0.5 * fb).abs() < 1e-9, "{}", f.origin);
+        assert!(
+            f.span_s.x < 0.0 && -f.span_s.x <= 0.5 * fb + 1e-9,
+            "{}",
+            f.span_s
+        );
+    }
+
+    #[test]
+    fn a_parallel_rig_moves_one_baseline_times_focal_length_per_grid_step() {
+        let lf = grid();
+        let aa = aa_plan(&lf, Aperture::default(), None);
+        let fb = RIG.focal_px * RIG.baseline;
+        for f in &aa.footprints {
+            // Full cells: from −½ to +½ grid step; e_s = −K ∂C/∂s = (−f b, 0, 0).
+            assert!(
+                (f.span_s - DVec3::new(-fb, 0.0, 0.0)).length() < 1e-9,
+                "{}",
+                f.span_s
+            );
+            assert!(
+                (f.span_t - DVec3::new(0.0, -fb, 0.0)).length() < 1e-9,
+                "{}",
+                f.span_t
+            );
+            assert!((f.origin - DVec3::new(0.5 * fb, 0.5 * fb, 0.0)).length() < 1e-9);
+        }
+        // Scene inverse depth: 1/4 at every pixel, at the centre and (reprojected) between
+        // views, where the frontoparallel wall covers all but the splat's border.
+        assert!(aa
+            .depth
+            .inverse_depth
+            .iter()
+            .all(|&v| (v - 0.25).abs() < 1e-7));
+        let aa = aa_plan(&lf, Aperture::default(), Some(DVec2::new(1.5, 2.5)));
+        let known: Vec<f32> = aa
+            .depth
+            .inverse_depth
+            .iter()
+            .copied()
+            .filter(|&v| v >= 0.0)
+            .collect();
+        assert!(known.len() >= 16 * 12 - 2 * 12, "{}", known.len());
+        assert!(known.iter().all(|&v| (v - 0.25).abs() < 1e-6));
+        // Sub-samples per axis follow the footprint's length in pixels.
+        let span = DVec3::new(-fb, 0.0, 0.0);
+        assert_eq!(samples(span, 0.0, 1.0, 4), 1);
+        assert_eq!(samples(span, 0.3 / fb, 1.0, 4), 1);
+        assert_eq!(samples(span, 2.5 / fb, 1.0, 4), 3);
+        assert_eq!(samples(span, 100.0, 1.0, 4), 4);
+        assert_eq!(samples(span, 100.0, -1.0, 4), 1);
+    }
+
+    #[test]
+    fn views_that_see_a_nearer_surface_take_its_residual() {
+        // A 20×1 map: background σ = 0.25 on the left, a nearer surface σ = 0.5 from x = 12.
+        let (w, h) = (20u32, 1u32);
+        let sigma: Vec<f32> = (0..w).map(|x| if x >= 12 { 0.5 } else { 0.25 }).collect();
+        let depth = SceneDepth {
+            width: w,
+            height: h,
+            front: max_filter(&sigma, w as usize, 1, 6),
+            front_radius: 6,
+            inverse_depth: sigma,
+            unknown: 0,
+            source: "test".into(),
+        };
+        assert_eq!(depth.front_at(DVec2::new(6.0, 0.0)), Some(0.5));
+        assert_eq!(depth.front_at(DVec2::new(5.0, 0.0)), Some(0.25));
+        let fp = |gx: f64| Footprint {
+            origin: DVec3::ZERO,
+            span_s: DVec3::ZERO,
+            span_t: DVec3::ZERO,
+            parallax: DVec3::new(gx, 0.0, 0.0),
+        };
+        // Focus on the background (s = σ = 0.25) at x = 8: a view whose parallax carries the
+        // sample 5 px right lands on the nearer surface and blurs it; the opposite view and the
+        // centre view see the background (in focus: residual 0).
+        let (x, s) = (DVec2::new(8.0, 0.0), 0.25);
+        let g = 5.0 / (s - 0.5);
+        assert_eq!(view_residual(&depth, &fp(g), x, s), Some(s - 0.5));
+        assert_eq!(view_residual(&depth, &fp(-g), x, s), Some(0.0));
+        assert_eq!(view_residual(&depth, &fp(0.0), x, s), Some(0.0));
+        // On the nearer surface itself: its own residual.
+        assert_eq!(
+            view_residual(&depth, &fp(g), DVec2::new(14.0, 0.0), s),
+            Some(s - 0.5)
+        );
+    }
+
+    #[test]
+    fn wanted_defaults_to_the_light_fields_own_depth() {
+        let mut lf = grid();
+        assert!(wanted(None, &lf));
+        assert!(!wanted(Some(false), &lf));
+        lf.depth.clear();
+        assert!(!wanted(None, &lf));
+        assert!(wanted(Some(true), &lf));
+        let e = plan_for(
+            &lf,
+            &super::super::plan(
+                &lf,
+                &super::super::RefocusRequest {
+                    focus: super::super::FocusSpec::Disparity(0.0),
+                    aperture: Aperture::default(),
+                    reference: None,
+                },
+                &[],
+            )
+            .unwrap(),
+            Aperture::default(),
+            &[],
+            AntialiasSettings::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("needs the scene's depth"), "{e}");
+    }
+}
