@@ -388,6 +388,7 @@ pub fn layers() -> SynthScene {
         scene: Scene {
             quads,
             background: [0.0; 3],
+            solids: Vec::new(),
         },
         focal_per_width: 1.0,
         baseline: 0.1,
