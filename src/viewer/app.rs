@@ -241,8 +241,13 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
     let state = initial_state(lf, &opts, depth.as_ref())?;
     script::check(&opts.script, (lf.width, lf.height), opts.window).map_err(Error::Invalid)?;
     let depth = DepthCache::new(lf, depth)?;
-    // The scene panel looks at the cloud where there is one.
-    let state = state.with_scene_centre(depth.centre());
+    // The scene panel frames the cloud (where there is one) and the camera array.
+    let cameras: Vec<glam::DVec3> = lf.views.iter().map(|v| v.camera.centre()).collect();
+    let mut keep = depth.corners();
+    keep.extend(&cameras);
+    let panel = Layout::new(opts.window.0, opts.window.1, (lf.width, lf.height)).scene;
+    let aspect = panel.width.max(1.0) as f64 / panel.height.max(1.0) as f64;
+    let state = state.with_scene_framing(depth.centre(), keep, cameras, aspect);
 
     let mut glfw = init_glfw()?;
     let title = format!("tiltfield — {}", lf.name);

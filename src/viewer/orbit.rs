@@ -13,6 +13,9 @@ use crate::passes::raster::{camera_from_world, projection_rows, Projection};
 pub const FOV_DEG: f64 = 50.0;
 /// Radians per dragged pixel when orbiting.
 const ORBIT_RAD_PER_PX: f64 = 0.006;
+/// Share of the scene panel's width the camera array should span at the start (the framing
+/// stops narrowing its angle once it does).
+pub const ARRAY_SPAN: f64 = 0.12;
 /// Distance factor per scroll step.
 const ZOOM_PER_STEP: f64 = 0.9;
 
@@ -42,6 +45,72 @@ impl OrbitCamera {
             yaw: 12f64.to_radians(),
             pitch: 12f64.to_radians(),
         }
+    }
+
+    /// A start that shows the whole scene and the camera array: looking at `target` (the
+    /// cloud's centre) from behind the reference camera, every point of `keep` (the cloud's
+    /// box corners, the camera centres) inside a panel of `aspect` (width / height) with a
+    /// margin, and the cameras in `array` as large as that allows. Over-the-shoulder angles
+    /// from 12° down to ½° are tried and the distance is stepped by 10 %: the array is small
+    /// next to the scene it films (backgammon's 0.24 m against 12 m), so a view from far
+    /// behind shows it as a dot, while an eye just behind it, looking nearly along the optical
+    /// axis, sees both the array at a readable size and the scene the array saw. Falls back to
+    /// [`OrbitCamera::over_shoulder`] when no candidate keeps everything in view.
+    pub fn framing(
+        reference: &Camera,
+        target: DVec3,
+        keep: &[DVec3],
+        array: &[DVec3],
+        aspect: f64,
+    ) -> Self {
+        let fallback = OrbitCamera::over_shoulder(reference, target);
+        let size = (((480.0 * aspect.clamp(0.25, 4.0)).round()) as u32, 480u32);
+        let reach = (target - reference.centre()).length().max(1e-6);
+        let inside = |o: &OrbitCamera, p: DVec3, margin: f64| {
+            let c = o.camera(size);
+            let q = c.k * (c.r * p + c.t);
+            if q.z <= 1e-9 {
+                return None;
+            }
+            let (x, y) = (q.x / q.z, q.y / q.z);
+            let (w, h) = (size.0 as f64, size.1 as f64);
+            (x >= margin * w
+                && x <= (1.0 - margin) * w
+                && y >= margin * h
+                && y <= (1.0 - margin) * h)
+                .then_some(x / w)
+        };
+        let mut best: Option<(f64, OrbitCamera)> = None;
+        for angle in [12.0f64, 8.0, 5.0, 3.0, 2.0, 1.0, 0.5] {
+            for k in -40..30 {
+                let o = OrbitCamera {
+                    distance: reach * 1.1f64.powi(k),
+                    yaw: angle.to_radians(),
+                    pitch: angle.to_radians(),
+                    ..fallback
+                };
+                if !keep.iter().all(|&p| inside(&o, p, 0.04).is_some()) {
+                    continue;
+                }
+                let xs: Vec<f64> = array.iter().filter_map(|&p| inside(&o, p, 0.0)).collect();
+                if xs.len() != array.len() {
+                    continue;
+                }
+                let span = xs.iter().fold(f64::NEG_INFINITY, |a, &b| a.max(b))
+                    - xs.iter().fold(f64::INFINITY, |a, &b| a.min(b));
+                // The first distance that keeps everything inside is the closest at this
+                // angle: the array's largest view of it.
+                if best.as_ref().map_or(true, |(s, _)| span > *s + 1e-9) {
+                    best = Some((span, o));
+                }
+                // A readable array at the widest angle wins: the most 3-D look.
+                break;
+            }
+            if best.as_ref().is_some_and(|(s, _)| *s >= ARRAY_SPAN) {
+                break;
+            }
+        }
+        best.map_or(fallback, |(_, o)| o)
     }
 
     fn rotation(&self) -> DQuat {
@@ -132,6 +201,61 @@ mod tests {
             DMat3::IDENTITY,
             DVec3::ZERO,
         )
+    }
+
+    #[test]
+    fn framing_keeps_the_scene_and_a_small_array_in_view_and_the_array_readable() {
+        // A scene 8–12 m deep and 6 m wide filmed by a 9 × 9 array 3 cm apart (backgammon's
+        // proportions): from far behind, the array would be a dot.
+        let keep_box: Vec<DVec3> = (0..8)
+            .map(|i| {
+                DVec3::new(
+                    if i & 1 == 0 { -3.0 } else { 3.0 },
+                    if i & 2 == 0 { -3.0 } else { 3.0 },
+                    if i & 4 == 0 { 8.0 } else { 12.0 },
+                )
+            })
+            .collect();
+        let array: Vec<DVec3> = (0..81)
+            .map(|i| {
+                DVec3::new(
+                    (i % 9) as f64 * 0.03 - 0.12,
+                    (i / 9) as f64 * 0.03 - 0.12,
+                    0.0,
+                )
+            })
+            .collect();
+        let mut keep = keep_box.clone();
+        keep.extend(&array);
+        let target = DVec3::new(0.0, 0.0, 10.0);
+        for aspect in [0.9, 1.0, 1.6] {
+            let o = OrbitCamera::framing(&reference(), target, &keep, &array, aspect);
+            let size = ((480.0 * aspect) as u32, 480);
+            let c = o.camera(size);
+            let project = |p: DVec3| {
+                let q = c.k * (c.r * p + c.t);
+                assert!(q.z > 0.0);
+                DVec2::new(q.x / q.z / size.0 as f64, q.y / q.z / size.1 as f64)
+            };
+            for p in &keep {
+                let q = project(*p);
+                assert!(
+                    q.min_element() >= 0.0 && q.max_element() <= 1.0,
+                    "{p} at {q}"
+                );
+            }
+            let xs: Vec<f64> = array.iter().map(|&p| project(p).x).collect();
+            let span = xs.iter().cloned().fold(f64::MIN, f64::max)
+                - xs.iter().cloned().fold(f64::MAX, f64::min);
+            assert!(span >= 0.1, "aspect {aspect}: the array spans {span}");
+        }
+        // The over-the-shoulder start (the fallback) shows the same array far smaller.
+        let far = OrbitCamera::over_shoulder(&reference(), target).camera((480, 480));
+        let x = |p: DVec3| {
+            let q = far.k * (far.r * p + far.t);
+            q.x / q.z / 480.0
+        };
+        assert!(x(array[8]) - x(array[0]) < 0.05);
     }
 
     #[test]

@@ -56,6 +56,8 @@ pub enum Action {
     ToggleAntialias,
     /// Back to the state the viewer started in.
     Reset,
+    /// The scene camera back to a view of the whole cloud and camera array.
+    Frame,
     /// Single-click plane at a pixel of the depth view (as `render --click`).
     Click(DVec2),
     /// One of three clicks at pixels of the depth view (as `render --points`).
@@ -208,12 +210,21 @@ impl ViewerState {
         })
     }
 
-    /// The scene camera looking at `centre` (the point cloud's) instead of the focus plane.
-    pub fn with_scene_centre(mut self, centre: Option<DVec3>) -> Self {
-        if let Some(c) = centre {
-            self.orbit = OrbitCamera::over_shoulder(&self.plan.reference_camera, c);
-            self.initial_orbit = self.orbit;
-        }
+    /// The scene camera framing the scene ([`OrbitCamera::framing`]): looking at `centre`
+    /// (the point cloud's; the focus plane's point without a cloud) with every point of `keep`
+    /// (the cloud's box corners and the camera centres) in view and the cameras of `array` as
+    /// large as that allows, in a panel of `aspect`. F and R return to it.
+    pub fn with_scene_framing(
+        mut self,
+        centre: Option<DVec3>,
+        keep: Vec<DVec3>,
+        array: Vec<DVec3>,
+        aspect: f64,
+    ) -> Self {
+        let target = centre.unwrap_or(self.orbit.target);
+        self.orbit =
+            OrbitCamera::framing(&self.plan.reference_camera, target, &keep, &array, aspect);
+        self.initial_orbit = self.orbit;
         self
     }
 
@@ -283,6 +294,13 @@ impl ViewerState {
             Action::Refuse(why) => {
                 self.message = Some(why);
                 return Effect::Message;
+            }
+            Action::Frame => {
+                if self.orbit == self.initial_orbit {
+                    return Effect::Marked;
+                }
+                self.orbit = self.initial_orbit;
+                Effect::SceneView
             }
             Action::Reset => {
                 self.pending_clicks.clear();
@@ -813,6 +831,11 @@ mod tests {
         );
         assert_eq!(s.apply(&lf, Action::Zoom(1.0)), Effect::SceneView);
         assert_ne!(s.orbit, orbit);
+        // F brings the scene camera back to its framing, then has nothing left to do.
+        assert_eq!(s.apply(&lf, Action::Frame), Effect::SceneView);
+        assert_eq!(s.orbit, orbit);
+        assert_eq!(s.apply(&lf, Action::Frame), Effect::Marked);
+        s.apply(&lf, Action::Zoom(1.0));
         // R brings the scene camera back with the focus; the plan was never changed.
         assert_eq!(s.apply(&lf, Action::Reset), Effect::SceneView);
         assert_eq!(s.orbit, orbit);

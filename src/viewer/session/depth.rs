@@ -54,6 +54,22 @@ impl DepthCache {
             .map(|b| b.centre())
     }
 
+    /// The eight corners of the cloud's bounding box (none without a cloud).
+    pub fn corners(&self) -> Vec<DVec3> {
+        let Some(b) = self.cloud.as_ref().and_then(|c| c.bounds) else {
+            return Vec::new();
+        };
+        (0..8)
+            .map(|i| {
+                DVec3::new(
+                    if i & 1 == 0 { b.min.x } else { b.max.x },
+                    if i & 2 == 0 { b.min.y } else { b.max.y },
+                    if i & 4 == 0 { b.min.z } else { b.max.z },
+                )
+            })
+            .collect()
+    }
+
     /// The diagonal of the cloud's bounding box.
     pub fn diagonal(&self) -> Option<f64> {
         self.cloud
