@@ -116,6 +116,23 @@ impl Status<'_> {
     }
 }
 
+/// `line` broken between its fields (separated by two spaces) into lines of at most `chars`
+/// characters; a field longer than that is cut.
+pub fn wrap_fields(line: &str, chars: usize) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for field in line.split("  ").filter(|f| !f.is_empty()) {
+        let field: String = field.chars().take(chars).collect();
+        match out.last_mut() {
+            Some(last) if last.chars().count() + 2 + field.chars().count() <= chars => {
+                last.push_str("  ");
+                last.push_str(&field);
+            }
+            _ => out.push(field),
+        }
+    }
+    out
+}
+
 impl Hud {
     pub fn new(size: (u32, u32)) -> Self {
         Hud {
@@ -148,12 +165,23 @@ impl Hud {
             s.height as i64,
             PANEL_BG,
         );
-        // Twice the glyph size where the longer line fits, else the plain 8-pixel font.
+        // Twice the glyph size where the longer line fits, else the plain 8-pixel font, the
+        // lines wrapped between their fields where even that is too wide (up to four lines of
+        // 10 px fit the strip: an 800-px window shows everything).
         let longest = l1.chars().count().max(l2.chars().count()) as i64;
-        let scale = if longest * 16 + 16 <= w as i64 { 2 } else { 1 };
+        let (scale, lines) = if longest * 16 + 16 <= w as i64 {
+            (2, vec![l1, l2.clone()])
+        } else {
+            let chars = ((w as i64 - 16) / 8).max(8) as usize;
+            let mut lines = wrap_fields(&l1, chars);
+            lines.extend(wrap_fields(&l2, chars));
+            (1, lines)
+        };
         let step = 10 * scale as i64;
-        self.canvas.text(8, s.y as i64 + 4, scale, &l1, TEXT);
-        self.canvas.text(8, s.y as i64 + 4 + step, scale, &l2, TEXT);
+        for (k, line) in lines.iter().enumerate() {
+            self.canvas
+                .text(8, s.y as i64 + 4 + k as i64 * step, scale, line, TEXT);
+        }
         let state = status.state;
         if let Some(msg) = &state.message {
             self.message(layout, msg);
@@ -220,6 +248,21 @@ mod tests {
     use crate::refocus::Averaging;
     use crate::viewer::refine::Refiner;
     use crate::viewer::state::Action;
+
+    #[test]
+    fn narrow_windows_wrap_the_status_between_fields_and_keep_every_field() {
+        let line = "plane p=(0.000,0.000,2.500) n=(0,0,1)  distance 2.5000  tilt 0.0°  swing -0.0°";
+        let wrapped = wrap_fields(line, 40);
+        assert!(wrapped.len() >= 2, "{wrapped:?}");
+        assert!(
+            wrapped.iter().all(|l| l.chars().count() <= 40),
+            "{wrapped:?}"
+        );
+        assert_eq!(wrapped.join("  "), line);
+        assert_eq!(wrap_fields(line, 200), vec![line.to_string()]);
+        // A field longer than the line is cut, never lost whole or overflowing.
+        assert_eq!(wrap_fields("abcdefghij", 4), vec!["abcd".to_string()]);
+    }
 
     #[test]
     fn the_strip_is_composited_and_redraws_do_not_grow_the_parts() {
