@@ -734,6 +734,14 @@ def cases():
         "accessor-count": lambda g: g["accessors"][0].__setitem__("count", 18446744073709551615),
         "accessor-count-big": lambda g: g["accessors"][0].__setitem__("count", 4294967295),
         "accessor-offset": lambda g: g["accessors"][0].__setitem__("byteOffset", 4294967295),
+        "accessor-offset-u64": lambda g: g["accessors"][0].__setitem__("byteOffset", 18446744073709551615),
+        "accessor-count-2^61": lambda g: g["accessors"][0].__setitem__("count", 2 ** 61),
+        "accessor-count-2^63": lambda g: g["accessors"][0].__setitem__("count", 2 ** 63),
+        "accessor-count-u64/12": lambda g: g["accessors"][0].__setitem__("count", 2 ** 64 // 12 + 1),
+        "accessor-count-2^32x3": lambda g: g["accessors"][0].__setitem__("count", 3 * 2 ** 32),
+        "index-count-u64": lambda g: [a.__setitem__("count", 18446744073709551615) for a in g["accessors"] if a.get("componentType") in (5121, 5123, 5125)],
+        "view-offset-u64": lambda g: g["bufferViews"][0].__setitem__("byteOffset", 18446744073709551615),
+        "buffer-len-u64": lambda g: g["buffers"][0].__setitem__("byteLength", 18446744073709551615),
         "view-length": lambda g: g["bufferViews"][0].__setitem__("byteLength", 18446744073709551615),
         "view-stride": lambda g: g["bufferViews"][0].__setitem__("byteStride", 255),
         "buffer-len": lambda g: g["buffers"][0].__setitem__("byteLength", 1),
@@ -768,7 +776,7 @@ def cases():
                     b[off:off + 4] = b"\xff\xff\xff\xff"
                 open(os.path.join(d, "example.bin"), "wb").write(bytes(b))
             json.dump(g, open(os.path.join(d, "scene.gltf"), "w"))
-        add(Case(f"corrupt-gltf-edit-{name}", "corrupt", "synth",
+        add(Case(f"corrupt-gltf-edit-{name.replace('/', 'd')}", "corrupt", "synth",
                  ["synth", "{D}/scene.gltf", "--out", "{D}/out", "--grid", "2x2", "--size", "32x32"], setup=setup,
                  outputs=[("out", "dir_hci")], words=("scene.gltf", "gltf"), followup=["info", "{D}/out"]))
     # Technicolor cameras_parameters.txt
@@ -850,6 +858,43 @@ def cases():
                                 ("depth", ["depth", lf, "-o", "{D}/d.pfm"], [("d.pfm", "pfm")])]:
             add(Case(f"mismatch-{name}-{cmd}", "mismatch", cmd, argv, setup=setup, outputs=outs,
                      words=("view", "cam", "grid", "frame", "size", "png", "black", "missing")))
+
+    # tiny and extreme view sizes, single-view and single-row light fields
+    for (w, h) in [(1, 1), (2, 1), (1, 64), (3, 3), (4096, 1), (1, 4096), (5, 7)]:
+        def setup(d, fx, w=w, h=h):
+            os.makedirs(os.path.join(d, "tiny"))
+            for t in range(3):
+                for s_ in range(3):
+                    arr = np.random.default_rng(t * 3 + s_).integers(0, 255, (h, w, 3), dtype=np.uint8)
+                    Image.fromarray(arr).save(os.path.join(d, f"tiny/view_{t}_{s_}.png"))
+        for cmd, argv, outs in [("render", ["render", "{D}/tiny", "-o", "{D}/o.png", "--disparity", "0.5"], [("o.png", "png")]),
+                                ("render", ["render", "{D}/tiny", "-o", "{D}/o.png", "--focus", "1", "--tilt", "30", "--antialias", "on"], [("o.png", "png")]),
+                                ("render", ["render", "{D}/tiny", "-o", "{D}/o.png", "--click", "0,0"], [("o.png", "png")]),
+                                ("depth", ["depth", "{D}/tiny", "-o", "{D}/d.pfm", "--confidence", "{D}/c.png"], [("d.pfm", "pfm"), ("c.png", "png")]),
+                                ("cloud", ["cloud", "{D}/tiny", "-o", "{D}/c.ply", "--cameras", "--focus", "1"], [("c.ply", "ply")]),
+                                ("bench", ["bench", "{D}/tiny", "--quick", "--no-scaling", "--out", "{D}/b"], [("b/bench.json", "json")])]:
+            add(Case(f"mismatch-tiny-{w}x{h}-{cmd}-{argv[4].lstrip('-')}", "mismatch", cmd, argv, setup=setup, outputs=outs,
+                     words=("pixel", "view", "depth", "size", "small")))
+    SINGLE = {
+        "hci-1x1": chain(cp("hci"), lambda d, fx: _sub(d, "hci/parameters.cfg", [("num_cams_x = 3", "num_cams_x = 1"), ("num_cams_y = 3", "num_cams_y = 1")])),
+        "hci-1x3": chain(cp("hci"), lambda d, fx: _sub(d, "hci/parameters.cfg", [("num_cams_x = 3", "num_cams_x = 1")])),
+        "man-1": chain(cp("man"), lambda d, fx: _keep_views(os.path.join(d, "man/tiltfield.json"), [4])),
+        "man-2": chain(cp("man"), lambda d, fx: _keep_views(os.path.join(d, "man/tiltfield.json"), [0, 1])),
+        "grid-1": chain(cp("grid"), *[remove(f"grid/view_{t:02d}_{s:02d}.png") for t in range(3) for s in range(3) if (t, s) != (1, 1)]),
+        "video-1cam": lambda d, fx: make_video(os.path.join(d, "video"), cams=1),
+        "video-2cam": lambda d, fx: make_video(os.path.join(d, "video"), cams=2),
+    }
+    for name, setup in SINGLE.items():
+        lf = "{D}/" + name.split("-")[0]
+        for cmd, argv, outs in [("info", ["info", lf, "--json"], []),
+                                ("render", ["render", lf, "-o", "{D}/o.png", "--disparity", "0"], [("o.png", "png")]),
+                                ("render", ["render", lf, "-o", "{D}/o.png", "--focus", "2", "--antialias", "on"], [("o.png", "png")]),
+                                ("render", ["render", lf, "-o", "{D}/o.exr", "--focus", "2", "--strategy", "compute", "--view", "0.5,0"], [("o.exr", "exr")]),
+                                ("depth", ["depth", lf, "-o", "{D}/d.pfm"], [("d.pfm", "pfm")]),
+                                ("cloud", ["cloud", lf, "-o", "{D}/c.ply"], [("c.ply", "ply")]),
+                                ("bench", ["bench", lf, "--quick", "--no-scaling", "--focus", "2", "--out", "{D}/b"], [("b/bench.json", "json")])]:
+            add(Case(f"mismatch-single-{name}-{cmd}-{'-'.join(a.lstrip('-') for a in argv[4:7])}", "mismatch", cmd, argv,
+                     setup=setup, outputs=outs, words=("view", "grid", "camera", "one", "single")))
 
     # ---------------- outputs -------------------------------------------------------------------
     OUTKINDS = {
@@ -1077,6 +1122,87 @@ def cases():
     add(Case("cache-env-devnull", "cache", "cloud", ["cloud", "{D}/grid", "-o", "{D}/c.ply"], setup=cp("grid"),
              outputs=[("c.ply", "ply")], env={"TILTFIELD_CACHE_DIR": "/dev/null"}))
 
+    # ---------------- paths that are not UTF-8, very long, or odd ------------------------------
+    BAD = "\udcff\udcfe"  # bytes 0xff 0xfe once encoded (surrogateescape): not UTF-8
+    def bad_copy(src, dst):
+        return lambda d, fx: shutil.copytree(os.path.join(fx, src), os.path.join(d, dst), symlinks=True)
+    PATHS = [
+        ("lf-hci", ["render", "{D}/h" + BAD, "-o", "{D}/o.png", "--disparity", "0"], bad_copy("hci", "h" + BAD), [("o.png", "png")]),
+        ("lf-grid", ["cloud", "{D}/g" + BAD, "-o", "{D}/c.ply"], bad_copy("grid", "g" + BAD), [("c.ply", "ply")]),
+        ("lf-man", ["info", "{D}/m" + BAD], bad_copy("man", "m" + BAD), []),
+        ("lf-video", ["render", "{D}/v" + BAD, "--frames", "1..2", "--disparity", "0", "-o", "{D}/f_{frame}.png"], bad_copy("video", "v" + BAD), [("f_*.png", "glob_png")]),
+        ("out-render", ["render", HCI, "-o", "{D}/o" + BAD + ".png", "--disparity", "0"], cp("hci"), [("o" + BAD + ".png", "png")]),
+        ("out-frames", ["render", "{D}/video", "--frames", "1..2", "--disparity", "0", "-o", "{D}/f" + BAD + "_{frame}.png"], cp("video"), [("f" + BAD + "_*.png", "glob_png")]),
+        ("out-depth", ["depth", HCI, "-o", "{D}/d" + BAD + ".pfm", "--confidence", "{D}/c" + BAD + ".png"], cp("hci"), [("d" + BAD + ".pfm", "pfm")]),
+        ("out-cloud", ["cloud", HCI, "-o", "{D}/c" + BAD + ".ply"], cp("hci"), [("c" + BAD + ".ply", "ply")]),
+        ("out-synth", ["synth", "builtin:planes", "--out", "{D}/s" + BAD, "--grid", "2x2", "--size", "32x32"], None, [("s" + BAD, "dir_hci")]),
+        ("out-demo", ["demo", "--scene", "planes", "-o", "{D}/d" + BAD], None, [("d" + BAD, "demojson")]),
+        ("out-bench", ["bench", HCI, "--quick", "--no-scaling", "--out", "{D}/b" + BAD], cp("hci"), [("b" + BAD, "benchjson")]),
+        ("out-md", ["depth-set", "--grid", "3", "--size", "48", "--scenes", "planes", "--variants", "sweep", "--markdown", "{D}/t" + BAD + ".md"], None, [("t" + BAD + ".md", "nonempty")]),
+        ("gltf", ["synth", "{D}/e" + BAD + ".gltf", "--out", "{D}/s", "--grid", "2x2", "--size", "32x32"], cp("example.gltf", "e" + BAD + ".gltf"), [("s", "dir_hci")]),
+        ("gltf-buffer", ["synth", "{D}/scene.gltf", "--out", "{D}/s", "--grid", "2x2", "--size", "32x32"],
+         lambda d, fx: (shutil.copy(os.path.join(fx, "example.bin"), os.path.join(d, "b" + BAD + ".bin")),
+                        json.dump(dict(json.load(open(os.path.join(fx, "ext.gltf"))), buffers=[{"byteLength": 1408, "uri": "b%FF%FE.bin"}]),
+                                  open(os.path.join(d, "scene.gltf"), "w"))), [("s", "dir_hci")]),
+        ("score", ["depth", HCI, "-o", "{D}/d.pfm", "--score", "{D}/g" + BAD + ".pfm"], chain(cp("hci"), cp("hci/gt_disp_lowres.pfm", "g" + BAD + ".pfm")), [("d.pfm", "pfm")]),
+        ("script", ["view", HCI, "--disparity", "0", "--script", "{D}/s" + BAD + ".txt"], chain(cp("hci"), write("s" + BAD + ".txt", "quit\n")), []),
+        ("script-shot", ["view", HCI, "--disparity", "0", "--script", "{D}/s.txt"], chain(cp("hci"), write("s.txt", "screenshot sh\xff\n".encode("latin-1"))), []),
+        ("cache", ["cloud", "{D}/grid", "-o", "{D}/c.ply"], cp("grid"), [("c.ply", "ply")]),
+        ("man-image", ["info", "{D}/man"], chain(cp("man"), lambda d, fx: (os.rename(os.path.join(d, "man/view_1_1.png"), os.path.join(d, "man/v" + BAD + ".png")),
+                                                                   _sub(d, "man/tiltfield.json", [("view_1_1.png", "v\u00ff.png")]))), []),
+        ("grid-names", ["info", "{D}/grid"], chain(cp("grid"), lambda d, fx: [os.rename(os.path.join(d, f"grid/view_{t:02d}_{s:02d}.png"),
+                        os.path.join(d, f"grid/v{BAD}_{t}_{s}.png")) for t in range(3) for s in range(3)]), []),
+        ("long-out", ["render", HCI, "-o", "{D}/" + "/".join(["d" * 200] * 25) + "/o.png", "--disparity", "0"], cp("hci"), []),
+        ("long-lf", ["info", "{D}/" + "x" * 5000], None, []),
+        ("dash-lf", ["info", "-"], None, []),
+        ("nul-like", ["info", "{D}/a\tb\rc"], None, []),
+    ]
+    for name, argv, setup, outs in PATHS:
+        env = {"TILTFIELD_CACHE_DIR": "{D}/c" + BAD} if name == "cache" else {}
+        add(Case(f"path-{name}", "paths", argv[0], argv, setup=setup, outputs=outs, env=env))
+
+    # ---------------- decompression bombs and huge declared sizes ------------------------------
+    def bomb(w, h):
+        raw = zlib.compressobj(9)
+        row = b"\0" + b"\0" * (w * 3)
+        data = b"".join(raw.compress(row) for _ in range(h)) + raw.flush()
+        ihdr = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)
+        return b"\x89PNG\r\n\x1a\n" + png_chunk(b"IHDR", ihdr) + png_chunk(b"IDAT", data) + png_chunk(b"IEND", b"")
+    BOMBS = {"8192": (8192, 8192), "16384": (16384, 16384), "wide": (65535, 64)}
+    for name, (w, h) in BOMBS.items():
+        def setup(d, fx, w=w, h=h):
+            cp("hci")(d, fx)
+            cache = os.path.join(fx, f"bomb_{w}x{h}.png")
+            if not os.path.exists(cache):
+                import threading
+                tmp = f"{cache}.tmp{threading.get_ident()}"
+                open(tmp, "wb").write(bomb(w, h))
+                os.replace(tmp, cache)
+            for i in range(9):
+                os.remove(os.path.join(d, f"hci/input_Cam{i:03d}.png"))
+                os.link(cache, os.path.join(d, f"hci/input_Cam{i:03d}.png"))
+            _sub(d, "hci/parameters.cfg", [("image_resolution_x_px = 48", f"image_resolution_x_px = {w}"),
+                                           ("image_resolution_y_px = 48", f"image_resolution_y_px = {h}")])
+            for g in ("gt_disp_lowres.pfm", "gt_depth_lowres.pfm"):
+                os.remove(os.path.join(d, "hci", g))
+        for cmd, argv, outs in [("info", ["info", HCI], []),
+                                ("render", ["render", HCI, "-o", "{D}/o.png", "--disparity", "0", "--size", "64x64"], [("o.png", "png")]),
+                                ("depth", ["depth", HCI, "-o", "{D}/d.pfm"], [("d.pfm", "pfm")])]:
+            add(Case(f"bomb-{name}-{cmd}", "bombs", cmd, argv, setup=setup, outputs=outs,
+                     words=("size", "pixel", "memory", "limit", "large", "px")))
+        def setup_one(d, fx, w=w, h=h, setup=setup):
+            setup(d, fx)
+            for i in range(9):
+                if i != 4:
+                    os.remove(os.path.join(d, f"hci/input_Cam{i:03d}.png"))
+                    open(os.path.join(d, f"hci/input_Cam{i:03d}.png"), "wb").write(png_bytes(48, 48, seed=i))
+            _sub(d, "hci/parameters.cfg", [(f"image_resolution_x_px = {w}", "image_resolution_x_px = 48"),
+                                           (f"image_resolution_y_px = {h}", "image_resolution_y_px = 48")])
+        add(Case(f"bomb-{name}-one-view", "bombs", "render", ["render", HCI, "-o", "{D}/o.png", "--disparity", "0"],
+                 setup=setup_one, outputs=[("o.png", "png")], words=("input_Cam004",)))
+        add(Case(f"bomb-{name}-score", "bombs", "depth", ["depth", HCI, "-o", "{D}/d.pfm", "--score", "{D}/gt.pfm"],
+                 setup=chain(cp("hci"), write("gt.pfm", b"Pf\n%d %d\n-1\n" % (w, h))), words=("gt.pfm",)))
+
     # ---------------- every command, plain and odd (smoke of the accepted path) -----------------
     for scene in ["demo", "planes", "tilted", "room", "tower", "depths", "layers", "nope", "", "DEMO", "demo/../demo"]:
         add(Case(f"misc-info-builtin-{scene or 'empty'}", "misc", "info", ["info", f"builtin:{scene}", "--json"], words=("scene", "builtin")))
@@ -1161,6 +1287,14 @@ def _sub(d, rel, pairs):
     open(p, "w").write(t)
 
 
+def _keep_views(path, keep):
+    m = json.load(open(path))
+    m["views"] = [v for i, v in enumerate(m["views"]) if i in keep]
+    for i, v in enumerate(m["views"]):
+        v["grid"] = {"s": i, "t": 0}
+    json.dump(m, open(path, "w"))
+
+
 def _glob(d, rel, ext):
     base = os.path.join(d, rel)
     return [os.path.join(base, n) for n in sorted(os.listdir(base)) if n.endswith(ext)]
@@ -1227,8 +1361,6 @@ def cache_post(d, fx, rc, out, err):
         tmps = [n for n in os.listdir(c) if ".tmp" in n and not os.path.islink(os.path.join(c, n))]
         if tmps:
             return ("leftover", f"temporary files left in the cache: {tmps}")
-    if rc == 0 and "--json" in out[:0]:
-        pass
     # A damaged/edited entry must not be used as cached.
     name = os.path.basename(d)
     damaged = any(k in name for k in ("pfm-", "json-", "both-")) and "link-copy" not in name
@@ -1368,7 +1500,8 @@ def wrote_paths(text):
         s = m.group(1).split(" (")[0].split(" in ")[0]
         for tok in s.split(", "):
             tok = tok.strip()
-            if tok and " " not in tok and ("/" in tok or "." in tok):
+            # a name printed lossily (U+FFFD for bytes that are not UTF-8) cannot be checked by name
+            if tok and " " not in tok and "\ufffd" not in tok and ("/" in tok or "." in tok):
                 out.append(tok)
     return out
 
@@ -1504,7 +1637,7 @@ def summary(results, findings_path):
         print(f"{cmd:<{w}} " + " ".join(f"{bycmd[cmd].get(c, 0):>10}" for c in cls) + f" {sum(bycmd[cmd].values()):>7}")
     print(f"{'all':<{w}} " + " ".join(f"{byc.get(c, 0):>10}" for c in cls) + f" {len(results):>7}")
     bad = [r for r in results if r["class"] not in ("clean", "accepted")]
-    with open(findings_path, "w") as f:
+    with open(findings_path, "w", errors="backslashreplace") as f:
         for r in sorted(bad, key=lambda r: (CLASSES.index(r["class"]) if r["class"] in CLASSES else 99, r["id"])):
             f.write(f"## [{r['class']}] {r['id']}  (exit {r['rc']}, {r['secs']} s)\n")
             if r.get("env"):
@@ -1512,7 +1645,7 @@ def summary(results, findings_path):
             f.write("$ " + " ".join(r["argv"]) + "\n")
             if r.get("note"):
                 f.write(f"note: {r['note']}\n")
-            f.write("stderr tail:\n" + "".join("    " + l + "\n" for l in (r["stderr_tail"] or "").splitlines()))
+            f.write("stderr tail:\n" + "".join("    " + l[:2000] + "\n" for l in (r["stderr_tail"] or "").splitlines()))
             if r.get("stdout_tail"):
                 f.write("stdout tail:\n" + "".join("    " + l + "\n" for l in r["stdout_tail"].splitlines()))
             f.write(f"run folder: {r.get('dir')}\n\n")
@@ -1588,8 +1721,9 @@ def main():
             rf.write(json.dumps(r) + "\n")
             rf.flush()
             if r["class"] not in ("clean", "accepted"):
-                print(f"[{i}/{len(todo)} {time.time() - t0:.0f}s] {r['class']:10} {r['id']}: {r.get('note') or ''} "
-                      f"{(r['stderr_tail'] or '').splitlines()[-1:] }", flush=True)
+                last = ((r["stderr_tail"] or "").splitlines() or [""])[-1][:240]
+                print(f"[{i}/{len(todo)} {time.time() - t0:.0f}s] {r['class']:10} {r['id']}: {(r.get('note') or '')[:160]} "
+                      f"| {last}", flush=True)
             elif i % 50 == 0:
                 print(f"[{i}/{len(todo)} {time.time() - t0:.0f}s]", flush=True)
     summary([r for r in results.values() if r["id"] in known], findings)
