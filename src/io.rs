@@ -145,6 +145,18 @@ pub fn check_writable(path: &Path) -> Result<()> {
 
 /// [`check_writable`] for an output folder `dir` that will receive `first` (a file name): a
 /// `dir` that exists must be a folder ("the output folder is a file" otherwise).
+/// `path` as text, or an error naming `what` when it is not valid UTF-8: outputs whose paths
+/// are reported in JSON (a folder of many files, a frame pattern) must be representable there,
+/// and a pattern's `{frame}` must be found and replaced in text, not in lossy copies of it.
+pub fn utf8_path<'a>(path: &'a Path, what: &str) -> Result<&'a str> {
+    path.to_str().ok_or_else(|| {
+        Error::Invalid(format!(
+            "{what} '{}' is not valid UTF-8; give a name in UTF-8",
+            path.display()
+        ))
+    })
+}
+
 pub fn check_writable_folder(dir: &Path, first: &str) -> Result<()> {
     if let Ok(m) = std::fs::metadata(dir) {
         if !m.is_dir() {

@@ -1338,3 +1338,134 @@ fn output_cut_short_by_its_reader_ends_quietly() {
     let o = child.wait_with_output().unwrap();
     assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
 }
+
+// ---------------------------------------------------------------------------------------------
+// The second campaign's findings (tools/hostile_campaign.py).
+
+#[test]
+fn a_light_field_of_one_view_renders_without_validation_errors() {
+    // Its one-layer texture was viewed as a plain 2D image where the shader samples an array
+    // (VUID-vkCmdDraw-viewType-07752, with every strategy).
+    let tmp = tempfile::tempdir().unwrap();
+    hci_folder(tmp.path(), 1, 1, 1, "30");
+    let lf = tmp.path().to_str().unwrap();
+    for strategy in ["fragment", "compute"] {
+        let out = tmp.path().join(format!("{strategy}.png"));
+        let o = tiltfield(&[
+            "render",
+            lf,
+            "--disparity",
+            "0",
+            "--strategy",
+            strategy,
+            "-o",
+            out.to_str().unwrap(),
+            "--validate",
+        ]);
+        assert!(o.status.success(), "{strategy}: {}", stderr(&o));
+        // The one view, unchanged: a refocus of a single view at any plane is that view.
+        let img = image::open(&out).unwrap().to_rgb8();
+        let view = image::open(tmp.path().join(lightfield::hci::view_file_name(0, 1)))
+            .unwrap()
+            .to_rgb8();
+        let diff = img
+            .pixels()
+            .zip(view.pixels())
+            .map(|(a, b)| {
+                (0..3)
+                    .map(|c| (a[c] as i32 - b[c] as i32).abs())
+                    .max()
+                    .unwrap()
+            })
+            .max()
+            .unwrap();
+        assert!(
+            diff <= 1,
+            "{strategy}: differs from the view by {diff} levels"
+        );
+    }
+}
+
+#[test]
+fn output_names_that_are_not_utf8_are_refused_where_they_are_reported_or_patterned() {
+    use std::os::unix::ffi::OsStrExt;
+    let tmp = tempfile::tempdir().unwrap();
+    let bad = |name: &[u8]| {
+        let mut p = tmp.path().as_os_str().as_bytes().to_vec();
+        p.push(b'/');
+        p.extend_from_slice(name);
+        PathBuf::from(std::ffi::OsStr::from_bytes(&p))
+    };
+    // synth and demo wrote part of a folder, then panicked serialising its name to JSON.
+    for args in [
+        vec![
+            "synth".into(),
+            "builtin:planes".into(),
+            "--out".into(),
+            bad(b"s\xff\xfe").into_os_string(),
+            "--grid".into(),
+            "2x2".into(),
+            "--size".into(),
+            "32x32".into(),
+        ],
+        vec![
+            "demo".into(),
+            "-o".into(),
+            bad(b"d\xff\xfe").into_os_string(),
+        ],
+    ] {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+            .args(&args)
+            .env("TILTFIELD_VALIDATION", "1")
+            .output()
+            .unwrap();
+        let err = stderr(&o);
+        assert!(
+            !o.status.success() && err.contains("not valid UTF-8"),
+            "{err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    assert_eq!(
+        std::fs::read_dir(tmp.path()).unwrap().count(),
+        0,
+        "nothing is left behind"
+    );
+    // A frame pattern was made lossy, so the frames went to other names than the ones asked.
+    let pattern = bad(b"f\xff\xfe_{frame}.png");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+        .args([
+            std::ffi::OsStr::new("render"),
+            std::ffi::OsStr::new("no-such-video"),
+            std::ffi::OsStr::new("--frames"),
+            std::ffi::OsStr::new("1..2"),
+            std::ffi::OsStr::new("--disparity"),
+            std::ffi::OsStr::new("0"),
+            std::ffi::OsStr::new("-o"),
+            pattern.as_os_str(),
+        ])
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(
+        !o.status.success() && err.contains("not valid UTF-8"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_plane_quad_too_large_for_the_ply_is_refused() {
+    // 1e308 passed the finiteness check and wrote infinite corners into the PLY.
+    fails_with(
+        &[
+            "cloud",
+            "builtin:planes",
+            "-o",
+            "/tmp/never-written.ply",
+            "--disparity",
+            "0",
+            "--plane-size=1e308",
+        ],
+        &["--plane-size", "at most"],
+    );
+}

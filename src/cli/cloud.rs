@@ -17,6 +17,9 @@ use crate::geometry::normals::estimate_normals;
 use crate::lightfield::ply::{PlyMesh, PlyVertex};
 use crate::scene::{PointCloud, SceneBuilder, PLANE_COLOUR};
 
+/// Largest `--plane-size`, world units (far inside f32, which the PLY stores).
+const MAX_PLANE_SIZE: f64 = 1e9;
+
 #[derive(Debug, Args)]
 #[command(group(clap::ArgGroup::new("focus_plane").args(FOCUS_OPTIONS)))]
 pub struct CloudArgs {
@@ -67,9 +70,10 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         return Err(Error::Invalid("--stride must be at least 1".into()));
     }
     if let Some(h) = args.plane_size {
-        if !(h.is_finite() && h > 0.0) {
+        // The PLY stores f32 coordinates: a quad of 1e308 wrote infinite corners.
+        if !(h.is_finite() && h > 0.0 && h <= MAX_PLANE_SIZE) {
             return Err(Error::Invalid(format!(
-                "--plane-size must be positive, got {h}"
+                "--plane-size must be positive and at most {MAX_PLANE_SIZE:e} world units, got {h:e}"
             )));
         }
     }

@@ -51,6 +51,7 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         return Ok(());
     }
     let dir = args.output.clone().unwrap_or_else(default_demo_dir);
+    crate::io::utf8_path(&dir, "-o")?;
     let aa_settings = args.antialias.settings()?;
     // Checked now, made when the first image is written (and removed again on failure).
     crate::io::check_writable_folder(&dir, "demo.json")?;

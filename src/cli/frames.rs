@@ -23,8 +23,8 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
     // Options and outputs first, then the video's listing, then the device: nothing is
     // decoded before everything that can be checked cheaply has been.
     let range: FrameRange = spec.parse()?;
-    let output_text = args.output.to_string_lossy();
-    let pattern = OutputPattern::parse(&output_text)?;
+    let output_text = crate::io::utf8_path(&args.output, "the -o pattern")?;
+    let pattern = OutputPattern::parse(output_text)?;
     let sequence = FrameSequence::open(Path::new(&args.lf.light_field))?;
     let frames = sequence.select(range)?;
     let kind = OutputKind::from_path(&pattern.path(frames[0]))?;

@@ -480,6 +480,7 @@ pub fn run(args: &SynthArgs) -> Result<()> {
     let (Some(scene), Some(out)) = (&args.scene, &args.out) else {
         return Err(Error::Invalid("give a SCENE and --out DIR".into()));
     };
+    crate::io::utf8_path(out, "--out")?;
     let t0 = Instant::now();
     let (cols, rows) = parse_pair(&args.grid, "--grid")?;
     let (width, height) = parse_pair(&args.size, "--size")?;

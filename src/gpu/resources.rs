@@ -197,6 +197,9 @@ pub struct ImageDesc {
     pub usage: vk::ImageUsageFlags,
     /// Allow views in other formats of the same class (UNORM and SRGB of RGBA8).
     pub mutable_format: bool,
+    /// View it as a 2D array even with one layer (a shader's `sampler2DArray` needs an array
+    /// view whatever the layer count: a light field of one view is still an array).
+    pub array: bool,
 }
 
 impl ImageDesc {
@@ -209,6 +212,7 @@ impl ImageDesc {
             layers: 1,
             usage,
             mutable_format: false,
+            array: false,
         }
     }
 
@@ -259,7 +263,8 @@ pub struct Image {
 }
 
 impl Image {
-    /// Creates the image and a view (2D, or 2D array for several layers) for each format.
+    /// Creates the image and a view (2D, or 2D array for several layers or `desc.array`) for
+    /// each format.
     pub fn new(
         ctx: &GpuContext,
         desc: ImageDesc,
@@ -293,7 +298,7 @@ impl Image {
         for &format in view_formats {
             let info = vk::ImageViewCreateInfo::default()
                 .image(image)
-                .view_type(if desc.layers > 1 {
+                .view_type(if desc.layers > 1 || desc.array {
                     vk::ImageViewType::TYPE_2D_ARRAY
                 } else {
                     vk::ImageViewType::TYPE_2D

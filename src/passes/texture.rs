@@ -168,6 +168,7 @@ impl LightFieldTexture {
             layers: layers.clamp(1, u32::MAX as usize) as u32,
             usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
             mutable_format: storage == ViewStorage::Srgb8,
+            array: true,
         };
         let limits = TextureLimits::of(ctx);
         // Limits first: creating an image beyond maxImageArrayLayers is invalid usage.
