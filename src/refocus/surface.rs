@@ -49,6 +49,48 @@ pub enum FocusSurface {
 }
 
 impl FocusSurface {
+    /// The surface a request names: `planes` (the focus planes given, possibly none when the
+    /// focus is not a plane), a slab half-width, all in focus. Refuses combinations that do
+    /// not name one surface, naming the cause.
+    pub fn from_request(
+        planes: &[Plane],
+        slab: Option<f64>,
+        all_in_focus: bool,
+    ) -> Result<FocusSurface> {
+        if planes.len() > MAX_PLANES {
+            return Err(Error::Invalid(format!(
+                "a focus surface takes at most {MAX_PLANES} planes, got {}",
+                planes.len()
+            )));
+        }
+        let several = planes.len() > 1;
+        let surface = match (slab, all_in_focus) {
+            (Some(_), true) => {
+                return Err(Error::Invalid(
+                    "a focus slab and all-in-focus are two different surfaces; give one".into(),
+                ))
+            }
+            (Some(_), false) if several => {
+                return Err(Error::Invalid(format!(
+                    "a focus slab lies around exactly one plane, got {} planes",
+                    planes.len()
+                )))
+            }
+            (Some(w), false) => FocusSurface::Slab { half_width: w },
+            (None, true) if several => {
+                return Err(Error::Invalid(format!(
+                    "all-in-focus needs no plane set, got {} planes",
+                    planes.len()
+                )))
+            }
+            (None, true) => FocusSurface::AllInFocus,
+            (None, false) if several => FocusSurface::Planes(planes.to_vec()),
+            (None, false) => FocusSurface::Plane,
+        };
+        surface.validate()?;
+        Ok(surface)
+    }
+
     /// Whether the surface depends on the scene's depth.
     pub fn needs_depth(&self) -> bool {
         !matches!(self, FocusSurface::Plane)
@@ -408,5 +450,17 @@ mod tests {
         assert!(e.to_string().contains("needs the scene's depth"), "{e}");
         // One plane needs nothing.
         assert!(plan_surface(&plan, &FocusSurface::Plane, None).is_ok());
+        let req = |n: usize, slab, all| FocusSurface::from_request(&vec![p; n], slab, all);
+        let msg = |r: Result<FocusSurface>| r.unwrap_err().to_string();
+        assert!(msg(req(9, None, false)).contains("at most 8 planes, got 9"));
+        assert!(msg(req(2, Some(0.1), false)).contains("exactly one plane, got 2 planes"));
+        assert!(msg(req(1, Some(f64::NAN), false)).contains("finite and > 0"));
+        assert!(msg(req(1, Some(0.1), true)).contains("give one"));
+        assert_eq!(req(1, None, false).unwrap(), FocusSurface::Plane);
+        assert_eq!(req(0, None, true).unwrap(), FocusSurface::AllInFocus);
+        assert_eq!(
+            req(8, None, false).unwrap(),
+            FocusSurface::Planes(vec![p; 8])
+        );
     }
 }
