@@ -551,15 +551,54 @@ fn render_reports_surfaces_and_refuses_bad_ones() {
         &["render", "builtin:demo", card, "--slab", "2", "-o", out],
         &["reference camera lies inside the focus slab"],
     );
-    // Several planes are a surface only `render` takes.
+    // `cloud` writes every plane of the surface: several planes, a slab's boundaries.
+    let ply = format!("{out}.ply");
+    let o = tiltfield(&["cloud", "builtin:demo", card, floor, "-o", &ply, "--json"]);
+    let j = json_of(&o);
+    assert_eq!(j["surface"]["kind"], "planes");
+    assert_eq!(j["surface"]["other_planes"][0]["point"][1], 0.8863);
+    let o = tiltfield(&[
+        "cloud",
+        "builtin:demo",
+        card,
+        "--slab",
+        "0.2",
+        "-o",
+        &ply,
+        "--json",
+    ]);
+    let j = json_of(&o);
+    let z = |k: usize| {
+        j["surface"]["other_planes"][k]["point"][2]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        (z(0) - 1.4).abs() < 1e-9 && (z(1) - 1.8).abs() < 1e-9,
+        "{j}"
+    );
     fails_with(
         &[
             "cloud",
             "builtin:demo",
             card,
             floor,
+            "--slab",
+            "0.2",
             "-o",
-            &format!("{out}.ply"),
+            &ply,
+        ],
+        &["exactly one plane, got 2 planes"],
+    );
+    // Elsewhere several planes are refused with the cause.
+    fails_with(
+        &[
+            "synth",
+            "builtin:planes",
+            card,
+            floor,
+            "-o",
+            &format!("{out}.d"),
         ],
         &["--plane is given 2 times"],
     );

@@ -91,6 +91,23 @@ impl FocusSurface {
         Ok(surface)
     }
 
+    /// The planes that draw this surface around `plane` (the focus plane, the first of
+    /// several): every plane of [`FocusSurface::Planes`]; a slab's middle plane and its two
+    /// boundaries (`n·X = n·p ± W`); otherwise `plane` alone.
+    pub fn planes_to_draw(&self, plane: &Plane) -> Vec<Plane> {
+        match self {
+            FocusSurface::Planes(p) => p.clone(),
+            FocusSurface::Slab { half_width: w } => {
+                let shifted = |d: f64| Plane {
+                    point: plane.point + plane.normal * d,
+                    normal: plane.normal,
+                };
+                vec![*plane, shifted(-w), shifted(*w)]
+            }
+            _ => vec![*plane],
+        }
+    }
+
     /// Whether the surface depends on the scene's depth.
     pub fn needs_depth(&self) -> bool {
         !matches!(self, FocusSurface::Plane)
@@ -462,5 +479,11 @@ mod tests {
             req(8, None, false).unwrap(),
             FocusSurface::Planes(vec![p; 8])
         );
+        // A slab draws its middle plane and both boundaries, W away along the normal.
+        let drawn = FocusSurface::Slab { half_width: 0.5 }.planes_to_draw(&p);
+        assert_eq!(drawn.len(), 3);
+        for (q, d) in drawn.iter().zip([0.0, -0.5, 0.5]) {
+            assert!((p.signed_distance(q.point) - d).abs() < 1e-12 && q.normal == p.normal);
+        }
     }
 }
