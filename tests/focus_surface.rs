@@ -507,6 +507,16 @@ fn render_reports_surfaces_and_refuses_bad_ones() {
     let j = json_of(&o);
     assert_eq!(j["surface"]["kind"], "slab");
     assert_eq!(j["surface"]["slab_half_width"], 0.25);
+    assert_eq!(j["surface"]["planes"][0]["point"][2], 1.6);
+    let b = |k: usize| {
+        j["surface"]["slab_boundaries"][k]["point"][2]
+            .as_f64()
+            .unwrap()
+    };
+    assert!(
+        (b(0) - 1.35).abs() < 1e-9 && (b(1) - 1.85).abs() < 1e-9,
+        "{j}"
+    );
     let o = tiltfield(&[
         "render",
         "builtin:demo",
@@ -520,7 +530,9 @@ fn render_reports_surfaces_and_refuses_bad_ones() {
     assert_eq!(json_of(&o)["surface"]["kind"], "all-in-focus");
     // One plane: the surface is the plane, nothing else changes.
     let o = tiltfield(&["render", "builtin:demo", card, "-o", out, "--json"]);
-    assert_eq!(json_of(&o)["surface"]["kind"], "plane");
+    let j = json_of(&o);
+    assert_eq!(j["surface"]["kind"], "plane");
+    assert_eq!(j["surface"]["planes"].as_array().unwrap().len(), 1);
 
     let nine: Vec<String> = (0..9)
         .map(|k| format!("--plane=0,0,{},0,0,1", 2 + k))

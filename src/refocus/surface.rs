@@ -170,6 +170,8 @@ pub struct SurfacePlan {
     pub terms: Vec<DVec3>,
     /// The plan's plane term: the fallback where σ is unknown.
     pub m: DVec3,
+    /// The plan's plane (world frame; `None` for classic shift-and-sum), for reports.
+    pub plane: Option<Plane>,
     /// σ per reference pixel (`None` only for [`SurfaceRule::Plane`]).
     pub depth: Option<SceneDepth>,
 }
@@ -226,16 +228,22 @@ impl SurfacePlan {
     /// The JSON description for reports: the surface, its planes, the slab width, the depth.
     pub fn json(&self, depth_origin: Option<serde_json::Value>) -> serde_json::Value {
         let v3 = |v: DVec3| [v.x, v.y, v.z];
-        let planes = match &self.surface {
-            FocusSurface::Planes(p) => p
-                .iter()
-                .map(|p| serde_json::json!({"point": v3(p.point), "normal": v3(p.normal)}))
-                .collect(),
+        let pj = |p: &Plane| serde_json::json!({"point": v3(p.point), "normal": v3(p.normal)});
+        let planes: Vec<_> = match (&self.surface, &self.plane) {
+            (FocusSurface::Planes(p), _) => p.iter().map(pj).collect(),
+            (_, Some(p)) => vec![pj(p)],
+            (_, None) => Vec::new(),
+        };
+        let boundaries: Vec<_> = match (&self.surface, &self.plane) {
+            (FocusSurface::Slab { .. }, Some(p)) => {
+                self.surface.planes_to_draw(p)[1..].iter().map(pj).collect()
+            }
             _ => Vec::new(),
         };
         serde_json::json!({
             "kind": self.surface.name(),
             "planes": planes,
+            "slab_boundaries": boundaries,
             "slab_half_width": match self.surface {
                 FocusSurface::Slab { half_width } => Some(half_width),
                 _ => None,
@@ -260,6 +268,7 @@ pub fn plan_surface(
         rule: SurfaceRule::Plane,
         terms: vec![plan.m],
         m: plan.m,
+        plane: plan.plane,
         depth,
     };
     if !surface.needs_depth() {
@@ -323,6 +332,7 @@ pub fn plan_surface(
         rule,
         terms,
         m: plan.m,
+        plane: Some(plane),
         depth: Some(depth),
     })
 }
