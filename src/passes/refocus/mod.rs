@@ -31,9 +31,13 @@
 //! - [`RefocusPass::set_antialias`] uploads an anti-aliasing plan (views by aperture cell,
 //!   their footprints, the scene's inverse depth per reference pixel); accumulations with
 //!   `antialias > 0` integrate each view over its footprint (docs/conventions.md §11).
+//! - [`RefocusPass::set_surface`] uploads a focus surface (its plane terms, binding 6, and the
+//!   scene depth it shares with anti-aliasing, binding 5); accumulations with `surface` pick
+//!   the focus's inverse depth per pixel by its rule (the `SURFACE` specialisation constant,
+//!   docs/conventions.md §12). Without it the shader is the single-plane path.
 //!
 //! Destruction order: pipelines → pipeline layouts → descriptor pool (frees the sets) → set
-//! layouts → samplers → warp buffer → decode table → anti-aliasing buffers. Targets are the caller's and destroyed by it.
+//! layouts → samplers → warp buffer → decode table → anti-aliasing buffers → surface buffer. Targets are the caller's and destroyed by it.
 
 mod interface;
 mod target;
