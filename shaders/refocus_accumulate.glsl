@@ -28,6 +28,13 @@ const uint UBO_WARPS = 256; // passes::refocus::UBO_WARPS
 // (refocus::antialias; footprints in binding 4, the scene's inverse depth per reference pixel
 // in binding 5, -1 where unknown).
 layout(constant_id = 3) const uint ANTIALIAS = 0;
+// SURFACE (refocus::surface::SurfaceRule): how the focus surface's inverse depth s along the
+// pixel's ray is chosen. 0: the plane alone, s = max(m.x, 0) (no depth read: the single-plane
+// path is the same code as before surfaces existed); 1: the plane term nearest the scene's
+// sigma; 2: sigma clamped between the far and near boundary planes of a slab; 3: sigma.
+// Where sigma is unknown (< 0) every rule falls back to the push constant's plane.
+layout(constant_id = 4) const uint SURFACE = 0;
+const uint MAX_PLANES = 8u; // refocus::surface::MAX_PLANES
 
 layout(set = 0, binding = 0) uniform sampler2DArray views;
 layout(std430, set = 0, binding = 1) readonly buffer Warps { ViewWarp warps[]; };
@@ -41,11 +48,44 @@ layout(std140, set = 0, binding = 4) uniform Footprints { ViewFootprint footprin
 // Per reference pixel: the scene's inverse depth sigma and the nearest surface's around it
 // (the front), interleaved; -1 where unknown.
 layout(std430, set = 0, binding = 5) readonly buffer SceneDepth { float scene_sigma[]; };
+// The focus surface's plane terms (refocus::surface::SurfacePlan::terms): for SURFACE 1 the
+// first pc.plane_count, the push constant's plane first; for SURFACE 2 far then near.
+layout(std140, set = 0, binding = 6) uniform Surface { vec4 surface_planes[MAX_PLANES]; };
 
 // Index of the reference pixel nearest position p (clamped to the views).
 int depth_index(vec2 p) {
     ivec2 ip = clamp(ivec2(floor(p + 0.5)), ivec2(0), ivec2(pc.view_size) - 1);
     return ip.y * int(pc.view_size.x) + ip.x;
+}
+
+// The focus surface's inverse depth along the ray of x (reference pixel coordinates), given
+// the plane's s (refocus::surface::SurfacePlan::inverse_depth in f64).
+float surface_s(vec3 x, float s) {
+    if (SURFACE == 0u) {
+        return s;
+    }
+    float sigma = scene_sigma[2 * depth_index(x.xy)];
+    if (sigma < 0.0) {
+        return s;
+    }
+    if (SURFACE == 3u) {
+        return sigma;
+    }
+    if (SURFACE == 2u) {
+        float lo = max(dot(surface_planes[0].xyz, x), 0.0);
+        float hi = max(dot(surface_planes[1].xyz, x), 0.0);
+        return min(max(sigma, lo), hi);
+    }
+    float best = s;
+    float err = abs(s - sigma);
+    for (uint k = 1u; k < min(pc.plane_count, MAX_PLANES); ++k) {
+        float sk = max(dot(surface_planes[k].xyz, x), 0.0);
+        if (abs(sk - sigma) < err) {
+            best = sk;
+            err = abs(sk - sigma);
+        }
+    }
+    return best;
 }
 
 float srgb_to_linear(int i) {
@@ -161,7 +201,7 @@ vec4 accumulate(vec2 frag) {
     vec3 x = vec3(frag * pc.out_scale - 0.5, 1.0);
     // Inverse depth of the plane along this pixel's ray; <= 0 past the horizon, where the
     // documented rule focuses at infinity.
-    float s = max(dot(pc.plane.xyz, x), 0.0);
+    float s = surface_s(x, max(dot(pc.plane.xyz, x), 0.0));
     vec2 lo = vec2(-0.5);
     vec2 hi = pc.view_size - 0.5;
     vec3 sum = vec3(0.0);

@@ -30,5 +30,5 @@ layout(push_constant) uniform RefocusPush {
     uint first_view; // first warp of this draw or dispatch
     uint view_count; // number of warps of this draw or dispatch
     uint accumulate; // compute: 1 adds to the accumulation image, 0 replaces its contents
-    uint pad;
+    uint plane_count; // planes of a focus surface (SURFACE 1), the plane's included
 } pc;

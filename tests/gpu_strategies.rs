@@ -370,6 +370,7 @@ fn frames_in_flight_release_their_resources_only_after_completion() {
             filter: Filter::Shader,
             averaging: Averaging::Linear,
             antialias: 0,
+            surface: false,
         };
         pass.record_accumulate(&ctx, frame.cmd, target, &a).unwrap();
         pass.record_resolve(

@@ -15,6 +15,7 @@ use super::{load_light_field, parse_numbers, LightFieldArgs};
 use crate::error::{Error, Result};
 use crate::geometry::normals::estimate_normals;
 use crate::lightfield::ply::{PlyMesh, PlyVertex};
+use crate::refocus::surface::FocusSurface;
 use crate::scene::{PointCloud, SceneBuilder, PLANE_COLOUR};
 
 /// Largest `--plane-size`, world units (far inside f32, which the PLY stores).
@@ -31,6 +32,11 @@ pub struct CloudArgs {
     /// Optional refocus plane to add as a quad (same options as `render`).
     #[command(flatten)]
     pub focus: FocusArgs,
+    /// Focus slab around the plane: also write its two boundary planes, W away along the
+    /// normal (world units; see `render --slab`). `--plane` given 2 to 8 times writes every
+    /// plane of the surface.
+    #[arg(long, value_name = "W", allow_hyphen_values = true)]
+    pub slab: Option<f64>,
     /// Reference (virtual) view S,T for --focus and --nudge-*; default: grid centre.
     #[arg(long, value_name = "S,T")]
     pub view: Option<String>,
@@ -114,7 +120,17 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         }
         None => lf.grid.centre(),
     };
-    let focus = args.focus.resolve(&lf, reference, window)?;
+    let surface = FocusSurface::from_request(&args.focus.keyboard.planes()?, args.slab, false)?;
+    let focus = args
+        .focus
+        .request_of_first(window)?
+        .map(|req| crate::refocus::resolve_focus(&lf, &req, reference))
+        .transpose()?;
+    if surface != FocusSurface::Plane && focus.is_none() {
+        return Err(Error::Invalid(
+            "--slab needs a focus plane to lie around; give --plane, --focus or a click".into(),
+        ));
+    }
     if let Some(f) = &focus {
         if f.plane.is_none() {
             return Err(Error::Invalid(format!(
@@ -143,7 +159,15 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         }));
     }
     let mut plane_report = None;
+    let mut surface_quads = Vec::new();
     if let (Some(quad), Some(focus)) = (&scene.plane, &focus) {
+        let r = lf.camera_at(reference)?.r;
+        surface_quads = surface
+            .planes_to_draw(&quad.plane)
+            .iter()
+            .skip(1)
+            .map(|p| quad.moved_to(p, &r))
+            .collect::<Vec<_>>();
         let plane = quad.plane;
         let first = mesh.vertices.len() as u32;
         mesh.vertices
@@ -172,6 +196,40 @@ pub fn run(args: &CloudArgs) -> Result<()> {
                       "normal": [plane.normal.x, plane.normal.y, plane.normal.z]},
             "focus": focus_json(focus),
             "half_size": quad.half,
+        }));
+    }
+    // The surface's other planes (several planes; a slab's boundaries): one quad each,
+    // faces 1, 2, … in the order of `FocusSurface::planes_to_draw`.
+    let mut surface_report = Vec::new();
+    for (k, quad) in surface_quads.iter().enumerate() {
+        let first = mesh.vertices.len() as u32;
+        let plane = quad.plane;
+        mesh.vertices
+            .extend(quad.corners.iter().map(|&c| PlyVertex {
+                position: f32x3(c),
+                normal: f32x3(plane.normal),
+                colour: PLANE_COLOUR,
+                quality: 1.0,
+            }));
+        mesh.faces
+            .push(vec![first, first + 1, first + 2, first + 3]);
+        mesh.comments.push(format!(
+            "focus surface ({}) plane {}: point {} {} {} normal {} {} {} (vertices {}..{}, face {})",
+            surface.name(),
+            k + 2,
+            plane.point.x,
+            plane.point.y,
+            plane.point.z,
+            plane.normal.x,
+            plane.normal.y,
+            plane.normal.z,
+            first,
+            first + 3,
+            k + 1
+        ));
+        surface_report.push(json!({
+            "point": [plane.point.x, plane.point.y, plane.point.z],
+            "normal": [plane.normal.x, plane.normal.y, plane.normal.z],
         }));
     }
     let first_camera = mesh.vertices.len();
@@ -223,6 +281,11 @@ pub fn run(args: &CloudArgs) -> Result<()> {
             "normal_window": params.window,
             "normals_ms": normals_ms,
             "plane": plane_report,
+            "surface": {
+                "kind": surface.name(),
+                "slab_half_width": args.slab,
+                "other_planes": surface_report,
+            },
             "cameras": if args.cameras { lf.views.len() } else { 0 },
         });
         println!(
@@ -233,7 +296,11 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         eprintln!(
             "wrote {} ({points} points, {with_normal} with a normal, normals in {normals_ms:.0} ms{}{})",
             args.output.display(),
-            if plane_report.is_some() { ", plane quad" } else { "" },
+            match (plane_report.is_some(), surface_quads.len()) {
+                (false, _) => String::new(),
+                (true, 0) => ", plane quad".to_string(),
+                (true, n) => format!(", {} plane quads ({})", n + 1, surface.name()),
+            },
             if args.cameras {
                 format!(", {} cameras", lf.views.len())
             } else {

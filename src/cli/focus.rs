@@ -14,7 +14,7 @@ use glam::{DVec2, DVec3};
 use serde_json::{json, Value};
 
 use super::parse_numbers;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::geometry::normals::{NormalMethod, NormalParams};
 use crate::geometry::picking::Nudge;
 use crate::geometry::plane::Plane;
@@ -40,9 +40,15 @@ pub struct PlaneArgs {
     /// shift-and-sum elsewhere (view (s,t) sampled at u + (s − s_r)·D, v + (t − t_r)·D).
     #[arg(long, value_name = "D", allow_hyphen_values = true)]
     pub disparity: Option<f64>,
-    /// Refocus plane: world point and normal.
-    #[arg(long, value_name = "PX,PY,PZ,NX,NY,NZ", allow_hyphen_values = true)]
-    pub plane: Option<String>,
+    /// Refocus plane: world point and normal. `render` takes it 2 to 8 times: a focus
+    /// surface of several planes (each pixel focused on the plane nearest the scene there).
+    #[arg(
+        long,
+        value_name = "PX,PY,PZ,NX,NY,NZ",
+        allow_hyphen_values = true,
+        action = clap::ArgAction::Append
+    )]
+    pub plane: Vec<String>,
     /// Refocus plane through the reference optical axis at distance Z (world units).
     #[arg(long, value_name = "Z", allow_hyphen_values = true)]
     pub focus: Option<f64>,
@@ -68,14 +74,36 @@ pub struct PlaneArgs {
 
 impl PlaneArgs {
     /// The focus these options give, with its name for reports; `None` when none is given.
+    /// `--plane` given more than once is a focus surface, which only `render` takes.
     pub fn spec(&self) -> Result<Option<(&'static str, FocusSpec)>> {
+        if self.plane.len() > 1 {
+            return Err(Error::Invalid(format!(
+                "--plane is given {} times; several planes are a focus surface, which only \
+                 `render` takes",
+                self.plane.len()
+            )));
+        }
+        self.first_spec()
+    }
+
+    /// Every `--plane`, in order (empty when none is given).
+    pub fn planes(&self) -> Result<Vec<Plane>> {
+        self.plane
+            .iter()
+            .map(|text| {
+                let v = parse_numbers(text, 6, "--plane")?;
+                Plane::new(DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]))
+            })
+            .collect()
+    }
+
+    /// [`PlaneArgs::spec`] of the first `--plane` when several are given.
+    fn first_spec(&self) -> Result<Option<(&'static str, FocusSpec)>> {
         if let Some(d) = self.disparity {
             return Ok(Some(("disparity", FocusSpec::Disparity(d))));
         }
-        if let Some(text) = &self.plane {
-            let v = parse_numbers(text, 6, "--plane")?;
-            let p = Plane::new(DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]))?;
-            return Ok(Some(("plane", FocusSpec::Plane(p))));
+        if let Some(p) = self.planes()?.first() {
+            return Ok(Some(("plane", FocusSpec::Plane(*p))));
         }
         Ok(self.focus.map(|z| {
             (
@@ -158,7 +186,7 @@ impl FocusArgs {
     /// True when any focus option is given.
     pub fn any(&self) -> bool {
         self.keyboard.disparity.is_some()
-            || self.keyboard.plane.is_some()
+            || !self.keyboard.plane.is_empty()
             || self.keyboard.focus.is_some()
             || self.click.is_some()
             || self.points.is_some()
@@ -186,7 +214,14 @@ impl FocusArgs {
 
     /// [`FocusArgs::request`] with `default_window` for a click's normal.
     pub fn request_with_window(&self, default_window: u32) -> Result<Option<FocusRequest>> {
-        if let Some((_, spec)) = self.keyboard.spec()? {
+        self.keyboard.spec()?;
+        self.request_of_first(default_window)
+    }
+
+    /// [`FocusArgs::request_with_window`] that takes several `--plane`s (a focus surface,
+    /// [`PlaneArgs::planes`]) and focuses on the first.
+    pub fn request_of_first(&self, default_window: u32) -> Result<Option<FocusRequest>> {
+        if let Some((_, spec)) = self.keyboard.first_spec()? {
             return Ok(Some(spec.into()));
         }
         let target = if let Some(text) = &self.click {

@@ -23,6 +23,13 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
     // Options and outputs first, then the video's listing, then the device: nothing is
     // decoded before everything that can be checked cheaply has been.
     let range: FrameRange = spec.parse()?;
+    if super::render::focus_surface(args)?.needs_depth() {
+        return Err(Error::Invalid(
+            "--frames renders one focus plane per frame; focus surfaces (several --plane, \
+             --slab, --all-in-focus) are for single renders"
+                .into(),
+        ));
+    }
     let output_text = crate::io::utf8_path(&args.output, "the -o pattern")?;
     let pattern = OutputPattern::parse(output_text)?;
     let sequence = FrameSequence::open(Path::new(&args.lf.light_field))?;

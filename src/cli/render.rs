@@ -44,6 +44,15 @@ pub struct RenderArgs {
     pub aperture: ApertureArgs,
     #[command(flatten)]
     pub antialias: AntialiasArgs,
+    /// Focus slab: keep everything within W (world units, as --plane; measured along the
+    /// plane's normal) of the one focus plane sharp. Needs the scene's depth (the light
+    /// field's own map, else estimated).
+    #[arg(long, value_name = "W", allow_hyphen_values = true)]
+    pub slab: Option<f64>,
+    /// Focus every pixel on the scene point it sees (needs the scene's depth; the focus
+    /// option is then the fallback where the depth is unknown).
+    #[arg(long)]
+    pub all_in_focus: bool,
     /// How views are summed: fragment (one draw), batched[:N] (draws of N views) or compute.
     #[arg(long, value_name = "STRATEGY")]
     pub strategy: Option<Strategy>,
@@ -107,7 +116,7 @@ pub fn make_plan_with_window(
     let reference = args.aperture.reference()?;
     let request = args
         .focus
-        .request_with_window(default_window)?
+        .request_of_first(default_window)?
         .ok_or_else(|| {
             Error::Invalid(
                 "give one of --disparity, --plane, --focus, --click, --points or --points-3d"
@@ -121,6 +130,12 @@ pub fn make_plan_with_window(
 }
 
 pub use crate::refocus::plan_json;
+
+/// The focus surface of `args` (parsing only; the library validates the combination).
+pub fn focus_surface(args: &RenderArgs) -> Result<refocus::surface::FocusSurface> {
+    let planes = args.focus.keyboard.planes()?;
+    refocus::surface::FocusSurface::from_request(&planes, args.slab, args.all_in_focus)
+}
 
 /// The anti-aliasing plan of `args` for `plan` on `lf`, when it is on (`aa_on`); `lf` must
 /// then carry depth (the caller ensured it). When anti-aliasing was not asked for but is on
@@ -227,6 +242,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     }
     let settings = render_settings(args, kind)?;
     args.antialias.settings()?;
+    let surface = focus_surface(args)?;
     check_output(&args.output)?;
     // The device first, so a light field it cannot hold is refused before decoding its views.
     let ctx = GpuContext::new(&args.gpu.options())?;
@@ -246,10 +262,23 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let aa_on = refocus::antialias::wanted(args.antialias.requested(), &lf);
     let depth = match depth {
         None if aa_on => Some(super::depth::ensure_for(&ctx, &mut lf)?.0),
+        // A focus surface chooses its focus from the scene's depth at every pixel.
+        None if surface.needs_depth() => Some(
+            super::depth::ensure_for(&ctx, &mut lf)
+                .map_err(|e| {
+                    Error::Invalid(format!(
+                        "the focus surface '{}' needs the scene's depth, which this light \
+                         field lacks and cannot be estimated: {e}",
+                        surface.name()
+                    ))
+                })?
+                .0,
+        ),
         d => d,
     };
     let (plan, focus) = make_plan_with_window(&lf, args, window)?;
     let aa = antialias_plan(&lf, args, &plan, aa_on)?;
+    let surface_plan = refocus::surface::surface_for(&lf, &plan, &surface, aa.as_ref())?;
     if !args.json {
         if let Some(line) = focus_summary(&focus) {
             eprintln!("{line}");
@@ -263,6 +292,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let t_upload = t1.elapsed().as_secs_f64() * 1e3;
     let t2 = Instant::now();
     let (image, timings) = match &aa {
+        _ if surface.needs_depth() => {
+            renderer.render_surface(&plan, aa.as_ref(), &surface_plan, &settings)?
+        }
         Some(aa) => renderer.render_antialiased(aa, &settings)?,
         None => renderer.render(&plan, &settings)?,
     };
@@ -276,6 +308,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         let bar = indicatif::ProgressBar::new(args.repeat as u64).with_message("timing frames");
         for _ in 0..args.repeat {
             let t = match &aa {
+                _ if surface.needs_depth() => {
+                    renderer
+                        .render_surface(&plan, aa.as_ref(), &surface_plan, &settings)?
+                        .1
+                }
                 Some(aa) => renderer.render_timed_antialiased(aa, &settings)?,
                 None => renderer.render_timed(&plan, &settings)?,
             };
@@ -311,6 +348,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "focus": focus_json(&focus),
             "depth": depth.as_ref().map(super::depth::origin_json),
             "antialias": antialias_json(aa.as_ref(), depth.as_ref().map(super::depth::origin_json)),
+            "surface": surface_plan.json(depth.as_ref().map(super::depth::origin_json)),
             "output": args.output,
             "averaging": args.aperture.average,
             "strategy": settings.strategy.name(),
@@ -346,7 +384,15 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             out_w,
             out_h,
             views_used,
-            if aa.is_some() { ", anti-aliased" } else { "" },
+            match (&surface, aa.is_some()) {
+                (refocus::surface::FocusSurface::Plane, true) => ", anti-aliased".to_string(),
+                (refocus::surface::FocusSurface::Plane, false) => String::new(),
+                (s, a) => format!(
+                    ", focus surface {}{}",
+                    s.name(),
+                    if a { ", anti-aliased" } else { "" }
+                ),
+            },
             gpu_median.map_or("no GPU timer".to_string(), |ms| format!(
                 "GPU refocus {ms:.2} ms on {device}"
             )),

@@ -24,6 +24,7 @@ use crate::passes::refocus::{
 };
 use crate::passes::texture::{LightFieldTexture, ViewStorage};
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::surface::{SurfacePlan, SurfaceRule};
 use crate::refocus::{Averaging, RefocusImage, RefocusPlan};
 
 /// Per-render settings.
@@ -192,6 +193,31 @@ impl HeadlessRenderer {
         Ok((self.read_image(settings)?, timings))
     }
 
+    /// Renders `plan` focused on `surface` (docs/conventions.md §12), anti-aliased when `aa`
+    /// is given (`aa.plan` then replaces `plan`'s views, and `surface` must read `aa`'s scene
+    /// depth, as [`crate::refocus::surface::surface_for`] builds it), and reads it back.
+    pub fn render_surface(
+        &mut self,
+        plan: &RefocusPlan,
+        aa: Option<&AntialiasPlan>,
+        surface: &SurfacePlan,
+        settings: &RenderSettings,
+    ) -> Result<(GpuImage, Option<PassTimings>)> {
+        if let (Some(aa), Some(depth)) = (aa, &surface.depth) {
+            if aa.depth.inverse_depth != depth.inverse_depth {
+                return Err(Error::Invalid(
+                    "the focus surface and anti-aliasing read different scene depths; build the \
+                     surface from the anti-aliasing plan (refocus::surface::surface_for)"
+                        .into(),
+                ));
+            }
+        }
+        let plan = aa.map_or(plan, |a| &a.plan);
+        let views = 0..plan.views.len();
+        let timings = self.frame_with(plan, aa, Some(surface), settings, views, true, true)?;
+        Ok((self.read_image(settings)?, timings))
+    }
+
     /// [`Self::render_antialiased`] without readback, for timing.
     pub fn render_timed_antialiased(
         &mut self,
@@ -234,6 +260,20 @@ impl HeadlessRenderer {
         restart: bool,
         readback: bool,
     ) -> Result<Option<PassTimings>> {
+        self.frame_with(plan, aa, None, settings, views, restart, readback)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn frame_with(
+        &mut self,
+        plan: &RefocusPlan,
+        aa: Option<&AntialiasPlan>,
+        surface: Option<&SurfacePlan>,
+        settings: &RenderSettings,
+        views: Range<usize>,
+        restart: bool,
+        readback: bool,
+    ) -> Result<Option<PassTimings>> {
         let ctx = Arc::clone(&self.ctx);
         let (Some(pass), Some(texture)) = (self.pass.as_mut(), self.texture.as_ref()) else {
             return Err(Error::Vulkan("the renderer was not fully created".into()));
@@ -264,6 +304,15 @@ impl HeadlessRenderer {
             Some(aa) => pass.set_antialias(aa)?,
             None => pass.set_views(plan)?,
         };
+        // After anti-aliasing's upload: both bind the same scene depth, so this rewrites nothing
+        // there when the surface carries anti-aliasing's depth.
+        let with_surface = match surface {
+            Some(sp) if sp.rule != SurfaceRule::Plane => {
+                pass.set_surface(sp)?;
+                true
+            }
+            _ => false,
+        };
         let (Some(target), Some(submission), Some(readback_buffer)) = (
             self.target.as_mut(),
             self.submission.as_ref(),
@@ -280,6 +329,7 @@ impl HeadlessRenderer {
             filter: settings.filter,
             averaging: settings.averaging,
             antialias: aa.map_or(0, |a| a.settings.max_samples),
+            surface: with_surface,
         };
         let ts = self.timestamps.as_ref();
         let all = vk::PipelineStageFlags2::ALL_COMMANDS;

@@ -11,6 +11,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::antialias::{samples, view_residual, AntialiasPlan};
+use super::surface::SurfacePlan;
 use super::{Averaging, RefocusImage, RefocusPlan};
 use crate::color;
 use crate::lightfield::LightField;
@@ -119,6 +120,120 @@ pub fn render_antialiased(
     w: u32,
     h: u32,
 ) -> RefocusImage {
+    let m = aa.plan.m;
+    antialiased_with(lf, aa, averaging, (w, h), |px| {
+        m.dot(px.extend(1.0)).max(0.0)
+    })
+}
+
+/// The f64 model of a focus surface's refocus (docs/conventions.md §12): the plain sum
+/// (bilinear) or, with `aa`, the anti-aliased one, with the surface's inverse depth
+/// [`SurfacePlan::inverse_depth`] per output pixel in place of the plane's. With `aa` the
+/// surface must read `aa`'s scene depth, as the pass binds one for both.
+pub fn render_surface(
+    lf: &LightField,
+    plan: &RefocusPlan,
+    surface: &SurfacePlan,
+    aa: Option<&AntialiasPlan>,
+    averaging: Averaging,
+    (w, h): (u32, u32),
+) -> RefocusImage {
+    if let Some(aa) = aa {
+        return antialiased_with(lf, aa, averaging, (w, h), |px| surface.inverse_depth(px));
+    }
+    let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
+    let table: [f64; 256] = match averaging {
+        Averaging::Linear => color::decode_table(),
+        Averaging::Encoded => std::array::from_fn(|i| i as f64 / 255.0),
+    };
+    let (wf, hf) = (lf.width as f64, lf.height as f64);
+    let mut pixels = vec![[0f32; 4]; w as usize * h as usize];
+    pixels
+        .par_chunks_mut(w as usize)
+        .enumerate()
+        .for_each(|(y, row)| {
+            for (x, out) in row.iter_mut().enumerate() {
+                let px = (DVec2::new(x as f64, y as f64) + 0.5) * scale - 0.5;
+                let s = surface.inverse_depth(px);
+                let mut sum = [0f64; 3];
+                let mut wsum = 0f64;
+                for v in &plan.views {
+                    let q = v.warp.a * px.extend(1.0) + v.warp.b * s;
+                    if q.z.is_nan() || q.z <= 0.0 {
+                        continue;
+                    }
+                    let p = DVec2::new(q.x / q.z, q.y / q.z);
+                    if !(p.x >= -0.5 && p.x <= wf - 0.5 && p.y >= -0.5 && p.y <= hf - 0.5) {
+                        continue;
+                    }
+                    let c = bilinear(&lf.views[v.index].image, &table, p);
+                    for k in 0..3 {
+                        sum[k] += v.weight * c[k];
+                    }
+                    wsum += v.weight;
+                }
+                *out = if wsum > 0.0 {
+                    [
+                        (sum[0] / wsum) as f32,
+                        (sum[1] / wsum) as f32,
+                        (sum[2] / wsum) as f32,
+                        1.0,
+                    ]
+                } else {
+                    [0.0; 4]
+                };
+            }
+        });
+    RefocusImage {
+        width: w,
+        height: h,
+        averaging,
+        pixels,
+    }
+}
+
+/// Output pixels where f32 may legitimately differ from [`render_surface`]'s f64 model: the
+/// surface's own ties ([`SurfacePlan::ambiguous`]) and, at the surface's `s`, a view's mask
+/// decided within `eps` pixels of its border.
+pub fn ambiguous_surface(
+    lf: &LightField,
+    plan: &RefocusPlan,
+    surface: &SurfacePlan,
+    (w, h): (u32, u32),
+    eps: f64,
+) -> Vec<bool> {
+    let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
+    let (wf, hf) = (lf.width as f64, lf.height as f64);
+    let near = |v: f64, edge: f64| (v - edge).abs() <= eps;
+    (0..w as usize * h as usize)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
+            let px = (DVec2::new(x, y) + 0.5) * scale - 0.5;
+            if surface.ambiguous(px, 1e-4) {
+                return true;
+            }
+            let s = surface.inverse_depth(px);
+            plan.views.iter().any(|v| {
+                let q = v.warp.a * px.extend(1.0) + v.warp.b * s;
+                if q.z.abs() <= eps * q.truncate().length().max(1.0) {
+                    return true;
+                }
+                let p = DVec2::new(q.x / q.z, q.y / q.z);
+                near(p.x, -0.5) || near(p.x, wf - 0.5) || near(p.y, -0.5) || near(p.y, hf - 0.5)
+            })
+        })
+        .collect()
+}
+
+/// The anti-aliased sum with the focus surface's inverse depth `s_of(x)` at each output pixel.
+fn antialiased_with(
+    lf: &LightField,
+    aa: &AntialiasPlan,
+    averaging: Averaging,
+    (w, h): (u32, u32),
+    s_of: impl Fn(DVec2) -> f64 + Sync,
+) -> RefocusImage {
     let plan = &aa.plan;
     let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
     let table: [f64; 256] = match averaging {
@@ -134,12 +249,12 @@ pub fn render_antialiased(
         .for_each(|(y, row)| {
             for (x, out) in row.iter_mut().enumerate() {
                 let px = (DVec2::new(x as f64, y as f64) + 0.5) * scale - 0.5;
-                let s = plan.m.dot(px.extend(1.0)).max(0.0);
+                let s = s_of(px);
                 let mut sum = [0f64; 3];
                 let mut wsum = 0f64;
                 for (v, fp) in plan.views.iter().zip(&aa.footprints) {
                     let d = view_residual(&aa.depth, fp, px, s).unwrap_or(0.0);
-                    let y0 = v.warp.apply(plan.m, px);
+                    let y0 = v.warp.a * px.extend(1.0) + v.warp.b * s;
                     let ns = samples(fp.span_s, d, y0.z, max);
                     let nt = samples(fp.span_t, d, y0.z, max);
                     let wk = v.weight / (ns * nt) as f64;

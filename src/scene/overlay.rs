@@ -84,6 +84,15 @@ impl PlaneQuad {
         }
     }
 
+    /// The same square moved onto `plane`: its centre projected onto it along `plane`'s
+    /// normal, the same size and camera alignment (how a focus surface's other planes are
+    /// drawn next to the first).
+    pub fn moved_to(&self, plane: &Plane, reference_r: &DMat3) -> Self {
+        let n = plane.normal;
+        let centre = self.centre - n * n.dot(self.centre - plane.point);
+        PlaneQuad::new(plane, centre, self.half, reference_r)
+    }
+
     /// Two triangles (0, 1, 2), (0, 2, 3) for upload, in the plane colour and opacity.
     pub fn vertices(&self) -> [ColourVertex; 6] {
         [0, 1, 2, 0, 2, 3].map(|i| ColourVertex::new(self.corners[i], PLANE_COLOUR, PLANE_ALPHA))

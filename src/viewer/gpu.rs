@@ -596,6 +596,7 @@ impl ViewerGpu {
                 filter: Default::default(),
                 averaging,
                 antialias: aa.map_or(0, |a| a.settings.max_samples),
+                surface: false,
             };
             let mut recorded = Ok(());
             let ran = submission.run(&ctx, |d, cmd| {
@@ -672,6 +673,7 @@ impl RefocusTargets {
             filter: Default::default(),
             averaging: work.averaging,
             antialias: work.antialias,
+            surface: false,
         };
         let target = if batch.divisor > 1 {
             match self.preview.as_mut() {

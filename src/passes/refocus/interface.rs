@@ -7,6 +7,7 @@
 use crate::geometry::homography::ViewWarp;
 use crate::gpu::pod::Pod;
 use crate::refocus::antialias::Footprint;
+use crate::refocus::surface::{SurfacePlan, MAX_PLANES};
 
 /// One view's warp `H_i = A_i + b_i mᵀ` as the shaders read it (`ViewWarp` in GLSL).
 #[repr(C)]
@@ -74,7 +75,8 @@ pub struct RefocusPush {
     pub view_count: u32,
     /// Compute strategy: 1 adds to the accumulation image, 0 replaces it.
     pub accumulate: u32,
-    pub pad: u32,
+    /// Planes of a focus surface with the nearest-plane rule (the plane included).
+    pub plane_count: u32,
 }
 
 // SAFETY: repr(C), only f32 arrays: no padding.
@@ -83,6 +85,28 @@ unsafe impl Pod for GpuViewWarp {}
 unsafe impl Pod for GpuFootprint {}
 // SAFETY: repr(C), f32 arrays then u32s, 48 bytes: no padding.
 unsafe impl Pod for RefocusPush {}
+
+/// The focus surface's plane terms as the shaders read them (`Surface` in
+/// refocus_accumulate.glsl: `vec4 surface_planes[MAX_PLANES]`, std140).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GpuSurface {
+    pub planes: [[f32; 4]; MAX_PLANES],
+}
+
+impl GpuSurface {
+    /// The record of `surface` (plane terms rounded to f32, unused slots zero).
+    pub fn new(surface: &SurfacePlan) -> Self {
+        let mut g = GpuSurface::default();
+        for (slot, m) in g.planes.iter_mut().zip(&surface.terms) {
+            *slot = [m.x as f32, m.y as f32, m.z as f32, 0.0];
+        }
+        g
+    }
+}
+
+// SAFETY: repr(C), only f32 arrays: no padding.
+unsafe impl Pod for GpuSurface {}
 
 #[cfg(test)]
 mod tests {
@@ -136,7 +160,7 @@ mod tests {
             ("first_view", offset_of!(RefocusPush, first_view), 4),
             ("view_count", offset_of!(RefocusPush, view_count), 4),
             ("accumulate", offset_of!(RefocusPush, accumulate), 4),
-            ("pad", offset_of!(RefocusPush, pad), 4),
+            ("plane_count", offset_of!(RefocusPush, plane_count), 4),
         ];
         let rust: Vec<_> = rust
             .iter()
@@ -147,6 +171,15 @@ mod tests {
         assert_eq!(size_of::<RefocusPush>(), end);
         // Vulkan guarantees at least 128 bytes of push constants.
         assert!(size_of::<RefocusPush>() <= 128);
+    }
+
+    #[test]
+    fn surface_record_matches_the_glsl_block() {
+        let glsl = include_str!("../../../shaders/refocus_accumulate.glsl");
+        assert!(glsl.contains("uniform Surface { vec4 surface_planes[MAX_PLANES]; };"));
+        assert!(glsl.contains(&format!("const uint MAX_PLANES = {MAX_PLANES}u;")));
+        // std140 vec4 arrays have a 16-byte stride, as [f32; 4].
+        assert_eq!(size_of::<GpuSurface>(), 16 * MAX_PLANES);
     }
 
     #[test]

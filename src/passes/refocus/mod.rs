@@ -31,9 +31,13 @@
 //! - [`RefocusPass::set_antialias`] uploads an anti-aliasing plan (views by aperture cell,
 //!   their footprints, the scene's inverse depth per reference pixel); accumulations with
 //!   `antialias > 0` integrate each view over its footprint (docs/conventions.md §11).
+//! - [`RefocusPass::set_surface`] uploads a focus surface (its plane terms, binding 6, and the
+//!   scene depth it shares with anti-aliasing, binding 5); accumulations with `surface` pick
+//!   the focus's inverse depth per pixel by its rule (the `SURFACE` specialisation constant,
+//!   docs/conventions.md §12). Without it the shader is the single-plane path.
 //!
 //! Destruction order: pipelines → pipeline layouts → descriptor pool (frees the sets) → set
-//! layouts → samplers → warp buffer → decode table → anti-aliasing buffers. Targets are the caller's and destroyed by it.
+//! layouts → samplers → warp buffer → decode table → anti-aliasing buffers → surface buffer. Targets are the caller's and destroyed by it.
 
 mod interface;
 mod target;
@@ -43,7 +47,7 @@ use std::ops::Range;
 use ash::vk;
 
 use crate::gpu::pod::as_bytes;
-pub use interface::{GpuFootprint, GpuViewWarp, RefocusPush};
+pub use interface::{GpuFootprint, GpuSurface, GpuViewWarp, RefocusPush};
 pub use target::{OutputFormat, RefocusTarget};
 
 use super::texture::{LightFieldTexture, ViewStorage, VIEW_SRGB, VIEW_STORED};
@@ -56,6 +60,7 @@ use crate::gpu::resources::Buffer;
 use crate::gpu::shaders;
 use crate::gpu::GpuContext;
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::surface::{SurfacePlan, SurfaceRule, MAX_PLANES};
 use crate::refocus::{Averaging, RefocusPlan};
 
 /// Workgroup edge of `refocus.comp` (8 × 8 invocations).
@@ -294,6 +299,10 @@ pub struct Accumulate {
     /// from the footprints and scene depth of the last [`RefocusPass::set_antialias`]; 0: the
     /// plain sum.
     pub antialias: u32,
+    /// Focus on the surface of the last [`RefocusPass::set_surface`] (its plane terms and the
+    /// scene depth) instead of the plane `m` alone; `m` stays the fallback where the depth is
+    /// unknown.
+    pub surface: bool,
 }
 
 /// What the shader does to each texel before filtering (`TEXEL` in refocus_accumulate.glsl).
@@ -332,6 +341,8 @@ struct AccumKey {
     format: vk::Format,
     uniform_warps: bool,
     antialias: u32,
+    /// `SurfaceRule` code (0: the plane alone).
+    surface: u32,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -365,6 +376,10 @@ pub struct RefocusPass {
     /// an unchanged anti-aliasing plan is not rewritten.
     uploaded_footprints: Vec<GpuFootprint>,
     uploaded_depth: Vec<f32>,
+    /// The focus surface's plane terms (uniform buffer, binding 6).
+    surface: Buffer,
+    /// What [`RefocusPass::set_surface`] uploaded last: rule and plane count.
+    uploaded_surface: Option<(SurfaceRule, u32)>,
     accum_pipelines: Vec<(AccumKey, vk::Pipeline)>,
     resolve_pipelines: Vec<(ResolveKey, vk::Pipeline)>,
 }
@@ -467,6 +482,27 @@ impl RefocusPass {
                 return Err(e);
             }
         };
+        let surface = match Buffer::new(
+            ctx,
+            std::mem::size_of::<GpuSurface>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            true,
+            "focus surface planes",
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                footprints.destroy(ctx);
+                scene_depth.destroy(ctx);
+                warps.destroy(ctx);
+                decode.destroy(ctx);
+                b.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let surface_info = [vk::DescriptorBufferInfo::default()
+            .buffer(surface.buffer)
+            .offset(0)
+            .range(vk::WHOLE_SIZE)];
         let footprint_info = [vk::DescriptorBufferInfo::default()
             .buffer(footprints.buffer)
             .offset(0)
@@ -543,6 +579,13 @@ impl RefocusPass {
                     .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
                     .buffer_info(&depth_info),
             );
+            writes.push(
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(6)
+                    .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+                    .buffer_info(&surface_info),
+            );
         }
         // SAFETY: new, unused sets; the infos reference live objects.
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
@@ -561,6 +604,8 @@ impl RefocusPass {
             scene_depth,
             uploaded_footprints: Vec::new(),
             uploaded_depth: Vec::new(),
+            surface,
+            uploaded_surface: None,
             accum_pipelines: Vec::new(),
             resolve_pipelines: Vec::new(),
         })
@@ -726,6 +771,44 @@ impl RefocusPass {
         Ok(changed)
     }
 
+    /// Uploads a focus surface's plane terms and its scene depth (the depth anti-aliasing
+    /// reads too: with anti-aliasing, `surface` must carry the same depth as the
+    /// [`RefocusPass::set_antialias`] plan, see `refocus::surface::surface_for`), for
+    /// accumulations with `surface`. Same rules as `set_views`: the GPU must not be reading
+    /// the buffers.
+    pub fn set_surface(&mut self, surface: &SurfacePlan) -> Result<()> {
+        let count = surface.terms.len();
+        if count == 0 || count > MAX_PLANES {
+            return Err(Error::Invalid(format!(
+                "a focus surface has 1 to {MAX_PLANES} plane terms, this one {count}"
+            )));
+        }
+        if let Some(depth) = &surface.depth {
+            let px = self.view_size[0] as usize * self.view_size[1] as usize;
+            if depth.inverse_depth.len() != px || depth.front.len() != px {
+                return Err(Error::Invalid(format!(
+                    "the scene depth is {}×{}, the views {}×{}",
+                    depth.width, depth.height, self.view_size[0], self.view_size[1]
+                )));
+            }
+            let interleaved = depth.interleaved();
+            if interleaved != self.uploaded_depth {
+                let bytes = as_bytes(&interleaved);
+                self.scene_depth.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
+                self.uploaded_depth = interleaved;
+            }
+        } else if surface.rule != SurfaceRule::Plane {
+            return Err(Error::Invalid(
+                "a focus surface other than one plane needs the scene depth".into(),
+            ));
+        }
+        let record = GpuSurface::new(surface);
+        let bytes = as_bytes(std::slice::from_ref(&record));
+        self.surface.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
+        self.uploaded_surface = Some((surface.rule, count as u32));
+        Ok(())
+    }
+
     /// Whether [`RefocusPass::set_antialias`] would rewrite anything for `aa`: a caller with
     /// frames in flight waits for them first.
     pub fn antialias_differs(&self, aa: &AntialiasPlan) -> bool {
@@ -777,6 +860,17 @@ impl RefocusPass {
                     .into(),
             ));
         }
+        let (rule, plane_count) = match (a.surface, self.uploaded_surface) {
+            (false, _) => (SurfaceRule::Plane, 1),
+            (true, Some(u)) => u,
+            (true, None) => {
+                return Err(Error::Invalid(
+                    "focus-surface accumulation without an uploaded surface \
+                     (RefocusPass::set_surface)"
+                        .into(),
+                ))
+            }
+        };
         let (set_index, texel, filter) = sampling(self.storage, a.filter, a.averaging);
         let compute = a.strategy == Strategy::Compute;
         if compute && target.storage_set == vk::DescriptorSet::null() {
@@ -793,6 +887,7 @@ impl RefocusPass {
             format: target.accum_format,
             uniform_warps: self.warp_memory == WarpMemory::Uniform,
             antialias: a.antialias,
+            surface: rule as u32,
         };
         let pipeline = self.accum_pipeline(ctx, key)?;
         let d = &ctx.device;
@@ -806,7 +901,7 @@ impl RefocusPass {
             first_view: a.views.start as u32,
             view_count: 0,
             accumulate: 0,
-            pad: 0,
+            plane_count,
         };
         // Whatever touched the accumulation image before (a previous accumulation, a resolve,
         // possibly in an earlier submission) finishes first.
@@ -1002,9 +1097,10 @@ impl RefocusPass {
             key.texel,
             u32::from(key.uniform_warps),
             key.antialias,
+            key.surface,
         ];
         let name = format!(
-            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {})",
+            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}, surface {})",
             if key.compute { "compute" } else { "fragment" },
             key.filter,
             key.texel,
@@ -1013,7 +1109,8 @@ impl RefocusPass {
             } else {
                 "storage"
             },
-            key.antialias
+            key.antialias,
+            key.surface
         );
         let pipeline = if key.compute {
             // The storage image's format is part of the shader: one module per format.
@@ -1082,6 +1179,7 @@ impl RefocusPass {
         self.decode.destroy(ctx);
         self.footprints.destroy(ctx);
         self.scene_depth.destroy(ctx);
+        self.surface.destroy(ctx);
     }
 }
 
@@ -1188,6 +1286,7 @@ impl PassObjects {
             binding(3, T::UNIFORM_BUFFER, shading),
             binding(4, T::UNIFORM_BUFFER, shading),
             binding(5, T::STORAGE_BUFFER, shading),
+            binding(6, T::UNIFORM_BUFFER, shading),
         ])?;
         self.resolve_set_layout = set_layout(&[binding(
             0,
@@ -1216,7 +1315,7 @@ impl PassObjects {
             },
             vk::DescriptorPoolSize {
                 ty: T::UNIFORM_BUFFER,
-                descriptor_count: 3 * n,
+                descriptor_count: 4 * n,
             },
         ];
         // SAFETY: valid device and create info.
