@@ -1469,3 +1469,48 @@ fn a_plane_quad_too_large_for_the_ply_is_refused() {
         &["--plane-size", "at most"],
     );
 }
+
+#[test]
+fn gltf_accessors_whose_extent_overflows_are_refused_not_panicked_on() {
+    // The crate's readers computed offset + (count − 1)·stride unchecked.
+    let tmp = tempfile::tempdir().unwrap();
+    let base = gltf_file(tmp.path(), &quad(1.0), &QUAD_INDICES, 6, json!({}), 0);
+    let doc: Value = serde_json::from_str(&std::fs::read_to_string(&base).unwrap()).unwrap();
+    let edits: [(&str, &[&str], u64); 5] = [
+        ("count 2^61", &["accessors", "0", "count"], 1 << 61),
+        ("count 2^63", &["accessors", "0", "count"], 1 << 63),
+        (
+            "count u64/12 + 1",
+            &["accessors", "0", "count"],
+            u64::MAX / 12 + 1,
+        ),
+        (
+            "accessor offset u64",
+            &["accessors", "0", "byteOffset"],
+            u64::MAX,
+        ),
+        (
+            "view offset u64",
+            &["bufferViews", "0", "byteOffset"],
+            u64::MAX,
+        ),
+    ];
+    for (k, (what, at, value)) in edits.into_iter().enumerate() {
+        let mut d = doc.clone();
+        let mut v = &mut d;
+        for key in at {
+            v = match key.parse::<usize>() {
+                Ok(i) => &mut v[i],
+                Err(_) => &mut v[*key],
+            };
+        }
+        *v = json!(value);
+        let p = tmp.path().join(format!("edit{k}.gltf"));
+        write_json(&p, &d);
+        let msg = gltf_err(&p);
+        assert!(
+            msg.contains("accessor 0") && msg.contains("beyond"),
+            "{what}: {msg}"
+        );
+    }
+}

@@ -91,6 +91,31 @@ pub fn load(path: &Path) -> Result<GltfScene> {
             a.index()
         )));
     }
+    // An accessor's last byte, `view offset + accessor offset + (count − 1)·stride + size`,
+    // must be a number: the crate's readers compute it unchecked and panicked on counts or
+    // offsets near the top of usize (found by the second campaign). Accessors that merely
+    // reach past their view are named by the readers' checks below.
+    for a in gltf.accessors() {
+        let Some(view) = a.view() else { continue };
+        let stride = view.stride().unwrap_or(a.size());
+        let end = (a.count() - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(a.size()))
+            .and_then(|x| x.checked_add(a.offset()))
+            .and_then(|x| x.checked_add(view.offset()));
+        if end.is_none() || view.offset().checked_add(view.length()).is_none() {
+            return Err(bad(format!(
+                "accessor {} ({} elements of {} bytes from byte {} of buffer view {} at byte {}) \
+                 reaches beyond any buffer",
+                a.index(),
+                a.count(),
+                a.size(),
+                a.offset(),
+                view.index(),
+                view.offset()
+            )));
+        }
+    }
     // Check external resources first, so a missing file is named.
     let base = path.parent().unwrap_or(Path::new("."));
     for b in gltf.buffers() {
