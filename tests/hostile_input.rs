@@ -1514,3 +1514,23 @@ fn gltf_accessors_whose_extent_overflows_are_refused_not_panicked_on() {
         );
     }
 }
+
+#[test]
+fn a_ground_truth_map_that_is_not_a_file_is_named_not_skipped() {
+    // It was skipped in silence: `info` said "depth none" and depth was estimated instead.
+    // A folder, a FIFO, a dangling link.
+    for make in 0..3 {
+        let tmp = tempfile::tempdir().unwrap();
+        hci_folder(tmp.path(), 3, 3, 9, "30");
+        let gt = tmp.path().join(lightfield::hci::DISPARITY_NAME);
+        match make {
+            0 => std::fs::create_dir(&gt).unwrap(),
+            1 => mkfifo(&gt),
+            _ => std::os::unix::fs::symlink(tmp.path().join("nowhere.pfm"), &gt).unwrap(),
+        }
+        fails_with(
+            &["info", tmp.path().to_str().unwrap()],
+            &[lightfield::hci::DISPARITY_NAME],
+        );
+    }
+}

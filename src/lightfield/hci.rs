@@ -412,8 +412,13 @@ pub fn load_within(dir: &Path, limits: &LoadLimits) -> Result<LightField> {
         (DEPTH_NAME, DepthKind::Depth),
     ] {
         let p = dir.join(file);
-        if !p.is_file() {
-            continue;
+        // Absent: the folder has no such map. Present as anything but a regular file (a
+        // folder, a FIFO, a device, a dangling link): refused by name when read, not skipped
+        // in silence as it was.
+        if let Err(e) = std::fs::symlink_metadata(&p) {
+            if e.kind() == std::io::ErrorKind::NotFound {
+                continue;
+            }
         }
         let map = read_pfm_depth(&p, kind)?;
         if (map.width, map.height) != (width, height) {
