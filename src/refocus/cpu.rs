@@ -89,16 +89,7 @@ pub fn render_with(
                     }
                     wsum += v.weight;
                 }
-                *out = if wsum > 0.0 {
-                    [
-                        (sum[0] / wsum) as f32,
-                        (sum[1] / wsum) as f32,
-                        (sum[2] / wsum) as f32,
-                        1.0,
-                    ]
-                } else {
-                    [0.0; 4]
-                };
+                *out = normalised(sum, wsum);
             }
         });
     RefocusImage {
@@ -106,6 +97,21 @@ pub fn render_with(
         height: h,
         averaging,
         pixels,
+    }
+}
+
+/// A pixel's weighted colour sum divided by the weights used (opaque), or transparent black
+/// where no view contributed: the resolve every model here ends with, as the GPU's does.
+fn normalised(sum: [f64; 3], wsum: f64) -> [f32; 4] {
+    if wsum > 0.0 {
+        [
+            (sum[0] / wsum) as f32,
+            (sum[1] / wsum) as f32,
+            (sum[2] / wsum) as f32,
+            1.0,
+        ]
+    } else {
+        [0.0; 4]
     }
 }
 
@@ -172,16 +178,7 @@ pub fn render_surface(
                     }
                     wsum += v.weight;
                 }
-                *out = if wsum > 0.0 {
-                    [
-                        (sum[0] / wsum) as f32,
-                        (sum[1] / wsum) as f32,
-                        (sum[2] / wsum) as f32,
-                        1.0,
-                    ]
-                } else {
-                    [0.0; 4]
-                };
+                *out = normalised(sum, wsum);
             }
         });
     RefocusImage {
@@ -279,16 +276,7 @@ fn antialiased_with(
                         }
                     }
                 }
-                *out = if wsum > 0.0 {
-                    [
-                        (sum[0] / wsum) as f32,
-                        (sum[1] / wsum) as f32,
-                        (sum[2] / wsum) as f32,
-                        1.0,
-                    ]
-                } else {
-                    [0.0; 4]
-                };
+                *out = normalised(sum, wsum);
             }
         });
     RefocusImage {
