@@ -328,6 +328,20 @@ fn malformed_videos_are_clear_errors() {
     );
     let e = seq.select("0..3".parse().unwrap()).unwrap_err().to_string();
     assert!(e.contains("asks for frame 0"), "{e}");
+    // A frame file that is there but is a folder, or a dangling link, is named as what it is
+    // (it read as plainly missing).
+    let name = frame_name("Remy", true, 2, 3);
+    std::fs::create_dir(d.join(&name)).unwrap();
+    let e = err(Some(2));
+    assert!(
+        e.contains("lacks camera 3") && e.contains(&format!("{name} is a folder")),
+        "{e}"
+    );
+    std::fs::remove_dir(d.join(&name)).unwrap();
+    std::os::unix::fs::symlink(d.join("nowhere.png"), d.join(&name)).unwrap();
+    let e = err(Some(2));
+    assert!(e.contains(&format!("{name} is a dangling link")), "{e}");
+    std::fs::remove_file(d.join(&name)).unwrap();
     write_frame(d, "Remy", true, 2, &r.render(2));
 
     // An image that is not a frame.

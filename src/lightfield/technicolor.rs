@@ -668,17 +668,44 @@ impl TechnicolorVideo {
                 self.folder.display(),
                 describe_frames(&self.frame_numbers)
             ))),
-            Some(missing) if !missing.is_empty() => Err(Error::LightField(format!(
-                "{}: frame {frame} lacks camera{} {} (of 0–{})",
-                self.image_folder.display(),
-                if missing.len() == 1 { "" } else { "s" },
-                missing
+            Some(missing) if !missing.is_empty() => {
+                // A frame's file that is there but is no image file (a folder, a FIFO, a
+                // device, a dangling link) is named as what it is, not as missing.
+                let not_files: Vec<String> = missing
                     .iter()
-                    .map(|k| k.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                self.calibration.cameras.len() - 1
-            ))),
+                    .filter_map(|&k| {
+                        let name = format!(
+                            "{}{}_{frame:05}_{k:02}.png",
+                            self.scene,
+                            if self.undist_names { "_undist" } else { "" }
+                        );
+                        let path = self.image_folder.join(&name);
+                        let meta = std::fs::symlink_metadata(&path).ok()?;
+                        let kind = if meta.file_type().is_symlink() && !path.exists() {
+                            "a dangling link"
+                        } else {
+                            crate::io::kind_of(&std::fs::metadata(&path).unwrap_or(meta))
+                        };
+                        Some(format!("{name} is {kind}, not an image file"))
+                    })
+                    .collect();
+                Err(Error::LightField(format!(
+                    "{}: frame {frame} lacks camera{} {} (of 0–{}){}",
+                    self.image_folder.display(),
+                    if missing.len() == 1 { "" } else { "s" },
+                    missing
+                        .iter()
+                        .map(|k| k.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    self.calibration.cameras.len() - 1,
+                    if not_files.is_empty() {
+                        String::new()
+                    } else {
+                        format!(": {}", not_files.join("; "))
+                    }
+                )))
+            }
             Some(_) => Ok(()),
         }
     }
