@@ -144,10 +144,17 @@ impl Pick {
 
 /// `plane` adjusted by `nudge` in the keyboard definition relative to `camera`.
 pub fn nudge_plane(plane: &Plane, camera: &Camera, nudge: Nudge) -> Result<(Plane, AppliedNudge)> {
-    if !(nudge.distance.is_finite() && nudge.tilt_deg.is_finite() && nudge.swing_deg.is_finite()) {
-        return Err(Error::Invalid(format!(
-            "nudges must be finite, got {nudge:?}"
-        )));
+    // Named as the options that set them (the message printed the struct's Debug form).
+    for (option, value) in [
+        ("--nudge-distance", nudge.distance),
+        ("--nudge-tilt", nudge.tilt_deg),
+        ("--nudge-swing", nudge.swing_deg),
+    ] {
+        if !value.is_finite() {
+            return Err(Error::Invalid(format!(
+                "{option} must be a finite number, got {value}"
+            )));
+        }
     }
     let before = KeyboardPlane::of(plane, camera)?;
     let after = KeyboardPlane {
@@ -488,6 +495,16 @@ mod tests {
             distance: f64::NAN,
             ..Default::default()
         };
-        assert!(nudge_plane(&plane, &cam, nan).is_err());
+        let err = nudge_plane(&plane, &cam, nan).unwrap_err().to_string();
+        assert!(err.contains("--nudge-distance"), "{err}");
+        let inf = Nudge {
+            tilt_deg: f64::INFINITY,
+            ..Default::default()
+        };
+        let err = nudge_plane(&plane, &cam, inf).unwrap_err().to_string();
+        assert!(
+            err.contains("--nudge-tilt") && !err.contains("Nudge {"),
+            "{err}"
+        );
     }
 }
