@@ -7,7 +7,7 @@
 //! Catmull-Rom bicubic), so each filter can be held to a tight bound against its own model,
 //! while the bilinear reference stays the one that defines the method.
 
-use glam::DVec2;
+use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::antialias::{samples, view_residual, AntialiasPlan};
@@ -54,12 +54,60 @@ pub fn render_with(
     h: u32,
     kernel: Kernel,
 ) -> RefocusImage {
+    // The plane's inverse depth along the pixel's ray, with the horizon rule (ViewWarp::apply).
+    let m = plan.m;
+    plain_with(lf, plan, averaging, (w, h), kernel, |px| {
+        m.dot(px.extend(1.0)).max(0.0)
+    })
+}
+
+/// The plain sum with the focus surface's inverse depth `s_of(x)` at each output pixel, the
+/// views sampled by `kernel`.
+fn plain_with(
+    lf: &LightField,
+    plan: &RefocusPlan,
+    averaging: Averaging,
+    (w, h): (u32, u32),
+    kernel: Kernel,
+    s_of: impl Fn(DVec2) -> f64 + Sync,
+) -> RefocusImage {
+    per_pixel(lf, averaging, (w, h), |px, table| {
+        let s = s_of(px);
+        let mut sum = [0f64; 3];
+        let mut wsum = 0f64;
+        for v in &plan.views {
+            let Some(p) = inside(lf, v.warp.a * px.extend(1.0) + v.warp.b * s) else {
+                continue;
+            };
+            let img = &lf.views[v.index].image;
+            let c = match kernel {
+                Kernel::Bilinear => bilinear(img, table, p),
+                Kernel::Bicubic => bicubic(img, table, p),
+                Kernel::Nearest => nearest(img, table, p),
+            };
+            for k in 0..3 {
+                sum[k] += v.weight * c[k];
+            }
+            wsum += v.weight;
+        }
+        (sum, wsum)
+    })
+}
+
+/// The frame every model shares: output pixel (i, j) of `w × h` at reference position
+/// ((i + ½)·W/w − ½, (j + ½)·H/h − ½), `pixel(x, table)` its weighted colour sum and weight
+/// (texels decoded through `table`, linear or encoded), resolved by [`normalised`].
+fn per_pixel(
+    lf: &LightField,
+    averaging: Averaging,
+    (w, h): (u32, u32),
+    pixel: impl Fn(DVec2, &[f64; 256]) -> ([f64; 3], f64) + Sync,
+) -> RefocusImage {
     let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
     let table: [f64; 256] = match averaging {
         Averaging::Linear => color::decode_table(),
         Averaging::Encoded => std::array::from_fn(|i| i as f64 / 255.0),
     };
-    let (wf, hf) = (lf.width as f64, lf.height as f64);
     let mut pixels = vec![[0f32; 4]; w as usize * h as usize];
     pixels
         .par_chunks_mut(w as usize)
@@ -67,28 +115,7 @@ pub fn render_with(
         .for_each(|(y, row)| {
             for (x, out) in row.iter_mut().enumerate() {
                 let px = (DVec2::new(x as f64, y as f64) + 0.5) * scale - 0.5;
-                let mut sum = [0f64; 3];
-                let mut wsum = 0f64;
-                for v in &plan.views {
-                    let q = v.warp.apply(plan.m, px);
-                    if q.z.is_nan() || q.z <= 0.0 {
-                        continue;
-                    }
-                    let p = DVec2::new(q.x / q.z, q.y / q.z);
-                    if !(p.x >= -0.5 && p.x <= wf - 0.5 && p.y >= -0.5 && p.y <= hf - 0.5) {
-                        continue;
-                    }
-                    let img = &lf.views[v.index].image;
-                    let c = match kernel {
-                        Kernel::Bilinear => bilinear(img, &table, p),
-                        Kernel::Bicubic => bicubic(img, &table, p),
-                        Kernel::Nearest => nearest(img, &table, p),
-                    };
-                    for k in 0..3 {
-                        sum[k] += v.weight * c[k];
-                    }
-                    wsum += v.weight;
-                }
+                let (sum, wsum) = pixel(px, &table);
                 *out = normalised(sum, wsum);
             }
         });
@@ -98,6 +125,17 @@ pub fn render_with(
         averaging,
         pixels,
     }
+}
+
+/// The sample position of the homogeneous point `q` in a view of `lf`, or `None` where the
+/// mask drops it: behind the camera (or NaN), or outside the image's pixel footprints.
+fn inside(lf: &LightField, q: DVec3) -> Option<DVec2> {
+    if q.z.is_nan() || q.z <= 0.0 {
+        return None;
+    }
+    let p = DVec2::new(q.x / q.z, q.y / q.z);
+    let (wf, hf) = (lf.width as f64, lf.height as f64);
+    (p.x >= -0.5 && p.x <= wf - 0.5 && p.y >= -0.5 && p.y <= hf - 0.5).then_some(p)
 }
 
 /// A pixel's weighted colour sum divided by the weights used (opaque), or transparent black
@@ -144,48 +182,11 @@ pub fn render_surface(
     averaging: Averaging,
     (w, h): (u32, u32),
 ) -> RefocusImage {
-    if let Some(aa) = aa {
-        return antialiased_with(lf, aa, averaging, (w, h), |px| surface.inverse_depth(px));
-    }
-    let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
-    let table: [f64; 256] = match averaging {
-        Averaging::Linear => color::decode_table(),
-        Averaging::Encoded => std::array::from_fn(|i| i as f64 / 255.0),
-    };
-    let (wf, hf) = (lf.width as f64, lf.height as f64);
-    let mut pixels = vec![[0f32; 4]; w as usize * h as usize];
-    pixels
-        .par_chunks_mut(w as usize)
-        .enumerate()
-        .for_each(|(y, row)| {
-            for (x, out) in row.iter_mut().enumerate() {
-                let px = (DVec2::new(x as f64, y as f64) + 0.5) * scale - 0.5;
-                let s = surface.inverse_depth(px);
-                let mut sum = [0f64; 3];
-                let mut wsum = 0f64;
-                for v in &plan.views {
-                    let q = v.warp.a * px.extend(1.0) + v.warp.b * s;
-                    if q.z.is_nan() || q.z <= 0.0 {
-                        continue;
-                    }
-                    let p = DVec2::new(q.x / q.z, q.y / q.z);
-                    if !(p.x >= -0.5 && p.x <= wf - 0.5 && p.y >= -0.5 && p.y <= hf - 0.5) {
-                        continue;
-                    }
-                    let c = bilinear(&lf.views[v.index].image, &table, p);
-                    for k in 0..3 {
-                        sum[k] += v.weight * c[k];
-                    }
-                    wsum += v.weight;
-                }
-                *out = normalised(sum, wsum);
-            }
-        });
-    RefocusImage {
-        width: w,
-        height: h,
-        averaging,
-        pixels,
+    match aa {
+        Some(aa) => antialiased_with(lf, aa, averaging, (w, h), |px| surface.inverse_depth(px)),
+        None => plain_with(lf, plan, averaging, (w, h), Kernel::Bilinear, |px| {
+            surface.inverse_depth(px)
+        }),
     }
 }
 
@@ -232,59 +233,35 @@ fn antialiased_with(
     s_of: impl Fn(DVec2) -> f64 + Sync,
 ) -> RefocusImage {
     let plan = &aa.plan;
-    let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
-    let table: [f64; 256] = match averaging {
-        Averaging::Linear => color::decode_table(),
-        Averaging::Encoded => std::array::from_fn(|i| i as f64 / 255.0),
-    };
-    let (wf, hf) = (lf.width as f64, lf.height as f64);
     let max = aa.settings.max_samples;
-    let mut pixels = vec![[0f32; 4]; w as usize * h as usize];
-    pixels
-        .par_chunks_mut(w as usize)
-        .enumerate()
-        .for_each(|(y, row)| {
-            for (x, out) in row.iter_mut().enumerate() {
-                let px = (DVec2::new(x as f64, y as f64) + 0.5) * scale - 0.5;
-                let s = s_of(px);
-                let mut sum = [0f64; 3];
-                let mut wsum = 0f64;
-                for (v, fp) in plan.views.iter().zip(&aa.footprints) {
-                    let d = view_residual(&aa.depth, fp, px, s).unwrap_or(0.0);
-                    let y0 = v.warp.a * px.extend(1.0) + v.warp.b * s;
-                    let ns = samples(fp.span_s, d, y0.z, max);
-                    let nt = samples(fp.span_t, d, y0.z, max);
-                    let wk = v.weight / (ns * nt) as f64;
-                    let img = &lf.views[v.index].image;
-                    for b in 0..nt {
-                        let vv = (b as f64 + 0.5) / nt as f64;
-                        for a in 0..ns {
-                            let u = (a as f64 + 0.5) / ns as f64;
-                            let q = y0 + fp.offset(u, vv, d);
-                            if q.z.is_nan() || q.z <= 0.0 {
-                                continue;
-                            }
-                            let p = DVec2::new(q.x / q.z, q.y / q.z);
-                            if !(p.x >= -0.5 && p.x <= wf - 0.5 && p.y >= -0.5 && p.y <= hf - 0.5) {
-                                continue;
-                            }
-                            let c = bilinear(img, &table, p);
-                            for k in 0..3 {
-                                sum[k] += wk * c[k];
-                            }
-                            wsum += wk;
-                        }
+    per_pixel(lf, averaging, (w, h), |px, table| {
+        let s = s_of(px);
+        let mut sum = [0f64; 3];
+        let mut wsum = 0f64;
+        for (v, fp) in plan.views.iter().zip(&aa.footprints) {
+            let d = view_residual(&aa.depth, fp, px, s).unwrap_or(0.0);
+            let y0 = v.warp.a * px.extend(1.0) + v.warp.b * s;
+            let ns = samples(fp.span_s, d, y0.z, max);
+            let nt = samples(fp.span_t, d, y0.z, max);
+            let wk = v.weight / (ns * nt) as f64;
+            let img = &lf.views[v.index].image;
+            for b in 0..nt {
+                let vv = (b as f64 + 0.5) / nt as f64;
+                for a in 0..ns {
+                    let u = (a as f64 + 0.5) / ns as f64;
+                    let Some(p) = inside(lf, y0 + fp.offset(u, vv, d)) else {
+                        continue;
+                    };
+                    let c = bilinear(img, table, p);
+                    for k in 0..3 {
+                        sum[k] += wk * c[k];
                     }
+                    wsum += wk;
                 }
-                *out = normalised(sum, wsum);
             }
-        });
-    RefocusImage {
-        width: w,
-        height: h,
-        averaging,
-        pixels,
-    }
+        }
+        (sum, wsum)
+    })
 }
 
 /// Output pixels where the anti-aliased model is ambiguous in f32: a view's sub-sample count
