@@ -16,7 +16,7 @@ use crate::error::{Error, Result};
 use crate::geometry::normals::estimate_normals;
 use crate::lightfield::ply::{PlyMesh, PlyVertex};
 use crate::refocus::surface::FocusSurface;
-use crate::scene::{PointCloud, SceneBuilder, PLANE_COLOUR};
+use crate::scene::{PlaneQuad, PointCloud, SceneBuilder, PLANE_COLOUR};
 
 /// Largest `--plane-size`, world units (far inside f32, which the PLY stores).
 const MAX_PLANE_SIZE: f64 = 1e9;
@@ -53,6 +53,22 @@ pub struct CloudArgs {
     /// Print a JSON summary on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Appends `quad` as four vertices (the plane's colour and normal) and one face; returns the
+/// index of its first vertex.
+fn push_quad(mesh: &mut PlyMesh, quad: &PlaneQuad) -> u32 {
+    let first = mesh.vertices.len() as u32;
+    mesh.vertices
+        .extend(quad.corners.iter().map(|&c| PlyVertex {
+            position: f32x3(c),
+            normal: f32x3(quad.plane.normal),
+            colour: PLANE_COLOUR,
+            quality: 1.0,
+        }));
+    mesh.faces
+        .push(vec![first, first + 1, first + 2, first + 3]);
+    first
 }
 
 fn f32x3(v: DVec3) -> [f32; 3] {
@@ -169,16 +185,7 @@ pub fn run(args: &CloudArgs) -> Result<()> {
             .map(|p| quad.moved_to(p, &r))
             .collect::<Vec<_>>();
         let plane = quad.plane;
-        let first = mesh.vertices.len() as u32;
-        mesh.vertices
-            .extend(quad.corners.iter().map(|&c| PlyVertex {
-                position: f32x3(c),
-                normal: f32x3(plane.normal),
-                colour: PLANE_COLOUR,
-                quality: 1.0,
-            }));
-        mesh.faces
-            .push(vec![first, first + 1, first + 2, first + 3]);
+        push_quad(&mut mesh, quad);
         mesh.comments.push(format!(
             "refocus plane ({}): point {} {} {} normal {} {} {} (vertices {}..{}, face 0)",
             focus.how,
@@ -202,17 +209,8 @@ pub fn run(args: &CloudArgs) -> Result<()> {
     // faces 1, 2, … in the order of `FocusSurface::planes_to_draw`.
     let mut surface_report = Vec::new();
     for (k, quad) in surface_quads.iter().enumerate() {
-        let first = mesh.vertices.len() as u32;
         let plane = quad.plane;
-        mesh.vertices
-            .extend(quad.corners.iter().map(|&c| PlyVertex {
-                position: f32x3(c),
-                normal: f32x3(plane.normal),
-                colour: PLANE_COLOUR,
-                quality: 1.0,
-            }));
-        mesh.faces
-            .push(vec![first, first + 1, first + 2, first + 3]);
+        let first = push_quad(&mut mesh, quad);
         mesh.comments.push(format!(
             "focus surface ({}) plane {}: point {} {} {} normal {} {} {} (vertices {}..{}, face {})",
             surface.name(),
