@@ -4,6 +4,7 @@
 
 use image::RgbaImage;
 use indicatif::ProgressBar;
+use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -30,24 +31,33 @@ pub fn estimate(
 ) -> Result<DepthEstimate> {
     let t0 = Instant::now();
     let mut plan = depth::plan(lf, options)?;
-    // Vignetted views (plenoptic cameras) are brought to the reference's brightness first.
+    // Vignetted views (plenoptic cameras) are brought to the reference's brightness first,
+    // once for the sweep's views and the fit's together (the sets overlap, on large grids
+    // they are the same).
     let reference = &lf.views[plan.reference].image;
-    let equalised: Vec<Option<photometric::Equalised>> = plan
+    let fit_set = fit_views(lf, options);
+    let fit_indices = depth::with_views(lf, &plan, fit_set, options.include_dark)
         .views
         .iter()
-        .map(|v| photometric::equalise(reference, &lf.views[v.index].image))
+        .map(|v| v.index)
+        .collect::<Vec<_>>();
+    let mut matched: Vec<usize> = plan.views.iter().map(|v| v.index).collect();
+    matched.extend(&fit_indices);
+    matched.sort_unstable();
+    matched.dedup();
+    let equalised: HashMap<usize, photometric::Equalised> = matched
+        .into_iter()
+        .filter_map(|i| photometric::equalise(reference, &lf.views[i].image).map(|e| (i, e)))
         .collect();
-    let changed = equalised.iter().filter(|e| e.is_some()).count();
-    if changed > 0 {
-        log::info!("{changed} matched views equalised to the reference's brightness (vignetting)");
+    if !equalised.is_empty() {
+        log::info!(
+            "{} matched views equalised to the reference's brightness (vignetting)",
+            equalised.len()
+        );
     }
+    let image_of = |i: usize| equalised.get(&i).map_or(&lf.views[i].image, |e| &e.image);
     let images: Vec<&RgbaImage> = std::iter::once(reference)
-        .chain(
-            plan.views
-                .iter()
-                .zip(&equalised)
-                .map(|(v, e)| e.as_ref().map_or(&lf.views[v.index].image, |e| &e.image)),
-        )
+        .chain(plan.views.iter().map(|v| image_of(v.index)))
         .collect();
     let auto = plan.range_origin == RangeOrigin::Automatic;
     let coarse = auto.then(|| coarse_plan(&plan));
@@ -70,7 +80,15 @@ pub fn estimate(
         .collect();
     if options.params.fit {
         let t = Instant::now();
-        param = fit(lf, &plan, options, reference, &out.best_cost, &param);
+        let fit_plan = depth::with_views(lf, &plan, fit_set, options.include_dark);
+        param = fit(
+            &fit_plan,
+            reference,
+            &equalised,
+            image_of,
+            &out.best_cost,
+            &param,
+        );
         log::info!("continuous fit: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
     }
     Ok(DepthEstimate {
@@ -99,44 +117,38 @@ pub fn estimate(
     })
 }
 
-/// The continuous fit of [`crate::depth::refine`] on the refinement views (every usable view
-/// of light fields of up to [`FIT_ALL_VIEWS`] views, the sweep's own set beyond), equalised
-/// like the sweep's and weighted by their gain; on noisy views
-/// ([`photometric::is_noisy`]) all images are smoothed once first.
-fn fit(
-    lf: &LightField,
-    plan: &crate::depth::sweep::SweepPlan,
-    options: &DepthOptions,
-    reference: &RgbaImage,
-    best_cost: &[f32],
-    param: &[f32],
-) -> Vec<f32> {
-    let set = if lf.views.len() <= FIT_ALL_VIEWS {
+/// The views the continuous fit matches: every usable view of light fields of up to
+/// [`FIT_ALL_VIEWS`] views, the sweep's own set beyond.
+fn fit_views(lf: &LightField, options: &DepthOptions) -> crate::depth::ViewSet {
+    if lf.views.len() <= FIT_ALL_VIEWS {
         crate::depth::ViewSet::All
     } else {
         options.views
-    };
-    let fit_plan = depth::with_views(lf, plan, set, options.include_dark);
-    let equalised: Vec<Option<photometric::Equalised>> = fit_plan
+    }
+}
+
+/// The continuous fit of [`crate::depth::refine`] on `fit_plan`'s views as `image_of` gives
+/// them (equalised like the sweep's), each weighted by 1/gain² of its equalisation; on noisy
+/// views ([`photometric::is_noisy`]) all images are smoothed once first.
+fn fit<'a>(
+    fit_plan: &crate::depth::sweep::SweepPlan,
+    reference: &'a RgbaImage,
+    equalised: &HashMap<usize, photometric::Equalised>,
+    image_of: impl Fn(usize) -> &'a RgbaImage,
+    best_cost: &[f32],
+    param: &[f32],
+) -> Vec<f32> {
+    let weights: Vec<f64> = fit_plan
         .views
         .iter()
-        .map(|v| photometric::equalise(reference, &lf.views[v.index].image))
-        .collect();
-    let weights: Vec<f64> = equalised
-        .iter()
-        .map(|e| {
-            e.as_ref()
+        .map(|v| {
+            equalised
+                .get(&v.index)
                 .map_or(1.0, |e| 1.0 / (e.gain * e.gain).max(1e-6))
         })
         .collect();
     let images: Vec<&RgbaImage> = std::iter::once(reference)
-        .chain(
-            fit_plan
-                .views
-                .iter()
-                .zip(&equalised)
-                .map(|(v, e)| e.as_ref().map_or(&lf.views[v.index].image, |e| &e.image)),
-        )
+        .chain(fit_plan.views.iter().map(|v| image_of(v.index)))
         .collect();
     let passes = u32::from(photometric::is_noisy(best_cost));
     log::info!(
@@ -158,13 +170,7 @@ fn fit(
     } else {
         images
     };
-    refine(
-        &fit_plan,
-        &images,
-        &weights,
-        param,
-        &RefineParams::default(),
-    )
+    refine(fit_plan, &images, &weights, param, &RefineParams::default())
 }
 
 /// Light fields of at most this many views are fitted on all of them (more views, more
