@@ -157,6 +157,9 @@ pub fn refine(
         let mut grad = vec![[0.0f64; 3]; n_views];
         let mut hess = vec![[0.0f64; 6]; n_views];
         let mut used = vec![false; n_views];
+        // The window of the pixel at hand, its buffer kept across the row's pixels.
+        let mut window: Vec<(f64, f64, [f32; 3], f64)> =
+            Vec::with_capacity((2 * r as usize + 1).pow(2));
         for (x, value) in row.iter_mut().enumerate() {
             let p0 = *value as f64;
             if !p0.is_finite() {
@@ -164,7 +167,7 @@ pub fn refine(
             }
             // The window and its colour weights.
             let centre = reference.at(x, y);
-            let mut window: Vec<(f64, f64, [f32; 3], f64)> = Vec::new();
+            window.clear();
             for dy in -r..=r {
                 for dx in -r..=r {
                     let (xx, yy) = (x as i64 + dx, y as i64 + dy);

@@ -230,7 +230,6 @@ pub fn markdown(rows: &[SetRow]) -> String {
         );
     }
     let mut variants: Vec<&str> = rows.iter().map(|r| r.variant.as_str()).collect();
-    variants.dedup();
     variants.sort_unstable();
     variants.dedup();
     for v in variants {

@@ -35,14 +35,12 @@ pub fn estimate(
     // once for the sweep's views and the fit's together (the sets overlap, on large grids
     // they are the same).
     let reference = &lf.views[plan.reference].image;
-    let fit_set = fit_views(lf, options);
-    let fit_indices = depth::with_views(lf, &plan, fit_set, options.include_dark)
-        .views
-        .iter()
-        .map(|v| v.index)
-        .collect::<Vec<_>>();
+    // The fit's views, chosen once (choosing scans every image for dark views); its plan
+    // takes the sweep's final range and plane count after the sweep.
+    let fit_matched =
+        depth::with_views(lf, &plan, fit_views(lf, options), options.include_dark).views;
     let mut matched: Vec<usize> = plan.views.iter().map(|v| v.index).collect();
-    matched.extend(&fit_indices);
+    matched.extend(fit_matched.iter().map(|v| v.index));
     matched.sort_unstable();
     matched.dedup();
     let equalised: HashMap<usize, photometric::Equalised> = matched
@@ -80,7 +78,10 @@ pub fn estimate(
         .collect();
     if options.params.fit {
         let t = Instant::now();
-        let fit_plan = depth::with_views(lf, &plan, fit_set, options.include_dark);
+        let fit_plan = crate::depth::sweep::SweepPlan {
+            views: fit_matched,
+            ..plan.clone()
+        };
         param = fit(
             &fit_plan,
             reference,
