@@ -222,6 +222,47 @@ void footprint(vec3 y0, uint k, float d, ViewWarp w, vec2 lo, vec2 hi, inout vec
                             length(footprints[k].span_t.xy * d) / (y0.z * float(nt)));
         lod = spacing > 0.0 ? max(log2(spacing) - LOD_BIAS, 0.0) : 0.0;
     }
+    if (ANTIALIAS == 1u) {
+        // One sub-sample at the cell's centre: the loop below with n = 1, without its
+        // machinery (a specialisation constant, so no lane runs the loop).
+        vec3 y = o + 0.5 * es + 0.5 * et;
+        if (y.z > 0.0) {
+            vec2 p = y.xy / y.z;
+            if (all(greaterThanEqual(p, lo)) && all(lessThanEqual(p, hi))) {
+                sum += wk * (PREFILTER != 0u && (FILTER == 0u || lod > 0.0)
+                                 ? fetch_lod(p, w.a0.w, lod)
+                                 : fetch(p, w.a0.w));
+                wsum += wk;
+            }
+        }
+        return;
+    }
+    if (ANTIALIAS == 2u) {
+        // At most 2 x 2: the same grid as the loop below, unrolled with per-lane masks (on
+        // llvmpipe 1.4x faster than the loop; unrolling a 4 x 4 grid this way was 2x slower).
+        vec2 inv2 = 1.0 / vec2(float(ns), float(nt));
+        for (uint b = 0u; b < 2u; ++b) {
+            for (uint a = 0u; a < 2u; ++a) {
+                if (a >= ns || b >= nt) {
+                    continue;
+                }
+                vec2 uv = (vec2(float(a), float(b)) + 0.5) * inv2;
+                vec3 y = o + uv.x * es + uv.y * et;
+                if (y.z <= 0.0) {
+                    continue;
+                }
+                vec2 p = y.xy / y.z;
+                if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
+                    continue;
+                }
+                sum += wk * (PREFILTER != 0u && (FILTER == 0u || lod > 0.0)
+                                 ? fetch_lod(p, w.a0.w, lod)
+                                 : fetch(p, w.a0.w));
+                wsum += wk;
+            }
+        }
+        return;
+    }
     // One flat loop over the n_s x n_t grid: on llvmpipe a nested loop of per-lane trip counts
     // took 24 % longer (23.3 vs 18.8 ms, 21 views of 128^2, at most 4 x 4), and a loop bounded
     // by the specialisation constant (unrolled, with an early exit) 19 % longer.

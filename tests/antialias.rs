@@ -350,6 +350,19 @@ fn gpu_antialiasing_matches_the_f64_model() {
     };
     let (_, aa1) = plain_and_aa(&lf, front, None, one);
     gpu_matches_model(&lf, &aa1, "grid centre, prefiltered single sub-sample");
+    // Caps 1 and 2 have their own unrolled paths in the shader.
+    let two = AntialiasSettings {
+        max_samples: 2,
+        prefilter: true,
+    };
+    let (_, aa2) = plain_and_aa(&lf, front, None, two);
+    gpu_matches_model(&lf, &aa2, "grid centre, prefiltered 2 x 2");
+    let sharp = AntialiasSettings {
+        max_samples: 2,
+        prefilter: false,
+    };
+    let (_, aa2) = plain_and_aa(&lf, front, Some(DVec2::new(1.5, 2.25)), sharp);
+    gpu_matches_model(&lf, &aa2, "virtual view, sharp 2 x 2");
     let (_, aa) = plain_and_aa(&lf, front, Some(DVec2::new(1.5, 2.25)), settings);
     assert!(
         aa.depth.unknown < 64,
