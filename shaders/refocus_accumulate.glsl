@@ -205,6 +205,27 @@ uint samples(vec3 span, float d, float yz) {
     return uint(clamp(ceil(len), 1.0, float(ANTIALIAS)));
 }
 
+// Adds one sub-sample of a footprint (origin o, spans es and et) at cell coordinates uv,
+// masked like a plain sample, weighing wk.
+void sub_sample(vec3 o, vec3 es, vec3 et, vec2 uv, float layer, float lod, float wk, vec2 lo,
+                vec2 hi, inout vec3 sum, inout float wsum) {
+    vec3 y = o + uv.x * es + uv.y * et;
+    if (y.z <= 0.0) {
+        return;
+    }
+    vec2 p = y.xy / y.z;
+    if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
+        return;
+    }
+    // With the hardware filter every sub-sample goes through the trilinear sampler (at level 0
+    // it is the bilinear fetch): a branch between the two fetches made llvmpipe run both for
+    // every lane (cap 4 measured 1.5x slower).
+    vec3 c = PREFILTER != 0u && (FILTER == 0u || lod > 0.0) ? fetch_lod(p, layer, lod)
+                                                           : fetch(p, layer);
+    sum += wk * c;
+    wsum += wk;
+}
+
 // Adds view k's footprint integral: stratified sub-samples of its aperture cell, each masked
 // like a plain sample and weighing weight / (n_s n_t).
 void footprint(vec3 y0, uint k, float d, ViewWarp w, vec2 lo, vec2 hi, inout vec3 sum,
@@ -222,43 +243,23 @@ void footprint(vec3 y0, uint k, float d, ViewWarp w, vec2 lo, vec2 hi, inout vec
                             length(footprints[k].span_t.xy * d) / (y0.z * float(nt)));
         lod = spacing > 0.0 ? max(log2(spacing) - LOD_BIAS, 0.0) : 0.0;
     }
+    vec2 inv = 1.0 / vec2(float(ns), float(nt));
+    float layer = w.a0.w;
+    // The sub-sample loop's machinery (a trip count per pixel) costs llvmpipe as much as its
+    // fetches, so caps 1 and 2 (specialisation constants: no lane runs the other paths) take
+    // the same grid unrolled, masked per lane: 1.4-2x faster. Unrolling a 4 x 4 grid that way
+    // was 2x slower than the loop.
     if (ANTIALIAS == 1u) {
-        // One sub-sample at the cell's centre: the loop below with n = 1, without its
-        // machinery (a specialisation constant, so no lane runs the loop).
-        vec3 y = o + 0.5 * es + 0.5 * et;
-        if (y.z > 0.0) {
-            vec2 p = y.xy / y.z;
-            if (all(greaterThanEqual(p, lo)) && all(lessThanEqual(p, hi))) {
-                sum += wk * (PREFILTER != 0u && (FILTER == 0u || lod > 0.0)
-                                 ? fetch_lod(p, w.a0.w, lod)
-                                 : fetch(p, w.a0.w));
-                wsum += wk;
-            }
-        }
+        sub_sample(o, es, et, vec2(0.5), layer, lod, wk, lo, hi, sum, wsum);
         return;
     }
     if (ANTIALIAS == 2u) {
-        // At most 2 x 2: the same grid as the loop below, unrolled with per-lane masks (on
-        // llvmpipe 1.4x faster than the loop; unrolling a 4 x 4 grid this way was 2x slower).
-        vec2 inv2 = 1.0 / vec2(float(ns), float(nt));
         for (uint b = 0u; b < 2u; ++b) {
             for (uint a = 0u; a < 2u; ++a) {
-                if (a >= ns || b >= nt) {
-                    continue;
+                if (a < ns && b < nt) {
+                    vec2 uv = (vec2(float(a), float(b)) + 0.5) * inv;
+                    sub_sample(o, es, et, uv, layer, lod, wk, lo, hi, sum, wsum);
                 }
-                vec2 uv = (vec2(float(a), float(b)) + 0.5) * inv2;
-                vec3 y = o + uv.x * es + uv.y * et;
-                if (y.z <= 0.0) {
-                    continue;
-                }
-                vec2 p = y.xy / y.z;
-                if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
-                    continue;
-                }
-                sum += wk * (PREFILTER != 0u && (FILTER == 0u || lod > 0.0)
-                                 ? fetch_lod(p, w.a0.w, lod)
-                                 : fetch(p, w.a0.w));
-                wsum += wk;
             }
         }
         return;
@@ -266,26 +267,11 @@ void footprint(vec3 y0, uint k, float d, ViewWarp w, vec2 lo, vec2 hi, inout vec
     // One flat loop over the n_s x n_t grid: on llvmpipe a nested loop of per-lane trip counts
     // took 24 % longer (23.3 vs 18.8 ms, 21 views of 128^2, at most 4 x 4), and a loop bounded
     // by the specialisation constant (unrolled, with an early exit) 19 % longer.
-    vec2 inv = 1.0 / vec2(float(ns), float(nt));
     uint n = ns * nt;
     for (uint j = 0u; j < n; ++j) {
         uint b = j / ns;
         vec2 uv = (vec2(float(j - b * ns), float(b)) + 0.5) * inv;
-        vec3 y = o + uv.x * es + uv.y * et;
-        if (y.z <= 0.0) {
-            continue;
-        }
-        vec2 p = y.xy / y.z;
-        if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
-            continue;
-        }
-        // With the hardware filter every sub-sample goes through the trilinear sampler (at
-        // level 0 it is the bilinear fetch): a branch between the two fetches made llvmpipe
-        // run both for every lane (aa4 measured 1.5x slower).
-        vec3 c = PREFILTER != 0u && (FILTER == 0u || lod > 0.0) ? fetch_lod(p, w.a0.w, lod)
-                                                               : fetch(p, w.a0.w);
-        sum += wk * c;
-        wsum += wk;
+        sub_sample(o, es, et, uv, layer, lod, wk, lo, hi, sum, wsum);
     }
 }
 
