@@ -15,16 +15,21 @@ use tiltfield::viewer::layout::Layout;
 
 /// Runs `tiltfield view ARGS` in a virtual X server with validation on.
 fn view_in_xvfb(args: &[&str]) -> Output {
+    view_in_xvfb_cached(
+        args,
+        &std::env::temp_dir().join("tiltfield-viewer-test-cache"),
+    )
+}
+
+/// [`view_in_xvfb`] with the depth cache in `cache`.
+fn view_in_xvfb_cached(args: &[&str], cache: &Path) -> Output {
     let out = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1600x1200x24"])
         .arg(env!("CARGO_BIN_EXE_tiltfield"))
         .arg("view")
         .args(args)
         .env("TILTFIELD_VALIDATION", "1")
-        .env(
-            "TILTFIELD_CACHE_DIR",
-            std::env::temp_dir().join("tiltfield-viewer-test-cache"),
-        )
+        .env("TILTFIELD_CACHE_DIR", cache)
         .env_remove("RUST_LOG")
         .output();
     match out {
@@ -48,6 +53,17 @@ fn numbers(v: &serde_json::Value) -> Vec<f64> {
 
 /// `render`'s PNG of the state a screenshot recorded.
 fn render_state(lf: &str, state: &serde_json::Value, focus: &[String], out: &Path) -> Vec<u8> {
+    render_state_cached(lf, state, focus, out, None)
+}
+
+/// [`render_state`] with the depth cache in `cache` (where the viewer's estimate went).
+fn render_state_cached(
+    lf: &str,
+    state: &serde_json::Value,
+    focus: &[String],
+    out: &Path,
+    cache: Option<&Path>,
+) -> Vec<u8> {
     let aperture = &state["aperture"];
     let view = numbers(&state["reference_view"]);
     let mut args: Vec<String> = vec![
@@ -77,7 +93,16 @@ fn render_state(lf: &str, state: &serde_json::Value, focus: &[String], out: &Pat
     }
     args.extend(focus.iter().cloned());
     let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-    let o = tiltfield(&refs);
+    let o = match cache {
+        Some(c) => Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+            .args(&refs)
+            .env("TILTFIELD_VALIDATION", "1")
+            .env("TILTFIELD_CACHE_DIR", c)
+            .env_remove("RUST_LOG")
+            .output()
+            .unwrap(),
+        None => tiltfield(&refs),
+    };
     assert!(o.status.success(), "render {refs:?}: {}", stderr(&o));
     std::fs::read(out).unwrap()
 }
@@ -259,6 +284,111 @@ fn scripted_session_matches_render_and_has_no_validation_errors() {
         .filter(|p| p.0[2] > 60 && p.0[2] as i32 > p.0[0] as i32 + 40)
         .count();
     assert!(blueish > 100, "{blueish} plane-coloured pixels");
+}
+
+/// A light field without a depth map: synth's demo scene as an HCI folder, its ground truth
+/// removed.
+fn demo_without_depth(dir: &Path, grid: &str, size: &str) -> String {
+    let lf = dir.join("nodepth");
+    let o = tiltfield(&[
+        "synth",
+        "builtin:demo",
+        "--grid",
+        grid,
+        "--size",
+        size,
+        "-o",
+        lf.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for e in std::fs::read_dir(&lf).unwrap() {
+        let p = e.unwrap().path();
+        if p.file_name().unwrap().to_string_lossy().starts_with("gt_") {
+            std::fs::remove_file(p).unwrap();
+        }
+    }
+    lf.display().to_string()
+}
+
+#[test]
+fn without_depth_the_window_opens_at_once_and_depth_arrives_in_the_background() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lf = demo_without_depth(d, "7x7", "256x256");
+    // A cache of its own: the estimate really runs (a cached one would arrive at once).
+    let cache = d.join("cache");
+    let script = d.join("s.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "screenshot {d}/early
+             click refocus 128 60
+             wait-converged
+             screenshot {d}/a
+             quit
+",
+            d = d.display()
+        ),
+    )
+    .unwrap();
+    let o = view_in_xvfb_cached(
+        &[&lf, "--script", script.to_str().unwrap(), "--json"],
+        &cache,
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0, "{err}");
+    let first = report["first_frame_ms"].as_f64().unwrap();
+    let ready = report["depth_ready_ms"].as_f64().unwrap();
+    assert!(first < 5000.0, "first frame after {first} ms");
+    assert!(first < ready, "first frame {first} ms, depth {ready} ms");
+    assert_eq!(
+        report["depth"]["origin"], "estimated",
+        "{}",
+        report["depth"]
+    );
+    assert_eq!(report["depth"]["cached"], false, "{}", report["depth"]);
+    // Progress on stderr for scripts, and the arrival.
+    assert!(err.contains("estimating the depth of 'demo'"), "{err}");
+    assert!(err.contains("ready after"), "{err}");
+    // The first screenshot is the first frame, before depth: no anti-aliasing yet.
+    let early = json_file(&d.join("early.json"));
+    assert_eq!(early["antialias"]["used"], false, "{early}");
+    assert_eq!(early["frames_presented"], 1, "{early}");
+    // The click waited for depth, and found the brick wall's plane; with depth came
+    // anti-aliasing (on by default with depth). The screenshot equals render on the same
+    // (cached) estimate.
+    let a = json_file(&d.join("a.json"));
+    assert_eq!(a["focus_how"], "click", "{a}");
+    assert_eq!(a["antialias"]["used"], true, "{a}");
+    let want = render_state_cached(
+        &lf,
+        &a,
+        &["--click=128,60".into()],
+        &d.join("ra.png"),
+        Some(&cache),
+    );
+    assert_eq!(
+        std::fs::read(d.join("a_refocus.png")).unwrap(),
+        want,
+        "viewer ≠ render after depth arrived"
+    );
+    // The scene panel shows the cloud once depth is there: more distinct colours than the
+    // plane quad and camera frustums alone.
+    let colours = |p: &str| {
+        let img = decoded(&d.join(p));
+        let mut c: Vec<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+        c.sort_unstable();
+        c.dedup();
+        c.len()
+    };
+    assert!(
+        colours("a_scene.png") > 4 * colours("early_scene.png"),
+        "{} vs {} colours",
+        colours("a_scene.png"),
+        colours("early_scene.png")
+    );
 }
 
 #[test]

@@ -11,7 +11,7 @@ use std::collections::VecDeque;
 use std::ffi::CString;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use ash::vk;
 use ash::vk::Handle;
@@ -25,18 +25,18 @@ use super::refine::Refiner;
 use super::script::{self, Command, Line, Panel, Runner};
 use super::session::depth::DepthCache;
 use super::session::stats::FrameStats;
-use super::session::Session;
-use super::state::{Action, Effect, ViewerState};
+use super::session::{framing, DepthPlan, Milestones, Session};
+use super::state::{default_focus, Action, Effect, ViewerState};
+use crate::depth::DepthOrigin;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::Aperture;
-use crate::geometry::depth::ViewDepth;
 use crate::gpu::swapchain::PresentMode;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::video::FrameSequence;
 use crate::lightfield::LightField;
 use crate::passes::texture::ViewStorage;
 use crate::refocus::antialias::AntialiasSettings;
-use crate::refocus::{Averaging, FocusRequest, FocusSpec};
+use crate::refocus::{Averaging, FocusRequest};
 
 /// How long after the last input the view counts as "being interacted with".
 const INTERACTION: Duration = Duration::from_millis(150);
@@ -46,6 +46,8 @@ const CLICK_SLOP: f64 = 3.0;
 const DECODE_POLL_S: f64 = 0.01;
 /// How often the idle loop looks at a script waiting for convergence, seconds.
 const SCRIPT_POLL_S: f64 = 0.05;
+/// How often the idle loop looks at a depth estimate in the background, seconds.
+const DEPTH_POLL_S: f64 = 0.1;
 
 /// Everything `view` is asked to do.
 #[derive(Debug, Clone)]
@@ -72,32 +74,29 @@ pub struct ViewerOptions {
     /// Normal window of clicks (see [`crate::depth::DepthOrigin::normal_window`]).
     pub normal_window: u32,
     /// Anti-aliasing's sampling (the X key toggles it; it needs the light field's depth) and
-    /// whether it starts on.
+    /// whether it is on when there is depth (at start with the light field's own map, else
+    /// once the background estimate arrives).
     pub antialias: AntialiasSettings,
     pub antialias_on: bool,
+    /// Where `lf`'s depth comes from when it has its own map; without one the viewer opens
+    /// at once and estimates depth in the background ([`Session::poll_depth`]).
+    pub depth: Option<DepthOrigin>,
+    /// When the process started (`first_frame_ms` and `depth_ready_ms` count from it).
+    pub launched: Instant,
 }
 
 /// The final state and what the session measured.
 pub struct ViewerReport {
     pub state: ViewerState,
     pub frames: FrameStats,
+    /// The window's context's and the depth estimate's together.
     pub validation_errors: usize,
+    /// Where the depth came from (`None`: the light field has none and none could be made).
+    pub depth: Option<DepthOrigin>,
+    pub milestones: Milestones,
     pub device: String,
     pub present_mode: String,
     pub window: (u32, u32),
-}
-
-/// The focus a viewer starts with when none is given.
-fn default_focus(lf: &LightField, depth: Option<&ViewDepth>) -> FocusRequest {
-    match (&lf.rig, depth) {
-        (None, Some(d)) => FocusSpec::FocusTiltSwing {
-            distance: d.typical_depth(),
-            tilt_deg: 0.0,
-            swing_deg: 0.0,
-        }
-        .into(),
-        _ => FocusSpec::Disparity(0.0).into(),
-    }
 }
 
 /// Pointer state between press and release.
@@ -122,9 +121,9 @@ struct Input {
 
 /// The open window, its GPU side and the session shown in it. `gpu` is declared (so dropped)
 /// before `window`: the swapchain's surface goes before the window it was made for.
-struct Viewer<'a> {
+struct Viewer {
     gpu: ViewerGpu,
-    session: Session<'a>,
+    session: Session,
     window: glfw::PWindow,
     events: glfw::GlfwReceiver<(f64, WindowEvent)>,
     glfw: glfw::Glfw,
@@ -210,12 +209,11 @@ fn create_context(
 }
 
 /// The UI state the viewer starts in (before the window opens, so bad options fail early).
-fn initial_state(
-    lf: &LightField,
-    opts: &ViewerOptions,
-    depth: Option<&ViewDepth>,
-) -> Result<ViewerState> {
-    let focus = opts.focus.unwrap_or_else(|| default_focus(lf, depth));
+fn initial_state(lf: &LightField, opts: &ViewerOptions) -> Result<ViewerState> {
+    let depth = lf.view_depth().ok();
+    let focus = opts
+        .focus
+        .unwrap_or_else(|| default_focus(lf, depth.as_ref()));
     let mut state = ViewerState::new(
         lf,
         focus,
@@ -226,28 +224,28 @@ fn initial_state(
     )?;
     state.normals = state.normals.with_window(opts.normal_window);
     state.frame = opts.video.as_ref().map(|(_, f)| *f);
-    Ok(state.with_antialias(opts.antialias_on))
+    Ok(state.with_antialias(opts.antialias_on && depth.is_some()))
 }
 
-/// Opens the window on `lf` and runs until the user or the script quits.
-pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
+/// Opens the window on `lf` and runs until the user or the script quits. Without a depth map
+/// of its own, `lf` gets one estimated in the background while the window shows it.
+pub fn run(lf: LightField, opts: ViewerOptions) -> Result<ViewerReport> {
     if !(opts.frame_budget_ms.is_finite() && opts.frame_budget_ms > 0.0) {
         return Err(Error::Invalid(format!(
             "--frame-budget-ms must be a positive number of milliseconds, got {}",
             opts.frame_budget_ms
         )));
     }
-    let depth = lf.view_depth().ok();
-    let state = initial_state(lf, &opts, depth.as_ref())?;
+    let lf = Arc::new(lf);
+    let state = initial_state(&lf, &opts)?;
     script::check(&opts.script, (lf.width, lf.height), opts.window).map_err(Error::Invalid)?;
-    let depth = DepthCache::new(lf, depth)?;
+    let depth = DepthCache::new(&lf, lf.view_depth().ok())?;
+    let has_depth = depth.depth.is_some();
     // The scene panel frames the cloud (where there is one) and the camera array.
-    let cameras: Vec<glam::DVec3> = lf.views.iter().map(|v| v.camera.centre()).collect();
-    let mut keep = depth.corners();
-    keep.extend(&cameras);
+    let (centre, keep, cameras) = framing(&lf, &depth);
     let panel = Layout::new(opts.window.0, opts.window.1, (lf.width, lf.height)).scene;
     let aspect = panel.width.max(1.0) as f64 / panel.height.max(1.0) as f64;
-    let state = state.with_scene_framing(depth.centre(), keep, cameras, aspect);
+    let state = state.with_scene_framing(centre, keep, cameras, aspect);
 
     let mut glfw = init_glfw()?;
     let title = format!("tiltfield — {}", lf.name);
@@ -260,7 +258,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
     };
     let mut gpu = ViewerGpu::new(
         Arc::clone(&ctx),
-        lf,
+        &lf,
         surface,
         extent,
         opts.present,
@@ -272,15 +270,26 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         gpu.set_cloud(&c.vertices())?;
     }
     let refiner = Refiner::new(opts.frame_budget_ms, lf.width as u64 * lf.height as u64);
+    let depth_plan = (!has_depth).then(|| DepthPlan {
+        gpu: opts.gpu.clone(),
+        antialias: opts.antialias_on,
+        default_focus: opts.focus.is_none(),
+    });
     let mut session = Session::new(
-        lf,
+        Arc::clone(&lf),
         state,
         depth,
         layout,
         refiner,
         opts.video.clone(),
         opts.screenshot_prefix.clone(),
-    );
+        opts.launched,
+    )
+    .with_depth_origin(opts.depth.clone());
+    if let Some(plan) = depth_plan {
+        session = session.with_depth_plan(plan);
+    }
+    drop(lf);
     session.antialias = Some(opts.antialias);
     let viewer = Viewer {
         gpu,
@@ -299,7 +308,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
     viewer.run()
 }
 
-impl Viewer<'_> {
+impl Viewer {
     /// The event loop (see the module docs); the report once it quits.
     fn run(mut self) -> Result<ViewerReport> {
         while !self.quit {
@@ -324,6 +333,7 @@ impl Viewer<'_> {
                 continue;
             }
             self.session.poll_video(&mut self.gpu)?;
+            self.session.poll_depth(&mut self.gpu)?;
             if !self.fit_window()? {
                 continue;
             }
@@ -338,7 +348,10 @@ impl Viewer<'_> {
         while !self.quit && self.input.pending.is_empty() && self.session.screenshots.next.is_none()
         {
             let session = &self.session;
-            let Some(line) = self.script.next(|| session.converged()) else {
+            let Some(line) = self
+                .script
+                .next(|| session.converged(), !session.depth_pending())
+            else {
                 break;
             };
             self.run_command(line.command);
@@ -415,6 +428,9 @@ impl Viewer<'_> {
         });
         if self.session.video.as_ref().is_some_and(|v| v.decoding()) {
             timeout = Some(timeout.map_or(DECODE_POLL_S, |t| t.min(DECODE_POLL_S)));
+        }
+        if self.session.depth_pending() {
+            timeout = Some(timeout.map_or(DEPTH_POLL_S, |t| t.min(DEPTH_POLL_S)));
         }
         if self.session.refinement.refiner.divisor() > 1 {
             let left = INTERACTION
@@ -592,11 +608,14 @@ impl Viewer<'_> {
             ..
         } = self;
         gpu.wait_idle()?;
-        let validation_errors = gpu.context().validation().errors();
+        let validation_errors =
+            gpu.context().validation().errors() + session.depth_validation_errors;
         let (extent, mode) = gpu.swapchain_info();
         drop(gpu);
         Ok(ViewerReport {
             frames: session.stats.report(),
+            depth: session.depth_origin,
+            milestones: session.milestones,
             state: session.state,
             validation_errors,
             device,

@@ -3,10 +3,12 @@
 //! ```text
 //! wait SECONDS                    wall-clock pause (frames keep rendering)
 //! wait-converged                  until refinement reached the full aperture at full size
+//!                                 (and depth being estimated in the background arrived)
 //! key NAME [COUNT]                press and release a key COUNT times, one press per frame
 //!                                 (GLFW names: UP, W, LEFT_BRACKET, …; shift+UP for Shift)
 //! click refocus U V               single-click plane at pixel (U, V) of the depth view — the
-//!                                 pixels `render --click U,V` takes, not window pixels
+//!                                 pixels `render --click U,V` takes, not window pixels; clicks
+//!                                 wait for depth being estimated in the background
 //! shift-click refocus U V         one of three clicks (as `render --points`)
 //! click scene X Y                 pick the cloud point under scene-panel pixel (X, Y)
 //! drag scene X0 Y0 X1 Y1          left-drag in the scene panel (orbit)
@@ -108,7 +110,9 @@ impl Runner {
 
     /// The next command to run now, or `None` while the script waits (or has ended). `wait`
     /// and `wait-converged` lines are taken here; `converged` says whether the image is final.
-    pub fn next(&mut self, converged: impl Fn() -> bool) -> Option<Line> {
+    /// Clicks wait while `depth_ready` is false (depth still estimated in the background), as
+    /// a user would, so a script's clicks land on the same depth every run.
+    pub fn next(&mut self, converged: impl Fn() -> bool, depth_ready: bool) -> Option<Line> {
         loop {
             if let Some(t) = self.wait_until {
                 if Instant::now() < t {
@@ -121,6 +125,9 @@ impl Runner {
                     return None;
                 }
                 self.wait_converged = false;
+            }
+            if !depth_ready && matches!(self.lines.front()?.command, Command::Click { .. }) {
+                return None;
             }
             let line = self.lines.pop_front()?;
             match line.command {
@@ -418,6 +425,19 @@ fn scene_error(line: usize, x: f64, y: f64, scene: &crate::passes::panel::Rect) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn clicks_wait_for_depth_and_keys_do_not() {
+        let lines = parse("key UP\nclick refocus 1 2\nkey DOWN\n").unwrap();
+        let mut r = Runner::new(&lines);
+        assert_eq!(r.next(|| true, false).unwrap().number, 1);
+        // Depth is still being estimated: the click and everything after it wait.
+        assert!(r.next(|| true, false).is_none());
+        assert!(!r.finished());
+        assert_eq!(r.next(|| true, true).unwrap().number, 2);
+        assert_eq!(r.next(|| true, false).unwrap().number, 3);
+        assert!(r.next(|| true, true).is_none() && r.finished());
+    }
 
     #[test]
     fn parses_every_command() {

@@ -22,6 +22,7 @@ use glam::{DVec2, DVec3};
 use super::orbit::OrbitCamera;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::geometry::depth::ViewDepth;
 use crate::geometry::normals::NormalParams;
 use crate::geometry::picking::{nudge_plane, KeyboardPlane, Nudge};
 use crate::geometry::plane::Plane;
@@ -72,6 +73,20 @@ pub enum Action {
     Zoom(f64),
     /// The video frame with this number is now the one whose views are rendered.
     ShowFrame(u64),
+    /// Depth arrived (estimated in the background): see [`ViewerState::depth_arrived`].
+    DepthArrived {
+        normal_window: u32,
+        antialias: bool,
+        focus: Option<FocusRequest>,
+    },
+    /// Frame the scene again, now with these points (the cloud's box corners and the
+    /// cameras) around `centre`, in a panel of `aspect` (see [`ViewerState::reframe`]).
+    Reframe {
+        centre: Option<DVec3>,
+        keep: Vec<DVec3>,
+        array: Vec<DVec3>,
+        aspect: f64,
+    },
     /// Show why an input could not become an action (a click without depth, a key that needs
     /// a video, a frame that failed to decode).
     Refuse(String),
@@ -143,6 +158,21 @@ pub struct ViewerState {
     initial_orbit: OrbitCamera,
     /// The video frame shown, for videos.
     pub frame: Option<u64>,
+}
+
+/// The focus a viewer starts with when none is given: on a calibrated rig without the
+/// parallel-rig disparity, frontoparallel at the scene's typical depth (once there is depth),
+/// else disparity 0.
+pub fn default_focus(lf: &LightField, depth: Option<&ViewDepth>) -> FocusRequest {
+    match (&lf.rig, depth) {
+        (None, Some(d)) => FocusSpec::FocusTiltSwing {
+            distance: d.typical_depth(),
+            tilt_deg: 0.0,
+            swing_deg: 0.0,
+        }
+        .into(),
+        _ => FocusSpec::Disparity(0.0).into(),
+    }
 }
 
 /// Disparity change of one scroll step: 1/64 of the data's disparity range, else 0.05 px.
@@ -228,6 +258,74 @@ impl ViewerState {
         self
     }
 
+    /// The scene framing again (after depth arrived: the cloud joins what is framed); the
+    /// scene camera moves to it unless the user has moved it.
+    fn reframe(
+        &mut self,
+        centre: Option<DVec3>,
+        keep: Vec<DVec3>,
+        array: Vec<DVec3>,
+        aspect: f64,
+    ) -> Effect {
+        let untouched = self.orbit == self.initial_orbit;
+        let target = centre.unwrap_or(self.initial_orbit.target);
+        self.initial_orbit =
+            OrbitCamera::framing(&self.plan.reference_camera, target, &keep, &array, aspect);
+        if !untouched {
+            return Effect::Marked;
+        }
+        self.orbit = self.initial_orbit;
+        Effect::SceneView
+    }
+
+    /// Depth arrived while the window was open (estimated in the background). `lf` is the
+    /// light field with it installed — a grid folder's cameras may have changed (the
+    /// estimate's nominal rig), so the focus is resolved again. Clicks get `normal_window`;
+    /// anti-aliasing turns on when `antialias` (the front end's default with depth) unless
+    /// the user toggled it meanwhile, and R returns to that; `focus` (the default focus with
+    /// depth) replaces the focus if the user has not changed it.
+    fn depth_arrived(
+        &mut self,
+        lf: &LightField,
+        normal_window: u32,
+        antialias: bool,
+        focus: Option<FocusRequest>,
+    ) -> Effect {
+        self.normals = self.normals.with_window(normal_window);
+        let untouched = self.core == self.initial;
+        let toggled = self.core.antialias != self.initial.antialias;
+        self.initial.antialias = antialias;
+        if let (Some(f), true) = (focus, untouched) {
+            self.initial.focus = f;
+            self.initial.anchor = None;
+        }
+        let initial = self.initial;
+        let effect = self.change(lf, |_, core| {
+            if !toggled {
+                core.antialias = antialias;
+            }
+            if let (Some(f), true) = (focus, untouched) {
+                core.focus = f;
+                core.anchor = None;
+            }
+            Ok(())
+        });
+        if let Effect::Refused(_) = effect {
+            // The focus does not resolve with the new cameras: start over from the initial
+            // state on them.
+            return self.change(lf, |_, core| {
+                *core = initial;
+                Ok(())
+            });
+        }
+        if matches!(effect, Effect::Marked) {
+            // Same core and plan, but the cameras (and the scene) may still be new.
+            self.version += 1;
+            return Effect::Changed;
+        }
+        effect
+    }
+
     pub fn focus(&self) -> &FocusRequest {
         &self.core.focus
     }
@@ -295,6 +393,17 @@ impl ViewerState {
                 self.message = Some(why);
                 return Effect::Message;
             }
+            Action::Reframe {
+                centre,
+                keep,
+                array,
+                aspect,
+            } => return self.reframe(centre, keep, array, aspect),
+            Action::DepthArrived {
+                normal_window,
+                antialias,
+                focus,
+            } => self.depth_arrived(lf, normal_window, antialias, focus),
             Action::Frame => {
                 if self.orbit == self.initial_orbit {
                     return Effect::Marked;
@@ -812,6 +921,75 @@ mod tests {
         let mut f = state(&lf, FocusSpec::Disparity(0.0));
         f.apply(&lf, Action::DisparitySteps(1.0));
         assert!(matches!(f.resolved.spec, FocusSpec::Disparity(_)));
+    }
+
+    #[test]
+    fn depth_arriving_turns_on_antialiasing_unless_the_user_toggled_it() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        assert!(!s.antialias());
+        let arrived = Action::DepthArrived {
+            normal_window: 31,
+            antialias: true,
+            focus: None,
+        };
+        assert_eq!(s.apply(&lf, arrived.clone()), Effect::Changed);
+        assert!(s.antialias());
+        assert_eq!(s.normals.window, 31);
+        // R returns to anti-aliasing on: it is the start state with depth.
+        s.apply(&lf, Action::ToggleAntialias);
+        s.apply(&lf, Action::Reset);
+        assert!(s.antialias());
+        // Toggled off before depth came: it stays off, and so does the user's focus.
+        let mut t = state(&lf, FocusSpec::Disparity(0.0));
+        t.apply(&lf, Action::ToggleAntialias);
+        t.apply(&lf, Action::ToggleAntialias);
+        t.apply(&lf, Action::ToggleAntialias);
+        t.apply(&lf, Action::Tilt(2.0));
+        let plane = t.resolved.plane;
+        let focus = FocusSpec::FocusTiltSwing {
+            distance: 3.0,
+            tilt_deg: 0.0,
+            swing_deg: 0.0,
+        };
+        t.apply(
+            &lf,
+            Action::DepthArrived {
+                normal_window: 31,
+                antialias: false,
+                focus: Some(focus.into()),
+            },
+        );
+        assert!(t.antialias(), "the user's X stands");
+        assert_eq!(t.resolved.plane, plane, "the user's focus stands");
+        // An untouched state takes the default focus with depth.
+        let mut u = state(&lf, FocusSpec::Disparity(0.0));
+        u.apply(
+            &lf,
+            Action::DepthArrived {
+                normal_window: 31,
+                antialias: false,
+                focus: Some(focus.into()),
+            },
+        );
+        assert_eq!(u.resolved.spec, focus);
+        // The scene camera is framed anew unless the user moved it.
+        let keep = vec![DVec3::new(-5.0, -5.0, 10.0), DVec3::new(5.0, 5.0, 20.0)];
+        let reframe = Action::Reframe {
+            centre: Some(DVec3::new(0.0, 0.0, 15.0)),
+            keep,
+            array: Vec::new(),
+            aspect: 1.0,
+        };
+        let before = u.orbit;
+        assert_eq!(u.apply(&lf, reframe.clone()), Effect::SceneView);
+        assert_ne!(u.orbit, before);
+        u.apply(&lf, Action::Orbit(DVec2::new(30.0, 0.0)));
+        let moved = u.orbit;
+        assert_eq!(u.apply(&lf, reframe), Effect::Marked);
+        assert_eq!(u.orbit, moved);
+        u.apply(&lf, Action::Frame);
+        assert_ne!(u.orbit, moved, "F goes to the new framing");
     }
 
     #[test]

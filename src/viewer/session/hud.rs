@@ -10,6 +10,7 @@ use super::super::controls::CONTROLS;
 use super::super::layout::Layout;
 use super::super::state::{effective_radius, ViewerState};
 use super::super::text::{Canvas, CLEAR, PANEL_BG, TEXT, WARN};
+use super::depth::DepthState;
 use super::refinement::Refinement;
 use crate::geometry::picking::KeyboardPlane;
 use crate::lightfield::LightField;
@@ -30,6 +31,8 @@ pub struct Status<'a> {
     pub lf: &'a LightField,
     pub state: &'a ViewerState,
     pub refinement: &'a Refinement,
+    /// Where the depth stands (an estimate's progress is shown until it arrives).
+    pub depth: &'a DepthState,
     pub fps: f64,
 }
 
@@ -61,11 +64,14 @@ impl Status<'_> {
             },
         };
         format!(
-            "{plane}  [{}]{}",
+            "{plane}  [{}]{}{}",
             state.resolved.how,
             state
                 .frame
-                .map_or(String::new(), |f| format!("  frame {f}"))
+                .map_or(String::new(), |f| format!("  frame {f}")),
+            self.depth
+                .field()
+                .map_or(String::new(), |f| format!("  {f}"))
         )
     }
 
@@ -284,6 +290,7 @@ mod tests {
                 lf: &lf,
                 state,
                 refinement: &refinement,
+                depth: &DepthState::Ready,
                 fps: 30.0,
             };
             hud.draw(&layout, &status);

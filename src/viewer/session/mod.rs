@@ -23,6 +23,7 @@ pub mod stats;
 pub mod video;
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use ash::vk;
@@ -31,13 +32,15 @@ use glam::DVec2;
 use super::gpu::{FrameRequest, FrameResult, ViewerGpu};
 use super::layout::Layout;
 use super::refine::Refiner;
-use super::state::{Action, Effect, ViewerState};
+use super::state::{default_focus, Action, Effect, ViewerState};
+use crate::depth::DepthOrigin;
 use crate::error::Result;
+use crate::gpu::GpuOptions;
 use crate::lightfield::video::FrameSequence;
 use crate::lightfield::LightField;
 use crate::passes::scene::SceneView;
 use crate::refocus::antialias::{AntialiasPlan, AntialiasSettings};
-use depth::DepthCache;
+use depth::{DepthCache, DepthJob, DepthState};
 use hud::{Hud, Status};
 use refinement::{FramePlan, Refinement};
 use screenshot::Screenshots;
@@ -72,9 +75,29 @@ impl Dirty {
     }
 }
 
+/// How the session gets its depth when the light field has none of its own.
+pub struct DepthPlan {
+    /// The GPU options of the background estimate's own context.
+    pub gpu: GpuOptions,
+    /// Anti-aliasing once depth is here (the front end's default; R returns to it).
+    pub antialias: bool,
+    /// No focus was given: the default focus with depth ([`default_focus`]) replaces the
+    /// initial one if the user has not changed it.
+    pub default_focus: bool,
+}
+
+/// When things happened, in milliseconds since the process started.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Milestones {
+    pub first_frame_ms: Option<f64>,
+    pub depth_ready_ms: Option<f64>,
+}
+
 /// A viewing session.
-pub struct Session<'a> {
-    pub lf: &'a LightField,
+pub struct Session {
+    /// The light field (shared with a background depth estimate while one runs; the
+    /// estimate is installed into it when it arrives).
+    pub lf: Arc<LightField>,
     pub state: ViewerState,
     pub depth: DepthCache,
     pub layout: Layout,
@@ -93,20 +116,36 @@ pub struct Session<'a> {
     /// it is on, and the state version it was made for.
     pub aa: Option<AntialiasPlan>,
     aa_version: u64,
+    /// Where the depth came from, once there is depth.
+    pub depth_origin: Option<DepthOrigin>,
+    /// Depth still to be estimated (started after the first frame) and the estimate running.
+    depth_plan: Option<DepthPlan>,
+    depth_job: Option<DepthJob>,
+    /// Validation errors of the depth estimate's own GPU context.
+    pub depth_validation_errors: usize,
+    /// The process's start (`--json` reports milestones from it).
+    launched: Instant,
+    pub milestones: Milestones,
 }
 
-impl<'a> Session<'a> {
+impl Session {
     /// A session on `lf` starting in `state`, in a window of `layout`; `video` is the
     /// sequence `lf` is a frame of and that frame's number.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
-        lf: &'a LightField,
+        lf: Arc<LightField>,
         state: ViewerState,
         depth: DepthCache,
         layout: Layout,
         refiner: Refiner,
         video: Option<(FrameSequence, u64)>,
         screenshot_prefix: PathBuf,
+        launched: Instant,
     ) -> Self {
+        let milestones = Milestones {
+            depth_ready_ms: (depth.depth.is_some()).then(|| launched.elapsed().as_secs_f64() * 1e3),
+            ..Milestones::default()
+        };
         Session {
             lf,
             refinement: Refinement::new(refiner, &state.plan),
@@ -130,13 +169,132 @@ impl<'a> Session<'a> {
             aa: None,
             // No version yet: the first frame makes the plan.
             aa_version: u64::MAX,
+            depth_origin: None,
+            depth_plan: None,
+            depth_job: None,
+            depth_validation_errors: 0,
+            launched,
+            milestones,
         }
+    }
+
+    /// The light field's depth comes from `origin` (its own map, given).
+    pub fn with_depth_origin(mut self, origin: Option<DepthOrigin>) -> Self {
+        self.depth_origin = origin;
+        self
+    }
+
+    /// Estimates depth in the background once the first frame is shown.
+    pub fn with_depth_plan(mut self, plan: DepthPlan) -> Self {
+        self.depth.state = DepthState::Estimating { done: 0, total: 0 };
+        self.depth_plan = Some(plan);
+        self
+    }
+
+    /// Depth is still on its way (a script's clicks and `wait-converged` wait for it).
+    pub fn depth_pending(&self) -> bool {
+        matches!(self.depth.state, DepthState::Estimating { .. })
+    }
+
+    fn since_launch_ms(&self) -> f64 {
+        self.launched.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// Starts the background estimate (after the first frame: the window comes first),
+    /// follows its progress, and installs the depth when it arrives: the point cloud, the
+    /// normals' window, anti-aliasing's default, the scene's framing.
+    pub fn poll_depth(&mut self, gpu: &mut ViewerGpu) -> Result<()> {
+        if self.depth_job.is_none() && self.milestones.first_frame_ms.is_some() {
+            if let Some(plan) = &self.depth_plan {
+                eprintln!(
+                    "estimating the depth of '{}' in the background",
+                    self.lf.name
+                );
+                match DepthJob::start(Arc::clone(&self.lf), plan.gpu.clone()) {
+                    Ok(job) => self.depth_job = Some(job),
+                    Err(e) => self.depth_failed(e.to_string()),
+                }
+            }
+        }
+        let Some(job) = self.depth_job.as_mut() else {
+            return Ok(());
+        };
+        let Some(result) = job.poll(&self.lf.name) else {
+            let (done, total) = job.progress();
+            let now = DepthState::Estimating { done, total };
+            if self.depth.state != now {
+                self.depth.state = now;
+                self.dirty.text = true;
+            }
+            return Ok(());
+        };
+        let elapsed = job.elapsed_s();
+        self.depth_job = None;
+        let plan = self.depth_plan.take();
+        let estimated = match result {
+            Ok(e) => e,
+            Err(e) => {
+                self.depth_failed(e.to_string());
+                return Ok(());
+            }
+        };
+        self.depth_validation_errors += estimated.validation_errors;
+        let origin = estimated.origin;
+        if let DepthOrigin::Estimated { estimate, .. } = &origin {
+            // The job's thread has ended and dropped its reference: no copy of the views.
+            let lf = Arc::make_mut(&mut self.lf);
+            if let Err(e) = crate::depth::cache::install(lf, estimate) {
+                self.depth_failed(e.to_string());
+                return Ok(());
+            }
+        }
+        let lf = Arc::clone(&self.lf);
+        self.depth = DepthCache::new(&lf, lf.view_depth().ok())?;
+        if let Some(c) = &self.depth.cloud {
+            gpu.set_cloud(&c.vertices())?;
+        }
+        eprintln!(
+            "depth of '{}' ready after {elapsed:.1} s: the point cloud, clicks and \
+             anti-aliasing are on",
+            lf.name
+        );
+        self.milestones.depth_ready_ms = Some(self.since_launch_ms());
+        let plan = plan.as_ref();
+        self.act(Action::DepthArrived {
+            normal_window: origin.normal_window(),
+            antialias: plan.is_some_and(|p| p.antialias),
+            focus: plan
+                .is_some_and(|p| p.default_focus)
+                .then(|| default_focus(&lf, self.depth.depth.as_ref())),
+        });
+        let (centre, keep, array) = framing(&lf, &self.depth);
+        let scene = self.layout.scene;
+        self.act(Action::Reframe {
+            centre,
+            keep,
+            array,
+            aspect: scene.width.max(1.0) as f64 / scene.height.max(1.0) as f64,
+        });
+        self.depth_origin = Some(origin);
+        self.dirty.window_changed();
+        self.dirty.cloud = true;
+        Ok(())
+    }
+
+    fn depth_failed(&mut self, why: String) {
+        log::warn!(
+            "no depth for '{}': {why}; clicks and the point cloud are off",
+            self.lf.name
+        );
+        self.depth_plan = None;
+        self.depth.state = DepthState::Unavailable(format!("no depth ({why})"));
+        self.refuse(format!("no depth: {why}"));
     }
 
     /// Applies `action` to the state and notes what to redraw.
     pub fn act(&mut self, action: Action) -> Effect {
         let orbit = self.state.orbit;
-        let effect = self.state.apply(self.lf, action);
+        let effect = self.state.apply(&self.lf, action);
         if self.state.orbit != orbit {
             // The cached cloud layer was rendered from the old scene camera.
             self.dirty.scene = true;
@@ -179,7 +337,7 @@ impl<'a> Session<'a> {
     /// single-click plane, or with `shift` one of three clicks.
     pub fn click_refocus(&mut self, p: DVec2, shift: bool) {
         let reference = self.state.plan.reference_camera;
-        match self.depth.depth_pixel(self.lf, &reference, p) {
+        match self.depth.depth_pixel(&self.lf, &reference, p) {
             Ok(d) => {
                 self.interact(if shift {
                     Action::ThreeClick(d)
@@ -194,7 +352,7 @@ impl<'a> Session<'a> {
     /// A click at pixel `p` of the scene panel: picks the cloud point there.
     pub fn click_scene(&mut self, p: DVec2) {
         let size = self.scene_size();
-        match self.depth.scene_pick(self.lf, &self.state.orbit, size, p) {
+        match self.depth.scene_pick(&self.lf, &self.state.orbit, size, p) {
             Ok(point) => {
                 self.interact(Action::ScenePick(point));
             }
@@ -243,7 +401,7 @@ impl<'a> Session<'a> {
 
     /// Lays the window out for `size` and rebuilds the GPU's window-size images.
     pub fn resize(&mut self, gpu: &mut ViewerGpu, size: (u32, u32)) -> Result<()> {
-        let lf = self.lf;
+        let lf = &self.lf;
         self.layout = Layout::new(size.0, size.1, (lf.width, lf.height));
         gpu.resize(
             vk::Extent2D {
@@ -279,7 +437,8 @@ impl<'a> Session<'a> {
     /// The image is final (`wait-converged`): refinement is complete for the current state,
     /// and no video frame asked for is still on its way.
     pub fn converged(&self) -> bool {
-        self.video.as_ref().map_or(true, Video::settled)
+        !self.depth_pending()
+            && self.video.as_ref().map_or(true, Video::settled)
             && self.refinement.refiner.converged()
             && self.refinement.is_current(self.state.version)
     }
@@ -327,7 +486,7 @@ impl<'a> Session<'a> {
         }
         let s = &self.state;
         crate::refocus::antialias::plan_antialias(
-            self.lf,
+            &self.lf,
             &s.plan,
             s.aperture(),
             s.excluded(),
@@ -344,8 +503,9 @@ impl<'a> Session<'a> {
             return None;
         }
         let status = Status {
-            lf: self.lf,
+            lf: &self.lf,
             state: &self.state,
+            depth: &self.depth.state,
             refinement: &self.refinement,
             fps: self.stats.fps,
         };
@@ -357,7 +517,7 @@ impl<'a> Session<'a> {
     /// Records and presents the frame `plan` (its batch goes to the GPU).
     pub fn draw(&mut self, gpu: &mut ViewerGpu, plan: &mut FramePlan) -> Result<FrameResult> {
         let overlay = if self.dirty.scene {
-            Some(scene::scene_overlay(self.lf, &self.state, &self.depth)?)
+            Some(scene::scene_overlay(&self.lf, &self.state, &self.depth)?)
         } else {
             None
         };
@@ -396,6 +556,9 @@ impl<'a> Session<'a> {
         result: FrameResult,
     ) -> Result<()> {
         self.stats.presented(plan.interactive);
+        if self.milestones.first_frame_ms.is_none() {
+            self.milestones.first_frame_ms = Some(self.since_launch_ms());
+        }
         let converged_now = full_size && self.refinement.refiner.converged();
         let mut timings: Vec<_> = result.timing.into_iter().collect();
         if converged_now {
@@ -412,7 +575,7 @@ impl<'a> Session<'a> {
         if let Some(prefix) = self.screenshots.next.take() {
             screenshot::save(
                 gpu,
-                self.lf,
+                &self.lf,
                 &self.state,
                 self.aa.as_ref(),
                 &prefix,
@@ -422,4 +585,16 @@ impl<'a> Session<'a> {
         }
         Ok(())
     }
+}
+
+/// What the scene panel frames: the cloud's centre (if there is a cloud), the points to keep
+/// in view (its box corners and the camera centres) and the camera array.
+pub fn framing(
+    lf: &LightField,
+    depth: &DepthCache,
+) -> (Option<glam::DVec3>, Vec<glam::DVec3>, Vec<glam::DVec3>) {
+    let cameras: Vec<glam::DVec3> = lf.views.iter().map(|v| v.camera.centre()).collect();
+    let mut keep = depth.corners();
+    keep.extend(&cameras);
+    (depth.centre(), keep, cameras)
 }
