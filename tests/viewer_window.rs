@@ -391,6 +391,151 @@ fn without_depth_the_window_opens_at_once_and_depth_arrives_in_the_background() 
     );
 }
 
+/// `render`'s options for the focus surface a screenshot recorded (its first plane is the
+/// focus).
+fn surface_args(state: &serde_json::Value) -> Vec<String> {
+    let surface = &state["surface"];
+    let plane = |p: &serde_json::Value| {
+        let v: Vec<String> = numbers(&p["point"])
+            .into_iter()
+            .chain(numbers(&p["normal"]))
+            .map(|x| format!("{x:?}"))
+            .collect();
+        format!("--plane={}", v.join(","))
+    };
+    let planes = surface["planes"].as_array().unwrap();
+    match surface["kind"].as_str().unwrap() {
+        "planes" => planes.iter().map(plane).collect(),
+        "slab" => vec![
+            plane(&planes[0]),
+            format!("--slab={:?}", surface["slab_half_width"].as_f64().unwrap()),
+        ],
+        "all-in-focus" => vec![plane(&planes[0]), "--all-in-focus".into()],
+        _ => vec![plane(&planes[0])],
+    }
+}
+
+/// Pixels of the scene panel tinted with the focus surface's light blue (its further planes).
+fn surface_tinted(scene: &image::RgbaImage) -> usize {
+    scene
+        .pixels()
+        .filter(|p| {
+            let [r, g, b, _] = p.0;
+            // Lighter than the focus plane's blue: green well above red, blue highest.
+            b > 150 && g > 110 && g as i32 > r as i32 + 40 && b >= g
+        })
+        .count()
+}
+
+#[test]
+fn focus_surfaces_from_keys_match_render_and_show_in_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lf = "builtin:demo";
+    let script = format!(
+        "wait-converged\n\
+         screenshot {d}/p\n\
+         # keep the card's plane, focus farther, keep that too, move on: three planes\n\
+         click refocus 60 80\n\
+         key N\n\
+         scroll refocus -6\n\
+         key N\n\
+         key UP 2\n\
+         wait-converged\n\
+         screenshot {d}/a\n\
+         # a slab is refused next to kept planes; Shift+Backspace clears them\n\
+         key EQUAL\n\
+         wait-converged\n\
+         screenshot {d}/refused\n\
+         key BACKSPACE\n\
+         key shift+BACKSPACE\n\
+         key EQUAL 3\n\
+         wait-converged\n\
+         screenshot {d}/b\n\
+         key G\n\
+         wait-converged\n\
+         screenshot {d}/c\n\
+         key G\n\
+         key MINUS 3\n\
+         wait-converged\n\
+         screenshot {d}/e\n\
+         quit\n",
+        d = d.display()
+    );
+    let script_path = d.join("surfaces.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let o = view_in_xvfb(&[lf, "--script", script_path.to_str().unwrap(), "--json"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "viewer failed: {err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0, "{err}");
+    // Every screenshot equals render given the same surface, byte for byte.
+    for (shot, kind, planes) in [
+        ("p", "plane", 1),
+        ("a", "planes", 3),
+        ("b", "slab", 1),
+        ("c", "all-in-focus", 1),
+        ("e", "plane", 1),
+    ] {
+        let state = json_file(&d.join(format!("{shot}.json")));
+        let surface = &state["surface"];
+        assert_eq!(surface["kind"], kind, "{shot}: {surface}");
+        assert_eq!(
+            surface["planes"].as_array().unwrap().len(),
+            planes,
+            "{shot}: {surface}"
+        );
+        let want = render_state(
+            lf,
+            &state,
+            &surface_args(&state),
+            &d.join(format!("r{shot}.png")),
+        );
+        assert_eq!(
+            std::fs::read(d.join(format!("{shot}_refocus.png"))).unwrap(),
+            want,
+            "{shot}: viewer ≠ render with the same surface"
+        );
+    }
+    // The slab: three 2 % steps of the plane's distance; its boundaries are reported.
+    let b = json_file(&d.join("b.json"));
+    assert_eq!(b["surface"]["slab_boundaries"].as_array().unwrap().len(), 2);
+    let w = b["surface"]["slab_half_width"].as_f64().unwrap();
+    assert!(w > 0.0, "{w}");
+    // Surfaces change the image; the refusal changed nothing and said why.
+    let refocus = |s: &str| std::fs::read(d.join(format!("{s}_refocus.png"))).unwrap();
+    assert_ne!(refocus("a"), refocus("p"));
+    assert_ne!(refocus("c"), refocus("b"));
+    let refused = json_file(&d.join("refused.json"));
+    assert_eq!(refused["surface"]["kind"], "planes");
+    assert!(
+        refused["message"].as_str().unwrap_or("").contains("slab"),
+        "{refused}"
+    );
+    assert_eq!(refocus("refused"), refocus("a"));
+    // The scene panel draws the further planes (kept planes, slab boundaries) as their own
+    // quads; a single plane has none.
+    let tinted = |s: &str| surface_tinted(&decoded(&d.join(format!("{s}_scene.png"))));
+    assert!(
+        tinted("a") > 200,
+        "{} tinted pixels with three planes",
+        tinted("a")
+    );
+    assert!(
+        tinted("b") > 200,
+        "{} tinted pixels with a slab",
+        tinted("b")
+    );
+    assert!(
+        tinted("p") < tinted("a") / 4,
+        "{} vs {}",
+        tinted("p"),
+        tinted("a")
+    );
+    // --json names the final surface.
+    assert_eq!(report["surface"]["kind"], "plane", "{}", report["surface"]);
+}
+
 #[test]
 fn an_idle_viewer_renders_nothing_and_present_modes_fall_back_cleanly() {
     let dir = tempfile::tempdir().unwrap();

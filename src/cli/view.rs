@@ -143,6 +143,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             "first_frame_ms": report.milestones.first_frame_ms,
             "depth_ready_ms": report.milestones.depth_ready_ms,
             "averaging": state.averaging(),
+            "surface": report.surface,
             "antialias": {
                 "used": state.antialias() && depth_origin.is_some(),
                 "max_samples": antialias.max_samples,

@@ -94,6 +94,8 @@ pub struct ViewerReport {
     /// Where the depth came from (`None`: the light field has none and none could be made).
     pub depth: Option<DepthOrigin>,
     pub milestones: Milestones,
+    /// The final focus surface, as `render --json` reports it.
+    pub surface: serde_json::Value,
     pub device: String,
     pub present_mode: String,
     pub window: (u32, u32),
@@ -612,10 +614,16 @@ impl Viewer {
             gpu.context().validation().errors() + session.depth_validation_errors;
         let (extent, mode) = gpu.swapchain_info();
         drop(gpu);
+        let surface = super::session::screenshot::surface_json(
+            &session.state,
+            session.surface.as_ref(),
+            session.depth_origin.as_ref(),
+        );
         Ok(ViewerReport {
             frames: session.stats.report(),
             depth: session.depth_origin,
             milestones: session.milestones,
+            surface,
             state: session.state,
             validation_errors,
             device,

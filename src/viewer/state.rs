@@ -27,6 +27,7 @@ use crate::geometry::normals::NormalParams;
 use crate::geometry::picking::{nudge_plane, KeyboardPlane, Nudge};
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
+use crate::refocus::surface::{surface_terms, FocusSurface, MAX_PLANES};
 use crate::refocus::{
     self, Averaging, FocusRequest, FocusSpec, FocusTarget, RefocusPlan, RefocusRequest,
     ResolvedFocus,
@@ -55,6 +56,18 @@ pub enum Action {
     ToggleAveraging,
     /// Anti-aliased refocus on/off (where the session has depth for it).
     ToggleAntialias,
+    /// Keep the current focus plane in the focus surface's set of planes (the focus then
+    /// moves on, and every kept plane stays in focus with it).
+    KeepPlane,
+    /// Drop the plane kept last.
+    DropPlane,
+    /// Back to the single focus plane: no kept planes, no slab, all in focus off.
+    ClearSurface,
+    /// Widen (negative: narrow) the focus slab around the plane by this fraction of the
+    /// plane's distance from the reference camera; narrowed to nothing, the slab is off.
+    Slab(f64),
+    /// All in focus on/off (the kept planes or the slab come back when it goes off).
+    ToggleAllInFocus,
     /// Back to the state the viewer started in.
     Reset,
     /// The scene camera back to a view of the whole cloud and camera array.
@@ -114,6 +127,82 @@ pub enum Effect {
     Quit,
 }
 
+/// The focus surface around the focus plane (docs/conventions.md §12) as the viewer keeps it:
+/// world planes kept besides the current focus plane, a slab, all in focus. All in focus
+/// hides the others while it is on; kept planes and a slab exclude each other (the library's
+/// slab lies around exactly one plane).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SurfaceChoice {
+    kept: [Option<Plane>; MAX_PLANES - 1],
+    /// Half-width of the slab (world units along the plane's normal, as `render --slab`).
+    pub slab: Option<f64>,
+    pub all_in_focus: bool,
+}
+
+impl SurfaceChoice {
+    /// The kept planes, in the order they were kept.
+    pub fn kept(&self) -> impl Iterator<Item = Plane> + '_ {
+        self.kept.iter().flatten().copied()
+    }
+
+    /// The library's surface with `focus` the current focus plane (the surface's first).
+    pub fn surface(&self, focus: Option<Plane>) -> FocusSurface {
+        if self.all_in_focus {
+            return FocusSurface::AllInFocus;
+        }
+        if let Some(half_width) = self.slab {
+            return FocusSurface::Slab { half_width };
+        }
+        match focus {
+            Some(f) if self.kept().next().is_some() => {
+                FocusSurface::Planes(std::iter::once(f).chain(self.kept()).collect())
+            }
+            _ => FocusSurface::Plane,
+        }
+    }
+
+    fn keep(&mut self, plane: Plane) -> Result<()> {
+        if self.all_in_focus {
+            return Err(Error::Invalid(
+                "all in focus is on (G turns it off); it keeps no planes".into(),
+            ));
+        }
+        if self.slab.is_some() {
+            return Err(Error::Invalid(
+                "a focus slab lies around one plane: narrow it away (-) before keeping planes"
+                    .into(),
+            ));
+        }
+        if self.kept().any(|p| p == plane) {
+            return Err(Error::Invalid(
+                "this plane is kept already: move the focus (scroll, W/S, arrows, a click), \
+                 then keep the next"
+                    .into(),
+            ));
+        }
+        let slot = self.kept.iter_mut().find(|p| p.is_none()).ok_or_else(|| {
+            Error::Invalid(format!(
+                "a focus surface takes at most {MAX_PLANES} planes (the focus and {} kept): \
+                 drop one (Backspace) first",
+                MAX_PLANES - 1
+            ))
+        })?;
+        *slot = Some(plane);
+        Ok(())
+    }
+
+    fn drop_last(&mut self) -> Result<()> {
+        let last = self
+            .kept
+            .iter_mut()
+            .rev()
+            .find(|p| p.is_some())
+            .ok_or_else(|| Error::Invalid("no kept focus plane to drop".into()))?;
+        *last = None;
+        Ok(())
+    }
+}
+
 /// The parts of the state that define the image.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Core {
@@ -125,6 +214,7 @@ struct Core {
     averaging: Averaging,
     /// Anti-aliased refocus wanted (the session draws it where it has depth).
     antialias: bool,
+    surface: SurfaceChoice,
 }
 
 /// The viewer's state.
@@ -214,6 +304,7 @@ impl ViewerState {
             reference: reference.unwrap_or_else(|| lf.grid.centre()),
             averaging,
             antialias: false,
+            surface: SurfaceChoice::default(),
         };
         let (resolved, plan) = resolve(lf, &core, &excluded)?;
         let anchor = anchor_of(&resolved);
@@ -352,6 +443,19 @@ impl ViewerState {
         self.core.antialias = on;
         self.initial.antialias = on;
         self
+    }
+
+    /// The focus surface as the viewer keeps it.
+    pub fn surface_choice(&self) -> &SurfaceChoice {
+        &self.core.surface
+    }
+
+    /// The focus surface around the current plan's plane (what `render` is given with
+    /// `--plane` repeated, `--slab` or `--all-in-focus`).
+    pub fn surface(&self) -> FocusSurface {
+        self.core
+            .surface
+            .surface(self.plan.plane.or(self.resolved.plane))
     }
 
     /// Where the plane quad is centred.
@@ -564,13 +668,30 @@ fn resolve(
     core: &Core,
     excluded: &[bool],
 ) -> Result<(ResolvedFocus, RefocusPlan)> {
-    refocus::resolve_and_plan(
+    let (resolved, plan) = refocus::resolve_and_plan(
         lf,
         &core.focus,
         core.aperture,
         Some(core.reference),
         excluded,
-    )
+    )?;
+    // The surface must hold around the new plane too (a slab must not reach the reference
+    // camera): checked by the library's own geometry, without the scene depth.
+    let surface = core.surface.surface(plan.plane.or(resolved.plane));
+    surface_terms(&plan, &surface)?;
+    Ok((resolved, plan))
+}
+
+/// Focus surfaces choose per pixel from the scene's depth.
+fn need_depth(lf: &LightField) -> Result<()> {
+    if lf.depth.is_empty() {
+        return Err(Error::Invalid(format!(
+            "focus surfaces follow the scene's depth, and '{}' has none (yet: an estimate may \
+             be on its way)",
+            lf.name
+        )));
+    }
+    Ok(())
 }
 
 /// The focus as a world plane that no longer depends on the reference camera (before the
@@ -722,6 +843,41 @@ fn modify(
         }
         Action::ToggleAntialias => {
             core.antialias = !core.antialias;
+            Ok(())
+        }
+        Action::KeepPlane => {
+            need_depth(lf)?;
+            let plane = resolved.plane.ok_or_else(no_plane)?;
+            core.surface.keep(plane)
+        }
+        Action::DropPlane => core.surface.drop_last(),
+        Action::ClearSurface => {
+            core.surface = SurfaceChoice::default();
+            Ok(())
+        }
+        Action::Slab(fraction) => {
+            need_depth(lf)?;
+            let plane = resolved.plane.ok_or_else(no_plane)?;
+            if core.surface.all_in_focus {
+                return Err(Error::Invalid(
+                    "all in focus is on (G turns it off); it has no slab".into(),
+                ));
+            }
+            if core.surface.kept().next().is_some() {
+                return Err(Error::Invalid(
+                    "a focus slab lies around one plane: drop the kept planes (Backspace) first"
+                        .into(),
+                ));
+            }
+            let d = plane.normal.dot(plane.point - camera.centre()).abs();
+            let w = core.surface.slab.unwrap_or(0.0) + fraction * d;
+            // Narrowed to (about) nothing: the single plane again.
+            core.surface.slab = (w > 1e-6 * d).then_some(w);
+            Ok(())
+        }
+        Action::ToggleAllInFocus => {
+            need_depth(lf)?;
+            core.surface.all_in_focus = !core.surface.all_in_focus;
             Ok(())
         }
         Action::ToggleAveraging => {
@@ -990,6 +1146,107 @@ mod tests {
         assert_eq!(u.orbit, moved);
         u.apply(&lf, Action::Frame);
         assert_ne!(u.orbit, moved, "F goes to the new framing");
+    }
+
+    #[test]
+    fn focus_surfaces_are_kept_planes_a_slab_or_all_in_focus_and_refuse_mixtures() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        assert_eq!(s.surface(), FocusSurface::Plane);
+        let first = s.plan.plane.unwrap();
+        // Keep the plane, move on: two planes, the current one first (render's first --plane).
+        assert_eq!(s.apply(&lf, Action::KeepPlane), Effect::Changed);
+        let e = s.apply(&lf, Action::KeepPlane);
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("kept already")),
+            "{e:?}"
+        );
+        s.apply(&lf, Action::DisparitySteps(3.0));
+        let now = s.plan.plane.unwrap();
+        assert_eq!(s.surface(), FocusSurface::Planes(vec![now, first]));
+        // A slab does not mix with kept planes, nor planes with a slab.
+        let e = s.apply(&lf, Action::Slab(0.02));
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("Backspace")),
+            "{e:?}"
+        );
+        // At most 8 planes: the focus and 7 kept.
+        for k in 0..10 {
+            s.apply(&lf, Action::KeepPlane);
+            s.apply(&lf, Action::DisparitySteps(1.0 + k as f64));
+        }
+        match s.surface() {
+            FocusSurface::Planes(p) => assert_eq!(p.len(), MAX_PLANES),
+            other => panic!("{other:?}"),
+        }
+        let e = s.apply(&lf, Action::KeepPlane);
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("at most 8")),
+            "{e:?}"
+        );
+        // Backspace drops the last kept; Shift+Backspace clears.
+        assert_eq!(s.apply(&lf, Action::DropPlane), Effect::Changed);
+        match s.surface() {
+            FocusSurface::Planes(p) => assert_eq!(p.len(), MAX_PLANES - 1),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(s.apply(&lf, Action::ClearSurface), Effect::Changed);
+        assert_eq!(s.surface(), FocusSurface::Plane);
+        assert!(matches!(
+            s.apply(&lf, Action::DropPlane),
+            Effect::Refused(_)
+        ));
+        // The slab widens by 2 % of the plane's distance per step and narrows away to nothing.
+        let d = {
+            let p = s.plan.plane.unwrap();
+            p.normal
+                .dot(p.point - s.plan.reference_camera.centre())
+                .abs()
+        };
+        s.apply(&lf, Action::Slab(0.02));
+        s.apply(&lf, Action::Slab(0.02));
+        match s.surface() {
+            FocusSurface::Slab { half_width } => assert!((half_width - 0.04 * d).abs() < 1e-12),
+            other => panic!("{other:?}"),
+        }
+        let e = s.apply(&lf, Action::KeepPlane);
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("slab")),
+            "{e:?}"
+        );
+        // A slab reaching the reference camera is refused by the library's geometry.
+        let e = s.apply(&lf, Action::Slab(1.5));
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("inside the focus slab")),
+            "{e:?}"
+        );
+        // All in focus hides the slab and gives it back.
+        assert_eq!(s.apply(&lf, Action::ToggleAllInFocus), Effect::Changed);
+        assert_eq!(s.surface(), FocusSurface::AllInFocus);
+        s.apply(&lf, Action::ToggleAllInFocus);
+        assert!(matches!(s.surface(), FocusSurface::Slab { .. }));
+        s.apply(&lf, Action::Slab(-0.02));
+        s.apply(&lf, Action::Slab(-0.02));
+        assert_eq!(s.surface(), FocusSurface::Plane, "narrowed to nothing");
+        // R returns to the single plane.
+        s.apply(&lf, Action::ToggleAllInFocus);
+        s.apply(&lf, Action::Reset);
+        assert_eq!(s.surface(), FocusSurface::Plane);
+        // Without depth every surface is refused, naming the cause.
+        let mut bare = lf.clone();
+        bare.depth.clear();
+        let mut b = state(&bare, FocusSpec::Disparity(0.0));
+        for a in [
+            Action::KeepPlane,
+            Action::Slab(0.02),
+            Action::ToggleAllInFocus,
+        ] {
+            let e = b.apply(&bare, a);
+            assert!(
+                matches!(e, Effect::Refused(ref m) if m.contains("depth")),
+                "{e:?}"
+            );
+        }
     }
 
     #[test]

@@ -64,8 +64,9 @@ impl Status<'_> {
             },
         };
         format!(
-            "{plane}  [{}]{}{}",
+            "{plane}  [{}]{}{}{}",
             state.resolved.how,
+            surface_label(state).map_or(String::new(), |l| format!("  surface: {l}")),
             state
                 .frame
                 .map_or(String::new(), |f| format!("  frame {f}")),
@@ -119,6 +120,21 @@ impl Status<'_> {
     /// The status strip's two lines.
     pub fn lines(&self) -> (String, String) {
         (self.focus_line(), self.render_line())
+    }
+}
+
+/// The focus surface, named for the status strip (`None`: the single plane).
+pub fn surface_label(state: &ViewerState) -> Option<String> {
+    let choice = state.surface_choice();
+    if choice.all_in_focus {
+        return Some("all in focus".into());
+    }
+    if let Some(w) = choice.slab {
+        return Some(format!("slab ±{w:.4}"));
+    }
+    match choice.kept().count() {
+        0 => None,
+        k => Some(format!("{} planes", k + 1)),
     }
 }
 

@@ -40,6 +40,7 @@ use crate::lightfield::video::FrameSequence;
 use crate::lightfield::LightField;
 use crate::passes::scene::SceneView;
 use crate::refocus::antialias::{AntialiasPlan, AntialiasSettings};
+use crate::refocus::surface::SurfacePlan;
 use depth::{DepthCache, DepthJob, DepthState};
 use hud::{Hud, Status};
 use refinement::{FramePlan, Refinement};
@@ -116,6 +117,9 @@ pub struct Session {
     /// it is on, and the state version it was made for.
     pub aa: Option<AntialiasPlan>,
     aa_version: u64,
+    /// The focus surface of the state resolved with the scene depth (the anti-aliasing plan's
+    /// when on), when it is more than one plane; made with `aa`.
+    pub surface: Option<SurfacePlan>,
     /// Where the depth came from, once there is depth.
     pub depth_origin: Option<DepthOrigin>,
     /// Depth still to be estimated (started after the first frame) and the estimate running.
@@ -169,6 +173,7 @@ impl Session {
             aa: None,
             // No version yet: the first frame makes the plan.
             aa_version: u64::MAX,
+            surface: None,
             depth_origin: None,
             depth_plan: None,
             depth_job: None,
@@ -448,6 +453,7 @@ impl Session {
     pub fn next_frame(&mut self, interactive: bool) -> Option<FramePlan> {
         if self.aa_version != self.state.version {
             self.aa = self.antialias_plan();
+            self.surface = self.surface_plan();
             self.aa_version = self.state.version;
         }
         let state = &self.state;
@@ -497,6 +503,30 @@ impl Session {
         .ok()
     }
 
+    /// The state's focus surface with the scene depth, when it is more than the plane: the
+    /// same `refocus::surface::surface_for` as `render`, reading anti-aliasing's depth when
+    /// that is on. The state checked its geometry; what fails here (no depth) is shown.
+    fn surface_plan(&mut self) -> Option<SurfacePlan> {
+        let surface = self.state.surface();
+        if !surface.needs_depth() {
+            return None;
+        }
+        let made = crate::refocus::surface::surface_for(
+            &self.lf,
+            &self.state.plan,
+            &surface,
+            self.aa.as_ref(),
+        );
+        match made {
+            Ok(sp) => Some(sp),
+            Err(e) => {
+                log::warn!("the focus surface is off for this view: {e}");
+                self.refuse(format!("focus surface off: {e}"));
+                None
+            }
+        }
+    }
+
     /// Redraws the on-screen text if it changed; returns the new status line (for the title).
     pub fn redraw_text(&mut self) -> Option<String> {
         if !self.dirty.text {
@@ -529,6 +559,7 @@ impl Session {
         let result = gpu.frame(FrameRequest {
             plan: &self.refinement.ordered,
             antialias: self.refinement.ordered_aa.as_ref(),
+            surface: self.surface.as_ref(),
             averaging: self.state.averaging(),
             batch: plan.batch.take(),
             scene: overlay.as_ref().map(|o| (view, o, self.dirty.cloud)),
@@ -578,6 +609,8 @@ impl Session {
                 &self.lf,
                 &self.state,
                 self.aa.as_ref(),
+                self.surface.as_ref(),
+                self.depth_origin.as_ref(),
                 &prefix,
                 result.window.as_ref(),
                 self.stats.frames,

@@ -22,6 +22,9 @@ const PLANE_HALF_OF_DIAGONAL: f64 = 0.3;
 /// Opacity of the plane quad in the scene panel.
 const PLANE_OPACITY: f32 = 0.28;
 const REFERENCE_COLOUR: [u8; 3] = [255, 230, 0];
+/// The focus surface's further planes (kept planes, a slab's boundaries): a lighter blue
+/// than the focus plane's, so the plane that moves stays apparent.
+const SURFACE_COLOUR: [u8; 3] = [110, 200, 255];
 
 fn line(out: &mut SceneOverlay, a: DVec3, b: DVec3, c: [u8; 3]) {
     out.lines.push(ColourVertex::new(a, c, 1.0));
@@ -126,11 +129,35 @@ pub fn scene_overlay(
             line(&mut out, q.corners[i], q.corners[(i + 1) % 4], PLANE_COLOUR);
         }
     }
-    out.triangles
-        .extend(geometry.plane_vertices().into_iter().map(|mut v| {
-            v.colour[3] = PLANE_OPACITY;
-            v
-        }));
+    let mut quads: Vec<ColourVertex> = geometry.plane_vertices();
+    // Every further plane of the focus surface (kept planes; a slab's two boundaries) as its
+    // own outlined transparent quad, the same size as the focus plane's, centred where the
+    // focus quad's centre projects onto it.
+    if let Some(q) = &geometry.plane {
+        let r = geometry.reference_camera.r;
+        for p in state.surface().planes_to_draw(&q.plane).iter().skip(1) {
+            let other = q.moved_to(p, &r);
+            for i in 0..4 {
+                line(
+                    &mut out,
+                    other.corners[i],
+                    other.corners[(i + 1) % 4],
+                    SURFACE_COLOUR,
+                );
+            }
+            let tint = ColourVertex::new(DVec3::ZERO, SURFACE_COLOUR, 1.0).colour;
+            quads.extend(
+                other
+                    .vertices()
+                    .iter()
+                    .map(|v| ColourVertex { colour: tint, ..*v }),
+            );
+        }
+    }
+    out.triangles.extend(quads.into_iter().map(|mut v| {
+        v.colour[3] = PLANE_OPACITY;
+        v
+    }));
     out.markers.extend(
         picks(state, depth)
             .iter()
