@@ -537,6 +537,82 @@ fn focus_surfaces_from_keys_match_render_and_show_in_the_scene() {
 }
 
 #[test]
+fn feedback_highlights_the_changed_field_and_shows_refusals_where_clicked() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Three collinear shift-clicks along a row: the third is refused.
+    let script = format!(
+        "wait-converged\n\
+         key UP\n\
+         screenshot {d}/a\n\
+         wait 1.6\n\
+         screenshot {d}/b\n\
+         shift-click refocus 20 150\n\
+         shift-click refocus 60 150\n\
+         shift-click refocus 100 150\n\
+         wait-converged\n\
+         screenshot {d}/c\n\
+         quit\n",
+        d = d.display()
+    );
+    let script_path = d.join("feedback.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let o = view_in_xvfb(&[
+        "builtin:demo",
+        "--script",
+        script_path.to_str().unwrap(),
+        "--json",
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0, "{err}");
+    let layout = Layout::new(1280, 720, (192, 192));
+    let strip = layout.status;
+    // The highlight's amber behind the changed field (the tilt), in the strip only while it
+    // lasts.
+    let amber = |img: &image::RgbaImage| {
+        img.enumerate_pixels()
+            .filter(|(_, y, p)| {
+                *y as f32 >= strip.y && p.0[0] > 110 && (50..130).contains(&p.0[1]) && p.0[2] < 40
+            })
+            .count()
+    };
+    let a = decoded(&d.join("a_window.png"));
+    let b = decoded(&d.join("b_window.png"));
+    assert!(
+        amber(&a) > 100,
+        "{} amber pixels right after the key",
+        amber(&a)
+    );
+    assert_eq!(amber(&b), 0, "the highlight is gone after a moment");
+    // The refusal of the third click is drawn next to it: orange text within a box below
+    // and right of the click, not along the panel's bottom.
+    let c = json_file(&d.join("c.json"));
+    assert!(
+        c["message"].as_str().unwrap_or("").contains("collinear"),
+        "{c}"
+    );
+    let at = layout.refocus_to_window(glam::DVec2::new(100.0, 150.0), (192, 192));
+    let window = decoded(&d.join("c_window.png"));
+    let orange_near = window
+        .enumerate_pixels()
+        .filter(|(x, y, p)| {
+            let (dx, dy) = (*x as f64 - at.x, *y as f64 - at.y);
+            (0.0..500.0).contains(&dx)
+                && (0.0..60.0).contains(&dy)
+                && p.0[0] > 200
+                && (140..230).contains(&p.0[1])
+                && p.0[2] < 110
+        })
+        .count();
+    assert!(
+        orange_near > 100,
+        "{orange_near} message pixels next to the click"
+    );
+}
+
+#[test]
 fn an_idle_viewer_renders_nothing_and_present_modes_fall_back_cleanly() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

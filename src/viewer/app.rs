@@ -376,12 +376,7 @@ impl Viewer {
                 y,
                 shift,
             } => {
-                let p = DVec2::new(x, y);
-                s.interact(if shift {
-                    Action::ThreeClick(p)
-                } else {
-                    Action::Click(p)
-                });
+                s.click_depth_pixel(DVec2::new(x, y), shift);
             }
             Command::Click {
                 panel: Panel::Scene,
@@ -390,7 +385,11 @@ impl Viewer {
                 ..
             } => s.click_scene(DVec2::new(x + 0.5, y + 0.5)),
             Command::Drag { from, to } => {
-                s.act(Action::Orbit(DVec2::new(to.0 - from.0, to.1 - from.1)));
+                let size = s.scene_size();
+                s.act(Action::Orbit(
+                    DVec2::new(to.0 - from.0, to.1 - from.1),
+                    size,
+                ));
             }
             Command::Scroll {
                 panel: Panel::Refocus,
@@ -430,6 +429,10 @@ impl Viewer {
         });
         if self.session.video.as_ref().is_some_and(|v| v.decoding()) {
             timeout = Some(timeout.map_or(DECODE_POLL_S, |t| t.min(DECODE_POLL_S)));
+        }
+        if let Some(left) = self.session.highlight_left() {
+            let left = left.as_secs_f64();
+            timeout = Some(timeout.map_or(left, |t| t.min(left)));
         }
         if self.session.depth_pending() {
             timeout = Some(timeout.map_or(DEPTH_POLL_S, |t| t.min(DEPTH_POLL_S)));
@@ -492,7 +495,7 @@ impl Viewer {
             let s = &mut self.session;
             if p.moved && s.layout.scene.contains(p.at.x, p.at.y) {
                 let action = match p.button {
-                    MouseButton::Button1 => Action::Orbit(delta),
+                    MouseButton::Button1 => Action::Orbit(delta, s.scene_size()),
                     _ => Action::Pan(delta, s.scene_size()),
                 };
                 s.act(action);

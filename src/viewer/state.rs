@@ -78,8 +78,8 @@ pub enum Action {
     ThreeClick(DVec2),
     /// One of three picked world points (as `render --points-3d`).
     ScenePick(DVec3),
-    /// Orbit the scene camera by this many dragged pixels.
-    Orbit(DVec2),
+    /// Orbit the scene camera by this many dragged pixels in a scene panel of this size.
+    Orbit(DVec2, (u32, u32)),
     /// Pan the scene camera by this many dragged pixels in a scene panel of this size.
     Pan(DVec2, (u32, u32)),
     /// Zoom the scene camera by scroll steps.
@@ -476,8 +476,8 @@ impl ViewerState {
                 return Effect::Marked;
             }
             Action::Screenshot => return Effect::Screenshot,
-            Action::Orbit(delta) => {
-                self.orbit.orbit(delta);
+            Action::Orbit(delta, size) => {
+                self.orbit.orbit(delta, size);
                 return Effect::SceneView;
             }
             Action::Pan(delta, size) => {
@@ -1140,7 +1140,7 @@ mod tests {
         let before = u.orbit;
         assert_eq!(u.apply(&lf, reframe.clone()), Effect::SceneView);
         assert_ne!(u.orbit, before);
-        u.apply(&lf, Action::Orbit(DVec2::new(30.0, 0.0)));
+        u.apply(&lf, Action::Orbit(DVec2::new(30.0, 0.0), (400, 300)));
         let moved = u.orbit;
         assert_eq!(u.apply(&lf, reframe), Effect::Marked);
         assert_eq!(u.orbit, moved);
@@ -1261,7 +1261,7 @@ mod tests {
         // The scene camera and messages change neither version.
         let orbit = s.orbit;
         assert_eq!(
-            s.apply(&lf, Action::Orbit(DVec2::new(10.0, 0.0))),
+            s.apply(&lf, Action::Orbit(DVec2::new(10.0, 0.0), (400, 300))),
             Effect::SceneView
         );
         assert_eq!(s.apply(&lf, Action::Zoom(1.0)), Effect::SceneView);
@@ -1275,7 +1275,7 @@ mod tests {
         assert_eq!(s.apply(&lf, Action::Reset), Effect::SceneView);
         assert_eq!(s.orbit, orbit);
         assert_eq!(
-            s.apply(&lf, Action::Orbit(DVec2::new(10.0, 0.0))),
+            s.apply(&lf, Action::Orbit(DVec2::new(10.0, 0.0), (400, 300))),
             Effect::SceneView
         );
         assert_eq!(

@@ -42,7 +42,7 @@ use crate::passes::scene::SceneView;
 use crate::refocus::antialias::{AntialiasPlan, AntialiasSettings};
 use crate::refocus::surface::SurfacePlan;
 use depth::{DepthCache, DepthJob, DepthState};
-use hud::{Hud, Status};
+use hud::{Field, Hud, Status};
 use refinement::{FramePlan, Refinement};
 use screenshot::Screenshots;
 use stats::Stats;
@@ -50,6 +50,8 @@ use video::{Video, VideoStep};
 
 /// How often the status text refreshes its timings while frames are rendered.
 const STATUS_PERIOD: Duration = Duration::from_millis(250);
+/// How long the field a control changed stays highlighted in the status strip.
+pub const HIGHLIGHT_FOR: Duration = Duration::from_millis(1200);
 /// Size of the pick markers in the scene panel, pixels.
 const MARKER_SIZE: f32 = 11.0;
 
@@ -129,6 +131,10 @@ pub struct Session {
     pub depth_validation_errors: usize,
     /// The process's start (`--json` reports milestones from it).
     launched: Instant,
+    /// The strip's field the last control changed, and when.
+    highlight: Option<(Field, Instant)>,
+    /// Where the user clicked when the state's message is about that click (window pixels).
+    message_at: Option<DVec2>,
     pub milestones: Milestones,
 }
 
@@ -180,7 +186,15 @@ impl Session {
             depth_validation_errors: 0,
             launched,
             milestones,
+            highlight: None,
+            message_at: None,
         }
+    }
+
+    /// How long the highlighted field has left (the event loop wakes to clear it).
+    pub fn highlight_left(&self) -> Option<Duration> {
+        self.highlight
+            .map(|(_, at)| HIGHLIGHT_FOR.saturating_sub(at.elapsed()))
     }
 
     /// The light field's depth comes from `origin` (its own map, given).
@@ -299,7 +313,16 @@ impl Session {
     /// Applies `action` to the state and notes what to redraw.
     pub fn act(&mut self, action: Action) -> Effect {
         let orbit = self.state.orbit;
+        let field = Field::of(&action);
+        let message = self.state.message.clone();
         let effect = self.state.apply(&self.lf, action);
+        if let (Some(field), Effect::Changed) = (field, &effect) {
+            self.highlight = Some((field, Instant::now()));
+        }
+        if self.state.message != message {
+            // A new message is anchored by the click that caused it, if any (set after this).
+            self.message_at = None;
+        }
         if self.state.orbit != orbit {
             // The cached cloud layer was rendered from the old scene camera.
             self.dirty.scene = true;
@@ -343,14 +366,30 @@ impl Session {
     pub fn click_refocus(&mut self, p: DVec2, shift: bool) {
         let reference = self.state.plan.reference_camera;
         match self.depth.depth_pixel(&self.lf, &reference, p) {
-            Ok(d) => {
-                self.interact(if shift {
-                    Action::ThreeClick(d)
-                } else {
-                    Action::Click(d)
-                });
-            }
+            Ok(d) => self.click_depth_pixel(d, shift),
             Err(why) => self.refuse(why),
+        }
+        let size = (self.lf.width, self.lf.height);
+        self.anchor_message(self.layout.refocus_to_window(p, size));
+    }
+
+    /// A click at depth-view pixel `d` (what scripts give): a single-click plane, or with
+    /// `shift` one of three clicks; a refusal is shown where the click landed.
+    pub fn click_depth_pixel(&mut self, d: DVec2, shift: bool) {
+        self.interact(if shift {
+            Action::ThreeClick(d)
+        } else {
+            Action::Click(d)
+        });
+        let size = (self.lf.width, self.lf.height);
+        self.anchor_message(self.layout.refocus_to_window(d, size));
+    }
+
+    /// The state's message (if any) is about a click at window position `at`.
+    fn anchor_message(&mut self, at: DVec2) {
+        if self.state.message.is_some() {
+            self.message_at = Some(at);
+            self.dirty.text = true;
         }
     }
 
@@ -363,6 +402,8 @@ impl Session {
             }
             Err(why) => self.refuse(why),
         }
+        let scene = self.layout.scene;
+        self.anchor_message(DVec2::new(scene.x as f64, scene.y as f64) + p);
     }
 
     /// A video key: steps or plays the video, or says this is no video.
@@ -451,6 +492,10 @@ impl Session {
     /// Restarts refinement after a change (full size once the input stops) and plans the next
     /// frame; `None` when there is nothing to draw.
     pub fn next_frame(&mut self, interactive: bool) -> Option<FramePlan> {
+        if self.highlight_left() == Some(Duration::ZERO) {
+            self.highlight = None;
+            self.dirty.text = true;
+        }
         if self.aa_version != self.state.version {
             self.aa = self.antialias_plan();
             self.surface = self.surface_plan();
@@ -538,6 +583,8 @@ impl Session {
             depth: &self.depth.state,
             refinement: &self.refinement,
             fps: self.stats.fps,
+            highlight: self.highlight.map(|(f, _)| f),
+            message_at: self.message_at,
         };
         let line = self.hud.draw(&self.layout, &status);
         self.dirty.text = false;

@@ -31,6 +31,20 @@ fn line(out: &mut SceneOverlay, a: DVec3, b: DVec3, c: [u8; 3]) {
     out.lines.push(ColourVertex::new(b, c, 1.0));
 }
 
+/// Points along a thick line: the scene pass draws points (as camera centres, half a marker
+/// wide) but its lines are one pixel wide (`wideLines` is optional in Vulkan), so the optical
+/// axis and the normal, which a reader follows across the panel, are drawn as a dense row of
+/// points over the line.
+const THICK_LINE_POINTS: usize = 400;
+
+fn thick_line(out: &mut SceneOverlay, a: DVec3, b: DVec3, c: [u8; 3]) {
+    line(out, a, b, c);
+    out.points.extend((0..=THICK_LINE_POINTS).map(|i| {
+        let t = i as f64 / THICK_LINE_POINTS as f64;
+        ColourVertex::new(a.lerp(b, t), c, 1.0)
+    }));
+}
+
 /// The frustum of `cam` over the view's image rectangle, cut at depth `s`.
 fn frustum(out: &mut SceneOverlay, lf: &LightField, cam: &Camera, s: f64, c: [u8; 3]) {
     let k_inv = cam.k.inverse();
@@ -120,9 +134,9 @@ pub fn scene_overlay(
     let reference = &geometry.reference_camera;
     frustum(&mut out, lf, reference, scale * 1.2, REFERENCE_COLOUR);
     let axis = geometry.optical_axis;
-    line(&mut out, axis.a, axis.b, OPTICAL_AXIS_COLOUR);
+    thick_line(&mut out, axis.a, axis.b, OPTICAL_AXIS_COLOUR);
     if let Some(n) = geometry.normal_line {
-        line(&mut out, n.a, n.b, NORMAL_COLOUR);
+        thick_line(&mut out, n.a, n.b, NORMAL_COLOUR);
     }
     if let Some(q) = &geometry.plane {
         for i in 0..4 {
