@@ -613,6 +613,90 @@ fn feedback_highlights_the_changed_field_and_shows_refusals_where_clicked() {
 }
 
 #[test]
+fn the_control_panel_sets_values_by_drag_and_toggles_by_click() {
+    use tiltfield::viewer::panel::{Button, ControlPanel, Slider};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let layout = Layout::new(1280, 720, (192, 192));
+    let panel = ControlPanel::new(layout.scene, 1.0);
+    let track = |s: Slider| panel.sliders.iter().find(|(t, _)| *t == s).unwrap().1;
+    let button = |b: Button| {
+        let r = panel.buttons.iter().find(|(t, _)| *t == b).unwrap().1;
+        (r.x + r.width / 2.0, r.y + r.height / 2.0)
+    };
+    // Tilt: from the middle (0°) to three quarters of the track (+30°); the aperture radius
+    // to the track's start (0); anti-aliasing off; the plane kept.
+    let tilt = track(Slider::Tilt);
+    let radius = track(Slider::Radius);
+    let (ty, tx0, tx1) = (
+        tilt.y + 4.0,
+        tilt.x + 0.5 * tilt.width,
+        tilt.x + 0.75 * tilt.width,
+    );
+    let aa = button(Button::Antialias);
+    let keep = button(Button::Keep);
+    let script = format!(
+        "wait-converged\n\
+         key TAB\n\
+         drag window {tx0} {ty} {tx1} {ty}\n\
+         drag window {rx0} {ry} {rx1} {ry}\n\
+         click window {ax} {ay}\n\
+         click window {kx} {ky}\n\
+         wait-converged\n\
+         screenshot {d}/a\n\
+         key TAB\n\
+         wait-converged\n\
+         screenshot {d}/b\n\
+         quit\n",
+        rx0 = radius.x + 0.5 * radius.width,
+        rx1 = radius.x - 20.0,
+        ry = radius.y + 4.0,
+        ax = aa.0,
+        ay = aa.1,
+        kx = keep.0,
+        ky = keep.1,
+        d = d.display()
+    );
+    let script_path = d.join("panel.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let lf = "builtin:demo";
+    let o = view_in_xvfb(&[lf, "--script", script_path.to_str().unwrap(), "--json"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0, "{err}");
+    let a = json_file(&d.join("a.json"));
+    let n = numbers(&a["plane"]["normal"]);
+    let tilt_deg = n[1].atan2(n[2]).to_degrees();
+    assert!(
+        (tilt_deg - 30.0).abs() < 1.0,
+        "tilt {tilt_deg}° after the drag: {a}"
+    );
+    assert_eq!(a["aperture"]["radius"].as_f64(), Some(0.0), "{a}");
+    assert_eq!(a["antialias"]["used"], false, "{a}");
+    assert_eq!(a["surface"]["kind"], "planes", "{a}");
+    // What the panel set renders as render renders it.
+    let want = render_state(lf, &a, &surface_args(&a), &d.join("ra.png"));
+    assert_eq!(std::fs::read(d.join("a_refocus.png")).unwrap(), want);
+    // The panel is drawn over the scene panel while shown (its dark background), and Tab
+    // hides it; the drags did not orbit the scene behind it.
+    let dark = |s: &str| {
+        let img = decoded(&d.join(format!("{s}_window.png")));
+        let r = panel.rect;
+        (r.x as u32 + 2..(r.x + r.width) as u32 - 2)
+            .flat_map(|x| (r.y as u32 + 30..r.y as u32 + 40).map(move |y| (x, y)))
+            .filter(|&(x, y)| img.get_pixel(x, y).0[..3].iter().all(|&c| c < 40))
+            .count()
+    };
+    assert!(dark("a") > 1000, "{}", dark("a"));
+    assert_eq!(
+        decoded(&d.join("a_scene.png")),
+        decoded(&d.join("b_scene.png")),
+        "the scene camera did not move"
+    );
+}
+
+#[test]
 fn an_idle_viewer_renders_nothing_and_present_modes_fall_back_cleanly() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

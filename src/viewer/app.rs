@@ -21,6 +21,7 @@ use glfw::{Action as KeyAction, Key, Modifiers, MouseButton, WindowEvent};
 use super::controls::{action_for_key, video_step_for_key, FINE};
 use super::gpu::ViewerGpu;
 use super::layout::Layout;
+use super::panel::Hit;
 use super::refine::Refiner;
 use super::script::{self, Command, Line, Panel, Runner};
 use super::session::depth::DepthCache;
@@ -109,6 +110,8 @@ struct Press {
     last: DVec2,
     shift: bool,
     moved: bool,
+    /// The control panel's widget pressed (the panel takes the pointer until release).
+    panel: Option<Hit>,
 }
 
 /// Input in progress.
@@ -384,6 +387,13 @@ impl Viewer {
                 y,
                 ..
             } => s.click_scene(DVec2::new(x + 0.5, y + 0.5)),
+            Command::Pointer { from, to } => {
+                // The mouse's own path: press, move, release.
+                self.input.cursor = DVec2::new(from.0, from.1);
+                self.pressed(MouseButton::Button1, false);
+                self.pointer_moved(DVec2::new(to.0, to.1));
+                self.pointer_released(MouseButton::Button1);
+            }
             Command::Drag { from, to } => {
                 let size = s.scene_size();
                 s.act(Action::Orbit(
@@ -467,14 +477,7 @@ impl Viewer {
             }
             WindowEvent::CursorPos(x, y) => self.pointer_moved(DVec2::new(x, y)),
             WindowEvent::MouseButton(button, KeyAction::Press, mods) => {
-                let at = self.input.cursor;
-                self.input.press = Some(Press {
-                    button,
-                    at,
-                    last: at,
-                    shift: mods.contains(Modifiers::Shift),
-                    moved: false,
-                });
+                self.pressed(button, mods.contains(Modifiers::Shift))
             }
             WindowEvent::MouseButton(button, KeyAction::Release, _) => {
                 self.pointer_released(button)
@@ -482,6 +485,23 @@ impl Viewer {
             WindowEvent::Scroll(_, dy) => self.scrolled(dy),
             _ => {}
         }
+    }
+
+    /// A button pressed at the cursor; over the control panel's slider it sets the value there.
+    fn pressed(&mut self, button: MouseButton, shift: bool) {
+        let at = self.input.cursor;
+        let panel = self.session.panel_hit(at);
+        if let (Some(Hit::Slider(s, _)), MouseButton::Button1) = (panel, button) {
+            self.session.panel_slide(s, at.x);
+        }
+        self.input.press = Some(Press {
+            button,
+            at,
+            last: at,
+            shift,
+            moved: false,
+            panel,
+        });
     }
 
     /// A drag that started in the scene panel orbits (left button) or pans (other buttons).
@@ -493,7 +513,12 @@ impl Viewer {
                 p.moved = true;
             }
             let s = &mut self.session;
-            if p.moved && s.layout.scene.contains(p.at.x, p.at.y) {
+            if let Some(hit) = p.panel {
+                // The control panel holds the pointer: a slider follows it, nothing else moves.
+                if let (Hit::Slider(slider, _), MouseButton::Button1) = (hit, p.button) {
+                    s.panel_slide(slider, now.x);
+                }
+            } else if p.moved && s.layout.scene.contains(p.at.x, p.at.y) {
                 let action = match p.button {
                     MouseButton::Button1 => Action::Orbit(delta, s.scene_size()),
                     _ => Action::Pan(delta, s.scene_size()),
@@ -509,6 +534,15 @@ impl Viewer {
         let Some(p) = self.input.press.take() else {
             return;
         };
+        if let Some(hit) = p.panel {
+            // A button acts on release over itself (a press that slid off does nothing).
+            if let (Hit::Button(b), MouseButton::Button1) = (hit, button) {
+                if self.session.panel_hit(self.input.cursor) == Some(Hit::Button(b)) {
+                    self.session.panel_press(b);
+                }
+            }
+            return;
+        }
         if p.moved || p.button != button || button != MouseButton::Button1 {
             return;
         }
@@ -527,6 +561,10 @@ impl Viewer {
     fn scrolled(&mut self, dy: f64) {
         let (cursor, shift) = (self.input.cursor, self.input.shift);
         let s = &mut self.session;
+        if s.panel_hit(cursor).is_some() {
+            // Over the control panel: nothing under it scrolls.
+            return;
+        }
         if s.layout.refocus_area.contains(cursor.x, cursor.y) {
             s.interact(Action::DisparitySteps(if shift { dy * FINE } else { dy }));
         } else if s.layout.scene.contains(cursor.x, cursor.y) {

@@ -58,6 +58,7 @@ pub const CONTROLS: &[(&str, &str)] = &[
     ("F", "frame the cloud and the cameras"),
     ("R", "reset focus and scene view"),
     ("P", "screenshot"),
+    ("Tab", "control panel: sliders and buttons"),
     ("H", "this help"),
     ("Q or Esc", "quit"),
 ];
@@ -92,6 +93,7 @@ pub fn action_for_key(key: Key, shift: bool) -> Option<Action> {
         Key::R => Action::Reset,
         Key::P => Action::Screenshot,
         Key::H => Action::ToggleHelp,
+        Key::Tab => Action::TogglePanel,
         Key::Q | Key::Escape => Action::Quit,
         _ => return None,
     })

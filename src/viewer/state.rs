@@ -104,6 +104,8 @@ pub enum Action {
     /// a video, a frame that failed to decode).
     Refuse(String),
     ToggleHelp,
+    /// Show or hide the control panel (sliders and buttons).
+    TogglePanel,
     Screenshot,
     Quit,
 }
@@ -235,6 +237,8 @@ pub struct ViewerState {
     /// World points of the three-pick plane in progress.
     pub pending_points: Vec<DVec3>,
     pub show_help: bool,
+    /// The control panel is shown.
+    pub show_panel: bool,
     /// Why the last action was refused, or a hint about a pick in progress.
     pub message: Option<String>,
     pub version: u64,
@@ -321,6 +325,7 @@ impl ViewerState {
             placed_clicks: Vec::new(),
             pending_points: Vec::new(),
             show_help: false,
+            show_panel: false,
             message: None,
             version: 0,
             marks_version: 0,
@@ -472,6 +477,11 @@ impl ViewerState {
         let effect = match action {
             Action::ToggleHelp => {
                 self.show_help = !self.show_help;
+                self.marks_version += 1;
+                return Effect::Marked;
+            }
+            Action::TogglePanel => {
+                self.show_panel = !self.show_panel;
                 self.marks_version += 1;
                 return Effect::Marked;
             }

@@ -12,6 +12,7 @@ use std::time::Instant;
 
 use super::super::controls::CONTROLS;
 use super::super::layout::Layout;
+use super::super::panel::{self as controls_panel, ControlPanel, Slider};
 use super::super::state::{effective_radius, Action, ViewerState};
 use super::super::text::{Canvas, CLEAR, PANEL_BG, TEXT, WARN};
 use super::depth::DepthState;
@@ -111,6 +112,8 @@ pub struct Status<'a> {
     pub highlight: Option<Field>,
     /// Where the user clicked, when the message is about that click (window pixels).
     pub message_at: Option<DVec2>,
+    /// The control panel, while it is shown.
+    pub panel: Option<&'a ControlPanel>,
 }
 
 impl Status<'_> {
@@ -333,6 +336,9 @@ impl Hud {
             self.parts
                 .push(Rect::new(at.x as f32 - 8.0, at.y as f32 - 8.0, 17.0, 17.0));
         }
+        if let Some(panel) = status.panel {
+            self.control_panel(panel, state, status.lf);
+        }
         if state.show_help {
             self.help(layout);
         }
@@ -377,25 +383,78 @@ impl Hud {
         }
     }
 
+    /// The control panel: sliders (track, knob at the current value, the value) and buttons
+    /// (lit when their setting is on).
+    fn control_panel(&mut self, panel: &ControlPanel, state: &ViewerState, lf: &LightField) {
+        let r = panel.rect;
+        let (x0, y0) = (r.x as i64, r.y as i64);
+        self.canvas
+            .fill(x0, y0, r.width as i64, r.height as i64, PANEL_BG);
+        self.parts.push(r);
+        self.canvas
+            .text(x0 + 8, y0 + 8, 1, "controls (Tab hides)", WARN);
+        for (s, t) in &panel.sliders {
+            let (tx, ty) = (t.x as i64, t.y as i64);
+            self.canvas.text(x0 + 8, ty, 1, s.label(), TEXT);
+            self.canvas
+                .fill(tx, ty + 2, t.width as i64, 4, [80, 80, 92, 255]);
+            let value = controls_panel::current(*s, state, lf);
+            if let Some(v) = value {
+                let f = panel.fraction_of(*s, v, lf);
+                let kx = tx + (f * t.width as f64).round() as i64;
+                self.canvas.fill(kx - 3, ty - 3, 7, 14, TEXT);
+            }
+            let text = match (s, value) {
+                (_, None) => "-".to_string(),
+                (Slider::Distance, Some(v)) => format!("{v:.3}"),
+                (Slider::Tilt | Slider::Swing, Some(v)) => format!("{v:.1}°"),
+                (_, Some(v)) => format!("{v:.2}"),
+            };
+            self.canvas
+                .text(tx + t.width as i64 + 12, ty, 1, &text, TEXT);
+        }
+        for (b, br) in &panel.buttons {
+            let colour = if b.on(state) {
+                [40, 100, 170, 255]
+            } else {
+                [55, 55, 66, 255]
+            };
+            let (bx, by, bw, bh) = (br.x as i64, br.y as i64, br.width as i64, br.height as i64);
+            self.canvas.fill(bx, by, bw, bh, colour);
+            let label = b.label(state);
+            let lw = label.chars().count() as i64 * 8;
+            self.canvas.text(
+                bx + (bw - lw).max(0) / 2,
+                by + (bh - 8) / 2,
+                1,
+                &label,
+                TEXT,
+            );
+        }
+    }
+
     /// Every control, over the scene panel.
     fn help(&mut self, layout: &Layout) {
         let sc = layout.scene;
         let (x0, y0) = (sc.x as i64 + 10, sc.y as i64 + 10);
         let rows = CONTROLS.len() as i64 + 1;
+        // 18-pixel rows where the panel is tall enough, closer (down to 10) where not, so
+        // every control stays listed in a short window.
+        let row = ((sc.height as i64 - 32) / rows).clamp(10, 18);
         let key_w = CONTROLS.iter().map(|(k, _)| k.len()).max().unwrap_or(0) as i64 * 8 + 16;
         let what_w = CONTROLS.iter().map(|(_, w)| w.len()).max().unwrap_or(0) as i64 * 8;
         self.canvas
-            .fill(x0, y0, key_w + what_w + 16, rows * 18 + 12, PANEL_BG);
+            .fill(x0, y0, key_w + what_w + 16, rows * row + 12, PANEL_BG);
         self.parts.push(Rect::new(
             x0 as f32,
             y0 as f32,
             (key_w + what_w + 16) as f32,
-            (rows * 18 + 12) as f32,
+            (rows * row + 12) as f32,
         ));
         self.canvas
             .text(x0 + 8, y0 + 6, 1, "controls (H hides)", WARN);
         for (i, (key, what)) in CONTROLS.iter().enumerate() {
-            let y = y0 + 6 + (i as i64 + 1) * 18;
+            let y = y0 + 6 + (i as i64 + 1) * row;
             self.canvas.text(x0 + 8, y, 1, key, TEXT);
             self.canvas.text(x0 + 8 + key_w, y, 1, what, TEXT);
         }
@@ -468,6 +527,7 @@ mod tests {
                 fps: 30.0,
                 highlight: None,
                 message_at: None,
+                panel: None,
             };
             hud.draw(&layout, &status);
             hud.parts.clone()

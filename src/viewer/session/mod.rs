@@ -31,6 +31,7 @@ use glam::DVec2;
 
 use super::gpu::{FrameRequest, FrameResult, ViewerGpu};
 use super::layout::Layout;
+use super::panel::{self as controls_panel, Button, ControlPanel, Hit, Slider};
 use super::refine::Refiner;
 use super::state::{default_focus, Action, Effect, ViewerState};
 use crate::depth::DepthOrigin;
@@ -136,6 +137,8 @@ pub struct Session {
     /// Where the user clicked when the state's message is about that click (window pixels).
     message_at: Option<DVec2>,
     pub milestones: Milestones,
+    /// The control panel's widgets for the current layout (drawn while the state shows it).
+    pub panel: ControlPanel,
 }
 
 impl Session {
@@ -156,6 +159,9 @@ impl Session {
             depth_ready_ms: (depth.depth.is_some()).then(|| launched.elapsed().as_secs_f64() * 1e3),
             ..Milestones::default()
         };
+        // The distance slider centres on the starting plane's distance.
+        let centre = controls_panel::current(Slider::Distance, &state, &lf).unwrap_or(1.0);
+        let panel = ControlPanel::new(layout.scene, centre);
         Session {
             lf,
             refinement: Refinement::new(refiner, &state.plan),
@@ -188,7 +194,35 @@ impl Session {
             milestones,
             highlight: None,
             message_at: None,
+            panel,
         }
+    }
+
+    /// What of the control panel lies under window position `p`, while it is shown.
+    pub fn panel_hit(&self, p: DVec2) -> Option<Hit> {
+        self.state.show_panel.then(|| self.panel.hit(p)).flatten()
+    }
+
+    /// Slider `s` dragged to window x: the value there, set through the keys' actions.
+    pub fn panel_slide(&mut self, s: Slider, x: f64) {
+        let value = self.panel.value_at(s, self.panel.fraction(s, x), &self.lf);
+        match controls_panel::set_action(s, value, &self.state, &self.lf) {
+            Some(action) => {
+                self.interact(action);
+            }
+            None if controls_panel::current(s, &self.state, &self.lf).is_none() => {
+                self.refuse(format!(
+                    "{} needs a focus plane; classic shift-and-sum has none",
+                    s.label()
+                ));
+            }
+            None => {}
+        }
+    }
+
+    /// Button `b` pressed.
+    pub fn panel_press(&mut self, b: Button) {
+        self.interact(b.action());
     }
 
     /// How long the highlighted field has left (the event loop wakes to clear it).
@@ -449,6 +483,7 @@ impl Session {
     pub fn resize(&mut self, gpu: &mut ViewerGpu, size: (u32, u32)) -> Result<()> {
         let lf = &self.lf;
         self.layout = Layout::new(size.0, size.1, (lf.width, lf.height));
+        self.panel = ControlPanel::new(self.layout.scene, self.panel.distance_centre);
         gpu.resize(
             vk::Extent2D {
                 width: size.0,
@@ -585,6 +620,7 @@ impl Session {
             fps: self.stats.fps,
             highlight: self.highlight.map(|(f, _)| f),
             message_at: self.message_at,
+            panel: self.state.show_panel.then_some(&self.panel),
         };
         let line = self.hud.draw(&self.layout, &status);
         self.dirty.text = false;
