@@ -336,9 +336,20 @@ fn gpu_antialiasing_matches_the_f64_model() {
     // Off the layers' depths, so footprint lengths are not whole pixels (where f32 and f64
     // may round a sub-sample count differently).
     let front = Plane::new(DVec3::new(0.0, 0.0, 2.1), DVec3::new(0.0, 0.0, -1.0)).unwrap();
-    let settings = AntialiasSettings { max_samples: 4 };
+    let settings = AntialiasSettings {
+        max_samples: 4,
+        prefilter: true,
+    };
     let (_, aa) = plain_and_aa(&lf, front, None, settings);
     gpu_matches_model(&lf, &aa, "grid centre");
+    // One sub-sample per view: footprints up to 3 px read the prefilter pyramid's levels
+    // (refocus::prefilter), the shader's trilinear from texel fetches against the model's.
+    let one = AntialiasSettings {
+        max_samples: 1,
+        prefilter: true,
+    };
+    let (_, aa1) = plain_and_aa(&lf, front, None, one);
+    gpu_matches_model(&lf, &aa1, "grid centre, prefiltered single sub-sample");
     let (_, aa) = plain_and_aa(&lf, front, Some(DVec2::new(1.5, 2.25)), settings);
     assert!(
         aa.depth.unknown < 64,
@@ -535,7 +546,10 @@ fn bad_depth_gives_a_clear_error_or_the_plain_sum_never_nan() {
         disk(),
         &[],
         &lf.view_depth_of(index, &map).unwrap(),
-        AntialiasSettings { max_samples: 0 },
+        AntialiasSettings {
+            max_samples: 0,
+            ..AntialiasSettings::default()
+        },
     );
     assert!(e.is_err());
 }

@@ -182,6 +182,10 @@ fn bad_depth_input_is_a_clear_error() {
     );
     fails_with(&["depth", lf, "-o", o, "--views", "cross:0"], &["cross:0"]);
     fails_with(
+        &["depth", lf, "-o", o, "--median", "65"],
+        &["median", "at most 64"],
+    );
+    fails_with(
         &["depth", lf, "-o", o, "--view", "7,1"],
         &["outside", "5×5"],
     );

@@ -23,11 +23,18 @@ fn compute() -> Vec<SetRow> {
     let ctx = GpuContext::new(&common::gpu_options())
         .unwrap_or_else(|e| panic!("cannot create a validated Vulkan context: {e}"));
     let set = testset::synthetic(5, 64, None).unwrap();
-    let variants: Vec<_> = ["default", "sweep", "naive"]
+    let variants: Vec<_> = ["default", "no-median", "sweep", "naive"]
         .iter()
         .map(|v| (v.to_string(), testset::variant(v).unwrap()))
         .collect();
-    let rows = score_set(&ctx, &set, &variants, &indicatif::ProgressBar::hidden()).unwrap();
+    let rows = score_set(
+        &ctx,
+        &set,
+        &variants,
+        &indicatif::ProgressBar::hidden(),
+        |_, _, _| Ok(()),
+    )
+    .unwrap();
     assert_eq!(ctx.validation().errors(), 0, "validation errors");
     rows
 }
@@ -37,7 +44,7 @@ fn the_default_beats_the_sweep_and_the_naive_sweep_over_the_whole_set() {
     let rows = scores();
     assert_eq!(
         rows.len(),
-        3 * testset::synthetic(3, 48, None).unwrap().len()
+        4 * testset::synthetic(3, 48, None).unwrap().len()
     );
     let mean = |v: &str| {
         let of: Vec<&SetRow> = rows.iter().filter(|r| r.variant == v).collect();
@@ -45,13 +52,20 @@ fn the_default_beats_the_sweep_and_the_naive_sweep_over_the_whole_set() {
     };
     let (d, s, n) = (mean("default"), mean("sweep"), mean("naive"));
     eprintln!("{}", testset::markdown(&rows));
-    // Measured at 64 px: default 20.8 % / 8.2, sweep 24.7 % / 9.0, naive 46.5 % / 52.9.
+    // Measured at 64 px: default 21.1 % / 7.0, without the median 20.8 % / 8.2, sweep
+    // 24.7 % / 9.0, naive 46.5 % / 52.9.
     assert!(
         d.bad_pix_007 <= 25.0,
         "default mean BadPix0.07 {}",
         d.bad_pix_007
     );
-    assert!(d.mse_x100 <= 11.0, "default mean MSE×100 {}", d.mse_x100);
+    assert!(d.mse_x100 <= 9.0, "default mean MSE×100 {}", d.mse_x100);
+    let nm = mean("no-median");
+    assert!(d.mse_x100 <= nm.mse_x100 - 0.5, "{d:?} vs no median {nm:?}");
+    assert!(
+        d.bad_pix_007 <= nm.bad_pix_007 + 1.0,
+        "{d:?} vs no median {nm:?}"
+    );
     assert!(d.bad_pix_007 <= s.bad_pix_007 - 2.0, "{d:?} vs sweep {s:?}");
     assert!(n.bad_pix_007 >= 1.6 * d.bad_pix_007, "{n:?} vs {d:?}");
     assert!(n.mse_x100 >= 3.0 * d.mse_x100, "{n:?} vs {d:?}");
@@ -68,6 +82,10 @@ fn the_default_beats_the_sweep_and_the_naive_sweep_over_the_whole_set() {
         })
         .collect();
     let (bust, bust_sweep) = (at[&("bust", "default")], at[&("bust", "sweep")]);
+    // The median gives the dark wall back the pixels the bust was fattened into (measured
+    // MSE×100 5.0 against 16.2 without it).
+    let bust_nm = at[&("bust", "no-median")];
+    assert!(bust.1 <= 0.6 * bust_nm.1, "bust {bust:?} vs {bust_nm:?}");
     assert!(
         bust.0 <= bust_sweep.0 - 10.0,
         "bust {bust:?} vs {bust_sweep:?}"

@@ -26,15 +26,43 @@ use crate::refocus::{self, FocusSpec, RefocusImage, RefocusPlan, RefocusRequest}
 use crate::synth::scenes::LAYER_DEPTHS;
 use crate::synth::{synth_scene, RigKind, SynthRig};
 
-/// Sub-sample caps per axis the study measures.
-pub const CAPS: [u32; 4] = [1, 2, 4, 8];
+/// The settings the study measures: sub-sample caps per axis with the prefiltered lookup
+/// (`aaN`), and without it (`aaN-sharp`: every sub-sample a full-resolution fetch).
+pub const VARIANTS: [AntialiasSettings; 7] = [
+    aa(1, true),
+    aa(2, true),
+    aa(4, true),
+    aa(1, false),
+    aa(2, false),
+    aa(4, false),
+    aa(8, false),
+];
+
+const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
+    AntialiasSettings {
+        max_samples,
+        prefilter,
+    }
+}
+
+/// The study's name for `s`.
+fn variant_name(s: &AntialiasSettings) -> String {
+    if s.prefilter {
+        format!("aa{}", s.max_samples)
+    } else {
+        format!("aa{}-sharp", s.max_samples)
+    }
+}
 
 /// One point of the study.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct AntialiasPoint {
-    /// `plain` or `aaN` (at most N × N sub-samples per view).
+    /// `plain`, `aaN` (at most N × N sub-samples per view, prefiltered) or `aaN-sharp`
+    /// (without the prefilter).
     pub name: String,
     pub max_samples: Option<u32>,
+    /// Whether the sub-samples read the prefilter pyramid.
+    pub prefilter: bool,
     pub views: usize,
     pub gpu_ms_median: f64,
     /// GPU time over the plain sum's, same run.
@@ -164,17 +192,9 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
     drop(r);
     let truth = encoded(&gt);
     let [all, out, focused] = masks(&lf, &plan, rig.baseline * rig.focal_px)?;
-    let aa: Vec<AntialiasPlan> = CAPS
+    let aa: Vec<AntialiasPlan> = VARIANTS
         .iter()
-        .map(|&n| {
-            plan_for(
-                &lf,
-                &plan,
-                aperture,
-                &[],
-                AntialiasSettings { max_samples: n },
-            )
-        })
+        .map(|&s| plan_for(&lf, &plan, aperture, &[], s))
         .collect::<Result<_>>()?;
     let settings = RenderSettings {
         output: OutputFormat::Float,
@@ -189,7 +209,7 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
             ))
         })
     };
-    // Point 0 is the plain sum, point k the cap CAPS[k − 1]; a warm-up frame each, which is
+    // Point 0 is the plain sum, point k the settings VARIANTS[k − 1]; a warm-up frame each, which is
     // also the image scored.
     let mut images = Vec::new();
     let (img, _) = h.render(&plan, &settings)?;
@@ -222,9 +242,10 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
             name: if k == 0 {
                 "plain".into()
             } else {
-                format!("aa{}", CAPS[k - 1])
+                variant_name(&VARIANTS[k - 1])
             },
-            max_samples: (k > 0).then(|| CAPS[k - 1]),
+            max_samples: (k > 0).then(|| VARIANTS[k - 1].max_samples),
+            prefilter: k > 0 && VARIANTS[k - 1].prefilter,
             views: if k == 0 {
                 plan.views.len()
             } else {

@@ -66,6 +66,11 @@ pub struct DepthArgs {
     /// Skip the continuous fit after the sweep (the sweep's sub-plane winner; faster).
     #[arg(long)]
     pub no_fit: bool,
+    /// Window radius of the colour-weighted median of the sweep's winners (0: none; default
+    /// 13, none with --naive): gives pixels of a faint surface back the depth of their own
+    /// colour region where a nearer object was fattened into them.
+    #[arg(long, value_name = "R")]
+    pub median: Option<u32>,
     /// Match (almost) black views too (vignetted corners are left out by default).
     #[arg(long)]
     pub include_dark: bool,
@@ -106,6 +111,11 @@ pub struct DepthSetArgs {
     /// Also write the table to this Markdown file.
     #[arg(long, value_name = "FILE.md")]
     pub markdown: Option<PathBuf>,
+    /// Write a figure per scene and variant into DIR (SCENE-VARIANT.png: estimate, truth and
+    /// error side by side; error black within 0.03 px, yellow within 0.07, red beyond) and the
+    /// estimate itself (SCENE-VARIANT.pfm, disparity).
+    #[arg(long, value_name = "DIR")]
+    pub maps: Option<PathBuf>,
     /// Print the rows as JSON on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -133,8 +143,27 @@ pub fn run_set(args: &DepthSetArgs) -> Result<()> {
         indicatif::ProgressStyle::with_template("scoring {bar:30} {pos}/{len} estimates {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let rows = crate::jobs::depth::score_set(&ctx, &set, &variants, &bar)?;
+    let maps = args
+        .maps
+        .as_deref()
+        .map(crate::io::OutputFolder::create)
+        .transpose()?;
+    let rows = crate::jobs::depth::score_set(&ctx, &set, &variants, &bar, |scene, variant, d| {
+        let Some(dir) = &maps else { return Ok(()) };
+        let stem = format!("{}-{variant}", scene.name);
+        let figure = testset::error_figure(scene, d);
+        dir.track(&dir.path().join(format!("{stem}.png")), |p| {
+            crate::io::save_png(&figure, p)
+        })?;
+        let (w, h) = (scene.light_field.width, scene.light_field.height);
+        dir.track(&dir.path().join(format!("{stem}.pfm")), |p| {
+            write_pfm(p, w, h, 1, d)
+        })
+    })?;
     bar.finish_and_clear();
+    if let Some(dir) = maps {
+        dir.finish();
+    }
     let errors = ctx.validation().errors();
     if errors > 0 {
         return Err(Error::Vulkan(format!(
@@ -207,6 +236,7 @@ pub fn options(args: &DepthArgs) -> Result<DepthOptions> {
         aggregation: args.aggregation.unwrap_or(base.aggregation),
         radius: args.radius.unwrap_or(base.radius),
         fit: base.fit && !args.no_fit,
+        median_radius: args.median.unwrap_or(base.median_radius),
         ..base
     };
     let options = DepthOptions {

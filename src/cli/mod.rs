@@ -156,6 +156,11 @@ pub struct AntialiasArgs {
     /// is smoother and slower).
     #[arg(long, value_name = "N", default_value_t = crate::refocus::antialias::AntialiasSettings::default().max_samples)]
     pub antialias_samples: u32,
+    /// Anti-aliasing: sub-samples of a long footprint read the views' box-filtered pyramid
+    /// (mip levels) at the level of their spacing, on (default) or off (full-resolution
+    /// fetches only: a long footprint then needs more sub-samples to look smooth).
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub antialias_prefilter: Switch,
 }
 
 impl AntialiasArgs {
@@ -168,6 +173,7 @@ impl AntialiasArgs {
     pub fn settings(&self) -> Result<crate::refocus::antialias::AntialiasSettings> {
         let s = crate::refocus::antialias::AntialiasSettings {
             max_samples: self.antialias_samples,
+            prefilter: self.antialias_prefilter == Switch::On,
         };
         s.validate()?;
         Ok(s)

@@ -35,6 +35,7 @@
 pub mod cache;
 pub mod cpu;
 pub mod guide;
+pub mod median;
 pub mod metrics;
 pub mod photometric;
 pub mod refine;
@@ -193,6 +194,17 @@ pub struct SweepParams {
     /// The continuous fit after the sweep ([`refine`]); off: the sweep's sub-plane winner.
     #[serde(default = "yes")]
     pub fit: bool,
+    /// Window radius of the colour-weighted median of the sweep's winners ([`median`]), px;
+    /// 0: none.
+    #[serde(default)]
+    pub median_radius: u32,
+    /// Colour σ of the median's weights, 8-bit levels (RGB distance).
+    #[serde(default = "median_sigma")]
+    pub median_sigma: f64,
+}
+
+fn median_sigma() -> f64 {
+    16.0
 }
 
 fn yes() -> bool {
@@ -210,6 +222,8 @@ impl Default for SweepParams {
             conf_eps: 2e-3,
             refine: Refine::Parabola,
             fit: true,
+            median_radius: 13,
+            median_sigma: median_sigma(),
         }
     }
 }
@@ -222,6 +236,7 @@ impl SweepParams {
             truncation: 1.0,
             aggregation: Aggregation::Box,
             fit: false,
+            median_radius: 0,
             ..SweepParams::default()
         }
     }
@@ -240,7 +255,19 @@ impl SweepParams {
                 self.radius
             )));
         }
+        if self.median_radius > MAX_RADIUS {
+            return Err(Error::Invalid(format!(
+                "the median's radius must be at most {MAX_RADIUS} px, got {}",
+                self.median_radius
+            )));
+        }
         let positive = |v: f64| v.is_finite() && v > 0.0;
+        if !positive(self.median_sigma) {
+            return Err(Error::Invalid(format!(
+                "the median's colour σ must be positive, got {}",
+                self.median_sigma
+            )));
+        }
         if !(positive(self.eps) && positive(self.conf_eps)) {
             return Err(Error::Invalid(format!(
                 "the guided filter's ε ({}) and the confidence floor ({}) must be positive",
@@ -251,7 +278,7 @@ impl SweepParams {
     }
 }
 
-/// Largest aggregation radius.
+/// Largest aggregation (and median) radius.
 pub const MAX_RADIUS: u32 = 64;
 
 /// Automatic plane count: one plane per this many pixels of motion in the farthest view.

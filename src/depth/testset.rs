@@ -102,7 +102,7 @@ pub fn hci(folder: &Path) -> Result<SetScene> {
 /// The estimator variants the set compares, by name: `default` (today's defaults), `naive`
 /// (SAD over the same views with box aggregation) and `sweep` (the default without the
 /// continuous fit).
-pub const VARIANTS: [&str; 3] = ["default", "sweep", "naive"];
+pub const VARIANTS: [&str; 4] = ["default", "no-median", "sweep", "naive"];
 
 /// The options of variant `name` ([`VARIANTS`]).
 pub fn variant(name: &str) -> Result<DepthOptions> {
@@ -112,12 +112,20 @@ pub fn variant(name: &str) -> Result<DepthOptions> {
         "sweep" => Ok(DepthOptions {
             params: SweepParams {
                 fit: false,
+                median_radius: 0,
                 ..SweepParams::default()
             },
             ..base
         }),
         "naive" => Ok(DepthOptions {
             params: SweepParams::baseline(),
+            ..base
+        }),
+        "no-median" => Ok(DepthOptions {
+            params: SweepParams {
+                median_radius: 0,
+                ..SweepParams::default()
+            },
             ..base
         }),
         _ => Err(Error::Invalid(format!(
@@ -192,6 +200,60 @@ pub fn score_row(
         total_ms,
         calibration,
     }
+}
+
+/// A figure of one estimate for the eye: the reference view, the estimate, the truth (both
+/// grey, the truth's range from black to white, outside it clamped) and the error (black
+/// within 0.03 px, yellow within 0.07, red beyond, blue where the estimate has no value; the
+/// scores' border dimmed), side by side with 4-px gaps.
+pub fn error_figure(scene: &SetScene, disparity: &[f32]) -> image::RgbImage {
+    let (w, h) = (scene.light_field.width, scene.light_field.height);
+    let reference = super::sweep::reference_view(&scene.light_field, None)
+        .ok()
+        .map(|i| &scene.light_field.views[i].image);
+    let finite = scene.truth.iter().copied().filter(|v| v.is_finite());
+    let (lo, hi) = finite.fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    let span = (hi - lo).max(1e-6);
+    let grey = |v: f32| {
+        if v.is_finite() {
+            let g = (((v - lo) / span).clamp(0.0, 1.0) * 255.0).round() as u8;
+            [g, g, g]
+        } else {
+            [0, 0, 96]
+        }
+    };
+    let gap = 4;
+    let mut img = image::RgbImage::from_pixel(4 * w + 3 * gap, h, image::Rgb([255, 255, 255]));
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let (est, truth) = (disparity[i], scene.truth[i]);
+            let err = (est - truth).abs();
+            let mut e = if !est.is_finite() {
+                [0, 0, 255]
+            } else if !truth.is_finite() || err <= 0.03 {
+                [0, 0, 0]
+            } else if err <= 0.07 {
+                [230, 200, 0]
+            } else {
+                [230, 0, 0]
+            };
+            let b = scene.border;
+            if x < b || y < b || x + b >= w || y + b >= h {
+                e = e.map(|c| c / 3 + 40);
+            }
+            if let Some(r) = reference {
+                let p = r.get_pixel(x, y).0;
+                img.put_pixel(x, y, image::Rgb([p[0], p[1], p[2]]));
+            }
+            img.put_pixel(w + gap + x, y, image::Rgb(grey(est)));
+            img.put_pixel(2 * (w + gap) + x, y, image::Rgb(grey(truth)));
+            img.put_pixel(3 * (w + gap) + x, y, image::Rgb(e));
+        }
+    }
+    img
 }
 
 /// The mean of each score over `rows` of one variant (every scene weighs the same).

@@ -97,6 +97,22 @@ pub fn image_barrier(
     barrier(d, cmd, image, color_range(layers), t);
 }
 
+/// [`image_barrier`] over `levels` mip levels.
+pub fn levels_barrier(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    image: vk::Image,
+    layers: u32,
+    levels: u32,
+    t: ImageTransition,
+) {
+    let range = vk::ImageSubresourceRange {
+        level_count: levels.max(1),
+        ..color_range(layers)
+    };
+    barrier(d, cmd, image, range, t);
+}
+
 /// Records one barrier on a single-layer image of `format`: the depth aspect for depth formats,
 /// colour otherwise.
 pub fn format_barrier(
@@ -213,11 +229,21 @@ pub fn begin_rendering_in(
 /// A buffer ↔ image copy of mip 0 of `layers` colour layers of a `width × height` image, the
 /// buffer tightly packed from `offset` (layer after layer).
 pub fn color_copy(offset: u64, width: u32, height: u32, layers: u32) -> vk::BufferImageCopy {
+    level_copy(offset, (width, height), layers, 0)
+}
+
+/// [`color_copy`] into mip level `level` (`size` is that level's).
+pub fn level_copy(
+    offset: u64,
+    (width, height): (u32, u32),
+    layers: u32,
+    level: u32,
+) -> vk::BufferImageCopy {
     vk::BufferImageCopy::default()
         .buffer_offset(offset)
         .image_subresource(vk::ImageSubresourceLayers {
             aspect_mask: vk::ImageAspectFlags::COLOR,
-            mip_level: 0,
+            mip_level: level,
             base_array_layer: 0,
             layer_count: layers,
         })

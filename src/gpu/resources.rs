@@ -200,6 +200,8 @@ pub struct ImageDesc {
     /// View it as a 2D array even with one layer (a shader's `sampler2DArray` needs an array
     /// view whatever the layer count: a light field of one view is still an array).
     pub array: bool,
+    /// Mip levels (1: the image alone). Views, barriers and uploads cover every level.
+    pub mip_levels: u32,
 }
 
 impl ImageDesc {
@@ -213,6 +215,7 @@ impl ImageDesc {
             usage,
             mutable_format: false,
             array: false,
+            mip_levels: 1,
         }
     }
 
@@ -230,7 +233,7 @@ impl ImageDesc {
                 height: self.height,
                 depth: 1,
             })
-            .mip_levels(1)
+            .mip_levels(self.mip_levels.max(1))
             .array_layers(self.layers)
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
@@ -304,7 +307,10 @@ impl Image {
                     vk::ImageViewType::TYPE_2D
                 })
                 .format(format)
-                .subresource_range(range_of(desc.format, desc.layers));
+                .subresource_range(vk::ImageSubresourceRange {
+                    level_count: desc.mip_levels.max(1),
+                    ..range_of(desc.format, desc.layers)
+                });
             // SAFETY: the format is the image's or compatible with it (MUTABLE_FORMAT).
             match unsafe { d.create_image_view(&info, None) } {
                 Ok(v) => {

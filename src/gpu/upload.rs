@@ -4,12 +4,13 @@
 
 use ash::vk;
 
-use super::commands::{color_copy, image_barrier, stage, ImageTransition, Submission};
+use super::commands::{level_copy, levels_barrier, stage, ImageTransition, Submission};
 use super::context::GpuContext;
-use super::resources::{Buffer, Image};
+use super::resources::{Buffer, Image, ImageDesc};
 use crate::error::Result;
 
-/// Where one image's texels start in the staging buffer (tightly packed, layer after layer).
+/// Where one image's texels start in the staging buffer (tightly packed, layer after layer;
+/// with mip levels, level after level, each holding every layer).
 pub struct ImageRegion<'a> {
     pub image: &'a Image,
     pub offset: u64,
@@ -28,6 +29,33 @@ pub fn upload_images(
     let result = staging.upload(ctx, regions, bytes, fill);
     staging.destroy(ctx);
     result
+}
+
+/// Where each mip level of `desc` starts in a staging region at `offset` and its size: level
+/// after level, each `width × height × layers` texels of `texel_bytes(desc.format)`.
+fn level_offsets(desc: &ImageDesc, offset: u64) -> Vec<(u64, (u32, u32))> {
+    let texel = texel_bytes(desc.format);
+    let mut at = offset;
+    (0..desc.mip_levels.max(1))
+        .map(|l| {
+            let size = ((desc.width >> l).max(1), (desc.height >> l).max(1));
+            let here = at;
+            at += size.0 as u64 * size.1 as u64 * desc.layers as u64 * texel;
+            (here, size)
+        })
+        .collect()
+}
+
+/// Bytes per texel of the formats uploaded through staging.
+fn texel_bytes(format: vk::Format) -> u64 {
+    match format {
+        vk::Format::R16G16B16A16_UNORM
+        | vk::Format::R16G16B16A16_SFLOAT
+        | vk::Format::R32G32_SFLOAT => 8,
+        vk::Format::R32G32B32A32_SFLOAT => 16,
+        vk::Format::R8_UNORM => 1,
+        _ => 4,
+    }
 }
 
 /// A staging buffer and submission kept for repeated uploads of the same size (the frames of
@@ -76,13 +104,18 @@ impl Staging {
         self.submission.run(ctx, |d, cmd| {
             for region in regions {
                 let img = region.image;
-                let layers = img.desc.layers;
+                let desc = &img.desc;
+                let (layers, levels) = (desc.layers, desc.mip_levels.max(1));
                 let to_dst = ImageTransition {
                     from: stage::UNDEFINED,
                     to: stage::TRANSFER_DST,
                 };
-                image_barrier(d, cmd, img.image, layers, to_dst);
-                let copy = color_copy(region.offset, img.desc.width, img.desc.height, layers);
+                levels_barrier(d, cmd, img.image, layers, levels, to_dst);
+                let copies: Vec<vk::BufferImageCopy> = level_offsets(desc, region.offset)
+                    .into_iter()
+                    .enumerate()
+                    .map(|(l, (offset, size))| level_copy(offset, size, layers, l as u32))
+                    .collect();
                 // SAFETY: recording; the staging buffer holds every region (the caller sized it).
                 unsafe {
                     d.cmd_copy_buffer_to_image(
@@ -90,14 +123,14 @@ impl Staging {
                         staging.buffer,
                         img.image,
                         vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        &[copy],
+                        &copies,
                     )
                 };
                 let to_read = ImageTransition {
                     from: stage::TRANSFER_DST,
                     to: stage::SHADER_READ,
                 };
-                image_barrier(d, cmd, img.image, layers, to_read);
+                levels_barrier(d, cmd, img.image, layers, levels, to_read);
             }
         })
     }

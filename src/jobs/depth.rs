@@ -76,6 +76,19 @@ pub fn estimate(
         .iter()
         .map(|&k| plan.param(k as f64) as f32)
         .collect();
+    if options.params.median_radius > 0 {
+        let t = Instant::now();
+        param = crate::depth::median::weighted_median(
+            &param,
+            reference,
+            options.params.median_radius,
+            options.params.median_sigma as f32,
+        );
+        log::info!(
+            "colour-weighted median: {:.0} ms",
+            t.elapsed().as_secs_f64() * 1e3
+        );
+    }
     if options.params.fit {
         let t = Instant::now();
         let fit_plan = crate::depth::sweep::SweepPlan {
@@ -185,6 +198,7 @@ pub fn score_set(
     set: &[SetScene],
     variants: &[(String, DepthOptions)],
     progress: &ProgressBar,
+    mut on_estimate: impl FnMut(&SetScene, &str, &[f32]) -> Result<()>,
 ) -> Result<Vec<SetRow>> {
     progress.set_length((set.len() * variants.len()) as u64);
     let mut rows = Vec::new();
@@ -193,6 +207,7 @@ pub fn score_set(
             progress.set_message(format!("{} ({name})", scene.name));
             let est = estimate(ctx, &scene.light_field, options, &ProgressBar::hidden())?;
             let disparity = est.values(crate::depth::DepthKind::Disparity)?;
+            on_estimate(scene, name, &disparity)?;
             rows.push(score_row(
                 scene,
                 name,

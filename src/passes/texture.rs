@@ -20,6 +20,7 @@ use crate::gpu::resources::{Image, ImageDesc};
 use crate::gpu::upload::{upload_images, ImageRegion, Staging};
 use crate::gpu::GpuContext;
 use crate::lightfield::LightField;
+use crate::refocus::prefilter;
 
 /// How the views are stored on the GPU (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -169,6 +170,7 @@ impl LightFieldTexture {
             usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
             mutable_format: storage == ViewStorage::Srgb8,
             array: true,
+            mip_levels: prefilter::level_count(w, h),
         };
         let limits = TextureLimits::of(ctx);
         // Limits first: creating an image beyond maxImageArrayLayers is invalid usage.
@@ -234,10 +236,10 @@ impl LightFieldTexture {
         })
     }
 
-    /// Bytes of all layers in this texture's storage: the staging size [`Self::reupload`]
-    /// needs.
+    /// Bytes of all layers and levels in this texture's storage: the staging size
+    /// [`Self::reupload`] needs.
     pub fn staging_bytes(&self) -> u64 {
-        self.width as u64 * self.height as u64 * self.storage.texel_bytes() * self.layers as u64
+        staging_bytes(self.storage, self.width, self.height, self.layers)
     }
 
     /// Frees the texture.
@@ -247,15 +249,14 @@ impl LightFieldTexture {
 }
 
 /// Converts the views of `lf` into `storage` in one staging buffer and copies them into every
-/// layer of `image` (one submission, waited for).
+/// layer and level of `image` (one submission, waited for).
 fn write_views(
     ctx: &GpuContext,
     image: &Image,
     storage: ViewStorage,
     lf: &LightField,
 ) -> Result<()> {
-    let layer_bytes = lf.width as usize * lf.height as usize * storage.texel_bytes() as usize;
-    let total = layer_bytes as u64 * lf.views.len() as u64;
+    let total = staging_bytes(storage, lf.width, lf.height, lf.views.len() as u32);
     let regions = [ImageRegion { image, offset: 0 }];
     upload_images(ctx, &regions, total, "light field staging", |dst| {
         fill_staging(dst, storage, lf);
@@ -263,15 +264,72 @@ fn write_views(
     })
 }
 
-/// Writes every view of `lf` in `storage`, layer after layer, into `dst` (views in parallel).
+/// Bytes of every level of `layers` views of `w × h` in `storage`, level after level.
+fn staging_bytes(storage: ViewStorage, w: u32, h: u32, layers: u32) -> u64 {
+    (0..prefilter::level_count(w, h))
+        .map(|l| {
+            let (lw, lh) = prefilter::level_size(w, h, l);
+            lw as u64 * lh as u64 * storage.texel_bytes() * layers as u64
+        })
+        .sum()
+}
+
+/// Writes every view of `lf` in `storage`, layer after layer, into `dst` (views in parallel),
+/// then each level of the prefilter pyramid (`refocus::prefilter`) from the one before, in the
+/// stored values.
 fn fill_staging(dst: &mut [u8], storage: ViewStorage, lf: &LightField) {
-    let layer_bytes = lf.width as usize * lf.height as usize * storage.texel_bytes() as usize;
-    dst.par_chunks_exact_mut(layer_bytes)
+    let (w, h) = (lf.width, lf.height);
+    let layers = lf.views.len();
+    let level_bytes = |l: u32| {
+        let (lw, lh) = prefilter::level_size(w, h, l);
+        lw as usize * lh as usize * storage.texel_bytes() as usize
+    };
+    let (level0, mut rest) = dst.split_at_mut(level_bytes(0) * layers);
+    level0
+        .par_chunks_exact_mut(level_bytes(0))
         .zip(&lf.views)
         .for_each(|(dst, v)| match storage {
             ViewStorage::Srgb8 => dst.copy_from_slice(v.image.as_raw()),
             ViewStorage::Linear16 => encode_linear16(v.image.as_raw(), dst),
         });
+    let mut prev: &[u8] = level0;
+    for l in 1..prefilter::level_count(w, h) {
+        let (cur, tail) = std::mem::take(&mut rest).split_at_mut(level_bytes(l) * layers);
+        let size = prefilter::level_size(w, h, l - 1);
+        cur.par_chunks_exact_mut(level_bytes(l))
+            .zip(prev.par_chunks_exact(level_bytes(l - 1)))
+            .for_each(|(dst, src)| halve_stored(storage, src, size, dst));
+        prev = cur;
+        rest = tail;
+    }
+}
+
+/// One pyramid level down in `storage`'s texels: `src` is a level of `size`, `dst` the next.
+fn halve_stored(storage: ViewStorage, src: &[u8], size: (u32, u32), dst: &mut [u8]) {
+    match storage {
+        ViewStorage::Srgb8 => {
+            let texels: Vec<[u8; 4]> = src
+                .chunks_exact(4)
+                .map(|c| [c[0], c[1], c[2], c[3]])
+                .collect();
+            let out = prefilter::halve(&texels, size, f64::from, |v| v.round() as u8);
+            for (d, t) in dst.chunks_exact_mut(4).zip(out) {
+                d.copy_from_slice(&t);
+            }
+        }
+        ViewStorage::Linear16 => {
+            let texels: Vec<[u16; 4]> = src
+                .chunks_exact(8)
+                .map(|c| std::array::from_fn(|k| u16::from_ne_bytes([c[2 * k], c[2 * k + 1]])))
+                .collect();
+            let out = prefilter::halve(&texels, size, f64::from, |v| v.round() as u16);
+            for (d, t) in dst.chunks_exact_mut(8).zip(out) {
+                for k in 0..4 {
+                    d[2 * k..2 * k + 2].copy_from_slice(&t[k].to_ne_bytes());
+                }
+            }
+        }
+    }
 }
 
 /// RGBA8 sRGB texels → RGBA16 UNORM linear light (alpha stays linear in [0, 1]), rounding

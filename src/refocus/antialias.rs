@@ -55,11 +55,18 @@ const AREA_GRID: usize = 64;
 pub struct AntialiasSettings {
     /// Most sub-samples per axis of a view's cell (1: area weights only, no footprint).
     pub max_samples: u32,
+    /// Sub-samples farther apart than √3 pixels read the views' box-filtered pyramid at the
+    /// level of their spacing (`refocus::prefilter`), so each stands for its share of the
+    /// footprint; off: every sub-sample is one bilinear fetch at full resolution.
+    pub prefilter: bool,
 }
 
 impl Default for AntialiasSettings {
     fn default() -> Self {
-        AntialiasSettings { max_samples: 4 }
+        AntialiasSettings {
+            max_samples: 4,
+            prefilter: true,
+        }
     }
 }
 
@@ -501,6 +508,24 @@ pub fn samples(span: DVec3, d: f64, yz: f64, max: u32) -> u32 {
     len.ceil().clamp(1.0, max as f64) as u32
 }
 
+/// The pyramid level every sub-sample of a footprint reads with the prefilter on: that of the
+/// larger spacing of the `ns × nt` grid along the two spans (`prefilter::lod`); 0 without the
+/// prefilter or behind the camera. The shader computes the same in f32 (`footprint_lod`).
+pub fn footprint_lod(
+    (span_s, span_t): (DVec3, DVec3),
+    d: f64,
+    yz: f64,
+    (ns, nt): (u32, u32),
+    prefilter: bool,
+) -> f64 {
+    if !prefilter || yz <= 0.0 {
+        return 0.0;
+    }
+    let len = |span: DVec3| (span.truncate() * d).length() / yz;
+    let spacing = (len(span_s) / ns as f64).max(len(span_t) / nt as f64);
+    super::prefilter::lod(spacing)
+}
+
 /// The JSON description of anti-aliasing for reports.
 pub fn antialias_json(
     aa: Option<&AntialiasPlan>,
@@ -511,6 +536,7 @@ pub fn antialias_json(
         Some(aa) => serde_json::json!({
             "used": true,
             "max_samples": aa.settings.max_samples,
+            "prefilter": aa.settings.prefilter,
             "views_by_cell": aa.plan.views.len(),
             "depth_source": aa.depth.source,
             "depth_origin": depth_origin,

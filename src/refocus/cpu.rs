@@ -10,7 +10,8 @@
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
-use super::antialias::{samples, view_residual, AntialiasPlan};
+use super::antialias::{footprint_lod, samples, view_residual, AntialiasPlan};
+use super::prefilter::Pyramid;
 use super::surface::SurfacePlan;
 use super::{Averaging, RefocusImage, RefocusPlan};
 use crate::color;
@@ -104,10 +105,7 @@ fn per_pixel(
     pixel: impl Fn(DVec2, &[f64; 256]) -> ([f64; 3], f64) + Sync,
 ) -> RefocusImage {
     let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
-    let table: [f64; 256] = match averaging {
-        Averaging::Linear => color::decode_table(),
-        Averaging::Encoded => std::array::from_fn(|i| i as f64 / 255.0),
-    };
+    let table = averaging_table(averaging);
     let mut pixels = vec![[0f32; 4]; w as usize * h as usize];
     pixels
         .par_chunks_mut(w as usize)
@@ -125,6 +123,30 @@ fn per_pixel(
         averaging,
         pixels,
     }
+}
+
+/// The value each 8-bit level is averaged as: linear light, or the encoded level itself.
+fn averaging_table(averaging: Averaging) -> [f64; 256] {
+    match averaging {
+        Averaging::Linear => color::decode_table(),
+        Averaging::Encoded => std::array::from_fn(|i| i as f64 / 255.0),
+    }
+}
+
+/// The prefilter pyramid of `img` with its texels mapped through `table` (the GPU's levels
+/// average the stored values: linear light in 16-bit storage, `refocus::prefilter`).
+fn view_pyramid(img: &image::RgbaImage, table: &[f64; 256]) -> Pyramid {
+    let level0 = img
+        .pixels()
+        .map(|p| {
+            [
+                table[p[0] as usize],
+                table[p[1] as usize],
+                table[p[2] as usize],
+            ]
+        })
+        .collect();
+    Pyramid::new(level0, img.dimensions())
 }
 
 /// The sample position of the homogeneous point `q` in a view of `lf`, or `None` where the
@@ -234,15 +256,24 @@ fn antialiased_with(
 ) -> RefocusImage {
     let plan = &aa.plan;
     let max = aa.settings.max_samples;
+    let prefilter = aa.settings.prefilter;
+    // Each view's pyramid in the averaging space, built once (the GPU's are made at upload).
+    let table = averaging_table(averaging);
+    let pyramids: Vec<Option<Pyramid>> = plan
+        .views
+        .par_iter()
+        .map(|v| prefilter.then(|| view_pyramid(&lf.views[v.index].image, &table)))
+        .collect();
     per_pixel(lf, averaging, (w, h), |px, table| {
         let s = s_of(px);
         let mut sum = [0f64; 3];
         let mut wsum = 0f64;
-        for (v, fp) in plan.views.iter().zip(&aa.footprints) {
+        for ((v, fp), pyramid) in plan.views.iter().zip(&aa.footprints).zip(&pyramids) {
             let d = view_residual(&aa.depth, fp, px, s).unwrap_or(0.0);
             let y0 = v.warp.a * px.extend(1.0) + v.warp.b * s;
             let ns = samples(fp.span_s, d, y0.z, max);
             let nt = samples(fp.span_t, d, y0.z, max);
+            let lod = footprint_lod((fp.span_s, fp.span_t), d, y0.z, (ns, nt), prefilter);
             let wk = v.weight / (ns * nt) as f64;
             let img = &lf.views[v.index].image;
             for b in 0..nt {
@@ -252,7 +283,10 @@ fn antialiased_with(
                     let Some(p) = inside(lf, y0 + fp.offset(u, vv, d)) else {
                         continue;
                     };
-                    let c = bilinear(img, table, p);
+                    let c = match pyramid {
+                        Some(pyr) if lod > 0.0 => pyr.trilinear(p, lod),
+                        _ => bilinear(img, table, p),
+                    };
                     for k in 0..3 {
                         sum[k] += wk * c[k];
                     }

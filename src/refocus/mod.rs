@@ -6,6 +6,7 @@ pub mod antialias;
 pub mod cpu;
 pub mod focus;
 pub mod plan;
+pub mod prefilter;
 pub mod surface;
 
 use image::RgbaImage;

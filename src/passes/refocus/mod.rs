@@ -341,6 +341,8 @@ struct AccumKey {
     format: vk::Format,
     uniform_warps: bool,
     antialias: u32,
+    /// Anti-aliasing reads the views' pyramid (`refocus::prefilter`, binding 7).
+    prefilter: bool,
     /// `SurfaceRule` code (0: the plane alone).
     surface: u32,
 }
@@ -376,6 +378,8 @@ pub struct RefocusPass {
     /// an unchanged anti-aliasing plan is not rewritten.
     uploaded_footprints: Vec<GpuFootprint>,
     uploaded_depth: Vec<f32>,
+    /// The uploaded plan's `AntialiasSettings::prefilter`.
+    uploaded_prefilter: bool,
     /// The focus surface's plane terms (uniform buffer, binding 6).
     surface: Buffer,
     /// What [`RefocusPass::set_surface`] uploaded last: rule and plane count.
@@ -535,8 +539,12 @@ impl RefocusPass {
                     .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)]
             })
             .collect();
+        let mip_infos: Vec<[vk::DescriptorImageInfo; 1]> = image_infos
+            .iter()
+            .map(|[info]| [info.sampler(b.sampler_mip)])
+            .collect();
         let mut writes = Vec::new();
-        for (set, info) in sets.iter().zip(&image_infos) {
+        for ((set, info), mip_info) in sets.iter().zip(&image_infos).zip(&mip_infos) {
             writes.push(
                 vk::WriteDescriptorSet::default()
                     .dst_set(*set)
@@ -586,6 +594,13 @@ impl RefocusPass {
                     .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
                     .buffer_info(&surface_info),
             );
+            writes.push(
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(7)
+                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                    .image_info(mip_info),
+            );
         }
         // SAFETY: new, unused sets; the infos reference live objects.
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
@@ -603,6 +618,7 @@ impl RefocusPass {
             footprints,
             scene_depth,
             uploaded_footprints: Vec::new(),
+            uploaded_prefilter: false,
             uploaded_depth: Vec::new(),
             surface,
             uploaded_surface: None,
@@ -762,6 +778,7 @@ impl RefocusPass {
             self.footprints.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
             self.uploaded_footprints = records;
         }
+        self.uploaded_prefilter = aa.settings.prefilter;
         let interleaved = aa.depth.interleaved();
         if interleaved != self.uploaded_depth {
             let depth = as_bytes(&interleaved);
@@ -820,6 +837,7 @@ impl RefocusPass {
                 .zip(&self.uploaded_footprints)
                 .any(|(f, u)| GpuFootprint::new(f) != *u)
             || aa.depth.interleaved() != self.uploaded_depth
+            || aa.settings.prefilter != self.uploaded_prefilter
     }
 
     /// Whether [`RefocusPass::set_views`] would rewrite the warps for `plan`: a caller with
@@ -887,6 +905,7 @@ impl RefocusPass {
             format: target.accum_format,
             uniform_warps: self.warp_memory == WarpMemory::Uniform,
             antialias: a.antialias,
+            prefilter: a.antialias > 0 && self.uploaded_prefilter,
             surface: rule as u32,
         };
         let pipeline = self.accum_pipeline(ctx, key)?;
@@ -1098,9 +1117,10 @@ impl RefocusPass {
             u32::from(key.uniform_warps),
             key.antialias,
             key.surface,
+            u32::from(key.prefilter),
         ];
         let name = format!(
-            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}, surface {})",
+            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}{}, surface {})",
             if key.compute { "compute" } else { "fragment" },
             key.filter,
             key.texel,
@@ -1110,6 +1130,7 @@ impl RefocusPass {
                 "storage"
             },
             key.antialias,
+            if key.prefilter { " prefiltered" } else { "" },
             key.surface
         );
         let pipeline = if key.compute {
@@ -1217,6 +1238,10 @@ fn fullscreen(
 struct PassObjects {
     sampler_linear: vk::Sampler,
     sampler_nearest: vk::Sampler,
+    /// Trilinear over every mip level: anti-aliasing's prefiltered lookup (binding 7). The
+    /// other samplers stop at level 0, so the plain sum reads exactly what it read before
+    /// the views had levels.
+    sampler_mip: vk::Sampler,
     input_set_layout: vk::DescriptorSetLayout,
     resolve_set_layout: vk::DescriptorSetLayout,
     storage_set_layout: vk::DescriptorSetLayout,
@@ -1275,7 +1300,17 @@ impl PassObjects {
         unsafe {
             self.sampler_linear = d.create_sampler(&sampler(vk::Filter::LINEAR), None)?;
             self.sampler_nearest = d.create_sampler(&sampler(vk::Filter::NEAREST), None)?;
+            self.sampler_mip = d.create_sampler(
+                &sampler(vk::Filter::LINEAR)
+                    .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
+                    .max_lod(vk::LOD_CLAMP_NONE),
+                None,
+            )?;
         }
+        ctx.name(
+            self.sampler_mip,
+            "view sampler (trilinear, prefilter levels)",
+        );
         ctx.name(self.sampler_linear, "view sampler (bilinear)");
         ctx.name(self.sampler_nearest, "accumulation sampler (nearest)");
         use vk::DescriptorType as T;
@@ -1287,6 +1322,7 @@ impl PassObjects {
             binding(4, T::UNIFORM_BUFFER, shading),
             binding(5, T::STORAGE_BUFFER, shading),
             binding(6, T::UNIFORM_BUFFER, shading),
+            binding(7, T::COMBINED_IMAGE_SAMPLER, shading),
         ])?;
         self.resolve_set_layout = set_layout(&[binding(
             0,
@@ -1307,7 +1343,7 @@ impl PassObjects {
         let sizes = [
             vk::DescriptorPoolSize {
                 ty: T::COMBINED_IMAGE_SAMPLER,
-                descriptor_count: n,
+                descriptor_count: 2 * n,
             },
             vk::DescriptorPoolSize {
                 ty: T::STORAGE_BUFFER,
@@ -1353,6 +1389,7 @@ impl PassObjects {
             d.destroy_descriptor_set_layout(self.storage_set_layout, None);
             d.destroy_sampler(self.sampler_linear, None);
             d.destroy_sampler(self.sampler_nearest, None);
+            d.destroy_sampler(self.sampler_mip, None);
         }
     }
 }
