@@ -15,7 +15,7 @@ use crate::passes::raster::{camera_from_world, projection_rows, Projection};
 pub const FOV_DEG: f64 = 50.0;
 /// Turn of a drag across the whole panel, radians: orbit speed follows the panel's size, so
 /// the same hand movement turns a small and a large panel alike.
-const ORBIT_RAD_PER_PANEL: f64 = std::f64::consts::PI;
+pub const ORBIT_RAD_PER_PANEL: f64 = std::f64::consts::PI;
 /// The closest and farthest the scene camera may get, as fractions of its start distance.
 pub const ZOOM_IN_LIMIT: f64 = 1.0 / 64.0;
 pub const ZOOM_OUT_LIMIT: f64 = 8.0;

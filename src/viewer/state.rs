@@ -86,14 +86,14 @@ pub enum Action {
     Zoom(f64),
     /// The video frame with this number is now the one whose views are rendered.
     ShowFrame(u64),
-    /// Depth arrived (estimated in the background): see [`ViewerState::depth_arrived`].
+    /// Depth arrived (estimated in the background): see `ViewerState::depth_arrived`.
     DepthArrived {
         normal_window: u32,
         antialias: bool,
         focus: Option<FocusRequest>,
     },
     /// Frame the scene again, now with these points (the cloud's box corners and the
-    /// cameras) around `centre`, in a panel of `aspect` (see [`ViewerState::reframe`]).
+    /// cameras) around `centre`, in a panel of `aspect` (see `ViewerState::reframe`).
     Reframe {
         centre: Option<DVec3>,
         keep: Vec<DVec3>,

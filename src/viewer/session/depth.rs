@@ -26,7 +26,7 @@ use crate::lightfield::LightField;
 use crate::scene::PointCloud;
 
 /// How often the estimate's progress is written to stderr at most.
-const PROGRESS_PERIOD: Duration = Duration::from_secs(1);
+pub const PROGRESS_PERIOD: Duration = Duration::from_secs(1);
 
 /// Where the session's depth stands.
 #[derive(Debug, Clone, PartialEq)]
