@@ -44,6 +44,10 @@ impl DepthState {
     pub fn field(&self) -> Option<String> {
         match self {
             DepthState::Ready => None,
+            // The sweep's planes, then the sub-plane fit, which reports no progress of its own.
+            DepthState::Estimating { done, total } if *total > 0 && done >= total => {
+                Some("depth: refining the estimate".into())
+            }
             DepthState::Estimating { done, total } => {
                 Some(format!("depth: estimating {done}/{total} planes"))
             }
@@ -277,5 +281,23 @@ impl DepthCache {
         )
         .ok_or("no cloud point within a few pixels of the cursor")?;
         Ok(cloud.points[i].position)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_strip_names_the_estimate_s_stage() {
+        let f = |done, total| DepthState::Estimating { done, total }.field().unwrap();
+        assert_eq!(f(0, 0), "depth: estimating 0/0 planes");
+        assert_eq!(f(12, 51), "depth: estimating 12/51 planes");
+        assert_eq!(f(51, 51), "depth: refining the estimate");
+        assert_eq!(DepthState::Ready.field(), None);
+        assert_eq!(
+            DepthState::Unavailable("x".into()).field().as_deref(),
+            Some("no depth")
+        );
     }
 }
