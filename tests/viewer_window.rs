@@ -15,16 +15,21 @@ use tiltfield::viewer::layout::Layout;
 
 /// Runs `tiltfield view ARGS` in a virtual X server with validation on.
 fn view_in_xvfb(args: &[&str]) -> Output {
+    view_in_xvfb_cached(
+        args,
+        &std::env::temp_dir().join("tiltfield-viewer-test-cache"),
+    )
+}
+
+/// [`view_in_xvfb`] with the depth cache in `cache`.
+fn view_in_xvfb_cached(args: &[&str], cache: &Path) -> Output {
     let out = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1600x1200x24"])
         .arg(env!("CARGO_BIN_EXE_tiltfield"))
         .arg("view")
         .args(args)
         .env("TILTFIELD_VALIDATION", "1")
-        .env(
-            "TILTFIELD_CACHE_DIR",
-            std::env::temp_dir().join("tiltfield-viewer-test-cache"),
-        )
+        .env("TILTFIELD_CACHE_DIR", cache)
         .env_remove("RUST_LOG")
         .output();
     match out {
@@ -48,6 +53,17 @@ fn numbers(v: &serde_json::Value) -> Vec<f64> {
 
 /// `render`'s PNG of the state a screenshot recorded.
 fn render_state(lf: &str, state: &serde_json::Value, focus: &[String], out: &Path) -> Vec<u8> {
+    render_state_cached(lf, state, focus, out, None)
+}
+
+/// [`render_state`] with the depth cache in `cache` (where the viewer's estimate went).
+fn render_state_cached(
+    lf: &str,
+    state: &serde_json::Value,
+    focus: &[String],
+    out: &Path,
+    cache: Option<&Path>,
+) -> Vec<u8> {
     let aperture = &state["aperture"];
     let view = numbers(&state["reference_view"]);
     let mut args: Vec<String> = vec![
@@ -77,7 +93,16 @@ fn render_state(lf: &str, state: &serde_json::Value, focus: &[String], out: &Pat
     }
     args.extend(focus.iter().cloned());
     let refs: Vec<&str> = args.iter().map(String::as_str).collect();
-    let o = tiltfield(&refs);
+    let o = match cache {
+        Some(c) => Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+            .args(&refs)
+            .env("TILTFIELD_VALIDATION", "1")
+            .env("TILTFIELD_CACHE_DIR", c)
+            .env_remove("RUST_LOG")
+            .output()
+            .unwrap(),
+        None => tiltfield(&refs),
+    };
     assert!(o.status.success(), "render {refs:?}: {}", stderr(&o));
     std::fs::read(out).unwrap()
 }
@@ -259,6 +284,416 @@ fn scripted_session_matches_render_and_has_no_validation_errors() {
         .filter(|p| p.0[2] > 60 && p.0[2] as i32 > p.0[0] as i32 + 40)
         .count();
     assert!(blueish > 100, "{blueish} plane-coloured pixels");
+}
+
+/// A light field without a depth map: synth's demo scene as an HCI folder, its ground truth
+/// removed.
+fn demo_without_depth(dir: &Path, grid: &str, size: &str) -> String {
+    let lf = dir.join("nodepth");
+    let o = tiltfield(&[
+        "synth",
+        "builtin:demo",
+        "--grid",
+        grid,
+        "--size",
+        size,
+        "-o",
+        lf.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for e in std::fs::read_dir(&lf).unwrap() {
+        let p = e.unwrap().path();
+        if p.file_name().unwrap().to_string_lossy().starts_with("gt_") {
+            std::fs::remove_file(p).unwrap();
+        }
+    }
+    lf.display().to_string()
+}
+
+#[test]
+fn without_depth_the_window_opens_at_once_and_depth_arrives_in_the_background() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lf = demo_without_depth(d, "7x7", "256x256");
+    // A cache of its own: the estimate really runs (a cached one would arrive at once).
+    let cache = d.join("cache");
+    let script = d.join("s.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "screenshot {d}/early
+             click refocus 128 60
+             wait-converged
+             screenshot {d}/a
+             quit
+",
+            d = d.display()
+        ),
+    )
+    .unwrap();
+    let o = view_in_xvfb_cached(
+        &[&lf, "--script", script.to_str().unwrap(), "--json"],
+        &cache,
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0, "{err}");
+    let first = report["first_frame_ms"].as_f64().unwrap();
+    let ready = report["depth_ready_ms"].as_f64().unwrap();
+    assert!(first < 5000.0, "first frame after {first} ms");
+    assert!(first < ready, "first frame {first} ms, depth {ready} ms");
+    assert_eq!(
+        report["depth"]["origin"], "estimated",
+        "{}",
+        report["depth"]
+    );
+    assert_eq!(report["depth"]["cached"], false, "{}", report["depth"]);
+    // Progress on stderr for scripts, and the arrival.
+    assert!(err.contains("estimating the depth of 'demo'"), "{err}");
+    assert!(err.contains("ready after"), "{err}");
+    // The first screenshot is the first frame, before depth: no anti-aliasing yet.
+    let early = json_file(&d.join("early.json"));
+    assert_eq!(early["antialias"]["used"], false, "{early}");
+    assert_eq!(early["frames_presented"], 1, "{early}");
+    // The click waited for depth, and found the brick wall's plane; with depth came
+    // anti-aliasing (on by default with depth). The screenshot equals render on the same
+    // (cached) estimate.
+    let a = json_file(&d.join("a.json"));
+    assert_eq!(a["focus_how"], "click", "{a}");
+    assert_eq!(a["antialias"]["used"], true, "{a}");
+    let want = render_state_cached(
+        &lf,
+        &a,
+        &["--click=128,60".into()],
+        &d.join("ra.png"),
+        Some(&cache),
+    );
+    assert_eq!(
+        std::fs::read(d.join("a_refocus.png")).unwrap(),
+        want,
+        "viewer ≠ render after depth arrived"
+    );
+    // The scene panel shows the cloud once depth is there: more distinct colours than the
+    // plane quad and camera frustums alone.
+    let colours = |p: &str| {
+        let img = decoded(&d.join(p));
+        let mut c: Vec<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+        c.sort_unstable();
+        c.dedup();
+        c.len()
+    };
+    assert!(
+        colours("a_scene.png") > 4 * colours("early_scene.png"),
+        "{} vs {} colours",
+        colours("a_scene.png"),
+        colours("early_scene.png")
+    );
+}
+
+/// `render`'s options for the focus surface a screenshot recorded (its first plane is the
+/// focus).
+fn surface_args(state: &serde_json::Value) -> Vec<String> {
+    let surface = &state["surface"];
+    let plane = |p: &serde_json::Value| {
+        let v: Vec<String> = numbers(&p["point"])
+            .into_iter()
+            .chain(numbers(&p["normal"]))
+            .map(|x| format!("{x:?}"))
+            .collect();
+        format!("--plane={}", v.join(","))
+    };
+    let planes = surface["planes"].as_array().unwrap();
+    match surface["kind"].as_str().unwrap() {
+        "planes" => planes.iter().map(plane).collect(),
+        "slab" => vec![
+            plane(&planes[0]),
+            format!("--slab={:?}", surface["slab_half_width"].as_f64().unwrap()),
+        ],
+        "all-in-focus" => vec![plane(&planes[0]), "--all-in-focus".into()],
+        _ => vec![plane(&planes[0])],
+    }
+}
+
+/// Pixels of the scene panel tinted with the focus surface's light blue (its further planes).
+fn surface_tinted(scene: &image::RgbaImage) -> usize {
+    scene
+        .pixels()
+        .filter(|p| {
+            let [r, g, b, _] = p.0;
+            // Lighter than the focus plane's blue: green well above red, blue highest.
+            b > 150 && g > 110 && g as i32 > r as i32 + 40 && b >= g
+        })
+        .count()
+}
+
+#[test]
+fn focus_surfaces_from_keys_match_render_and_show_in_the_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lf = "builtin:demo";
+    let script = format!(
+        "wait-converged\n\
+         screenshot {d}/p\n\
+         # keep the card's plane, focus farther, keep that too, move on: three planes\n\
+         click refocus 60 80\n\
+         key N\n\
+         scroll refocus -6\n\
+         key N\n\
+         key UP 2\n\
+         wait-converged\n\
+         screenshot {d}/a\n\
+         # a slab is refused next to kept planes; Shift+Backspace clears them\n\
+         key EQUAL\n\
+         wait-converged\n\
+         screenshot {d}/refused\n\
+         key BACKSPACE\n\
+         key shift+BACKSPACE\n\
+         key EQUAL 3\n\
+         wait-converged\n\
+         screenshot {d}/b\n\
+         key G\n\
+         wait-converged\n\
+         screenshot {d}/c\n\
+         key G\n\
+         key MINUS 3\n\
+         wait-converged\n\
+         screenshot {d}/e\n\
+         quit\n",
+        d = d.display()
+    );
+    let script_path = d.join("surfaces.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let o = view_in_xvfb(&[lf, "--script", script_path.to_str().unwrap(), "--json"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "viewer failed: {err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0, "{err}");
+    // Every screenshot equals render given the same surface, byte for byte.
+    for (shot, kind, planes) in [
+        ("p", "plane", 1),
+        ("a", "planes", 3),
+        ("b", "slab", 1),
+        ("c", "all-in-focus", 1),
+        ("e", "plane", 1),
+    ] {
+        let state = json_file(&d.join(format!("{shot}.json")));
+        let surface = &state["surface"];
+        assert_eq!(surface["kind"], kind, "{shot}: {surface}");
+        assert_eq!(
+            surface["planes"].as_array().unwrap().len(),
+            planes,
+            "{shot}: {surface}"
+        );
+        let want = render_state(
+            lf,
+            &state,
+            &surface_args(&state),
+            &d.join(format!("r{shot}.png")),
+        );
+        assert_eq!(
+            std::fs::read(d.join(format!("{shot}_refocus.png"))).unwrap(),
+            want,
+            "{shot}: viewer ≠ render with the same surface"
+        );
+    }
+    // The slab: three 2 % steps of the plane's distance; its boundaries are reported.
+    let b = json_file(&d.join("b.json"));
+    assert_eq!(b["surface"]["slab_boundaries"].as_array().unwrap().len(), 2);
+    let w = b["surface"]["slab_half_width"].as_f64().unwrap();
+    assert!(w > 0.0, "{w}");
+    // Surfaces change the image; the refusal changed nothing and said why.
+    let refocus = |s: &str| std::fs::read(d.join(format!("{s}_refocus.png"))).unwrap();
+    assert_ne!(refocus("a"), refocus("p"));
+    assert_ne!(refocus("c"), refocus("b"));
+    let refused = json_file(&d.join("refused.json"));
+    assert_eq!(refused["surface"]["kind"], "planes");
+    assert!(
+        refused["message"].as_str().unwrap_or("").contains("slab"),
+        "{refused}"
+    );
+    assert_eq!(refocus("refused"), refocus("a"));
+    // The scene panel draws the further planes (kept planes, slab boundaries) as their own
+    // quads; a single plane has none.
+    let tinted = |s: &str| surface_tinted(&decoded(&d.join(format!("{s}_scene.png"))));
+    assert!(
+        tinted("a") > 200,
+        "{} tinted pixels with three planes",
+        tinted("a")
+    );
+    assert!(
+        tinted("b") > 200,
+        "{} tinted pixels with a slab",
+        tinted("b")
+    );
+    assert!(
+        tinted("p") < tinted("a") / 4,
+        "{} vs {}",
+        tinted("p"),
+        tinted("a")
+    );
+    // --json names the final surface.
+    assert_eq!(report["surface"]["kind"], "plane", "{}", report["surface"]);
+}
+
+#[test]
+fn feedback_highlights_the_changed_field_and_shows_refusals_where_clicked() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // Three collinear shift-clicks along a row: the third is refused.
+    let script = format!(
+        "wait-converged\n\
+         key UP\n\
+         screenshot {d}/a\n\
+         wait 1.6\n\
+         screenshot {d}/b\n\
+         shift-click refocus 20 150\n\
+         shift-click refocus 60 150\n\
+         shift-click refocus 100 150\n\
+         wait-converged\n\
+         screenshot {d}/c\n\
+         quit\n",
+        d = d.display()
+    );
+    let script_path = d.join("feedback.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let o = view_in_xvfb(&[
+        "builtin:demo",
+        "--script",
+        script_path.to_str().unwrap(),
+        "--json",
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0, "{err}");
+    let layout = Layout::new(1280, 720, (192, 192));
+    let strip = layout.status;
+    // The highlight's amber behind the changed field (the tilt), in the strip only while it
+    // lasts.
+    let amber = |img: &image::RgbaImage| {
+        img.enumerate_pixels()
+            .filter(|(_, y, p)| {
+                *y as f32 >= strip.y && p.0[0] > 110 && (50..130).contains(&p.0[1]) && p.0[2] < 40
+            })
+            .count()
+    };
+    let a = decoded(&d.join("a_window.png"));
+    let b = decoded(&d.join("b_window.png"));
+    assert!(
+        amber(&a) > 100,
+        "{} amber pixels right after the key",
+        amber(&a)
+    );
+    assert_eq!(amber(&b), 0, "the highlight is gone after a moment");
+    // The refusal of the third click is drawn next to it: orange text within a box below
+    // and right of the click, not along the panel's bottom.
+    let c = json_file(&d.join("c.json"));
+    assert!(
+        c["message"].as_str().unwrap_or("").contains("collinear"),
+        "{c}"
+    );
+    let at = layout.refocus_to_window(glam::DVec2::new(100.0, 150.0), (192, 192));
+    let window = decoded(&d.join("c_window.png"));
+    let orange_near = window
+        .enumerate_pixels()
+        .filter(|(x, y, p)| {
+            let (dx, dy) = (*x as f64 - at.x, *y as f64 - at.y);
+            (0.0..500.0).contains(&dx)
+                && (0.0..60.0).contains(&dy)
+                && p.0[0] > 200
+                && (140..230).contains(&p.0[1])
+                && p.0[2] < 110
+        })
+        .count();
+    assert!(
+        orange_near > 100,
+        "{orange_near} message pixels next to the click"
+    );
+}
+
+#[test]
+fn the_control_panel_sets_values_by_drag_and_toggles_by_click() {
+    use tiltfield::viewer::panel::{Button, ControlPanel, Slider};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let layout = Layout::new(1280, 720, (192, 192));
+    let panel = ControlPanel::new(layout.scene, 1.0);
+    let track = |s: Slider| panel.sliders.iter().find(|(t, _)| *t == s).unwrap().1;
+    let button = |b: Button| {
+        let r = panel.buttons.iter().find(|(t, _)| *t == b).unwrap().1;
+        (r.x + r.width / 2.0, r.y + r.height / 2.0)
+    };
+    // Tilt: from the middle (0°) to three quarters of the track (+30°); the aperture radius
+    // to the track's start (0); anti-aliasing off; the plane kept.
+    let tilt = track(Slider::Tilt);
+    let radius = track(Slider::Radius);
+    let (ty, tx0, tx1) = (
+        tilt.y + 4.0,
+        tilt.x + 0.5 * tilt.width,
+        tilt.x + 0.75 * tilt.width,
+    );
+    let aa = button(Button::Antialias);
+    let keep = button(Button::Keep);
+    let script = format!(
+        "wait-converged\n\
+         key TAB\n\
+         drag window {tx0} {ty} {tx1} {ty}\n\
+         drag window {rx0} {ry} {rx1} {ry}\n\
+         click window {ax} {ay}\n\
+         click window {kx} {ky}\n\
+         wait-converged\n\
+         screenshot {d}/a\n\
+         key TAB\n\
+         wait-converged\n\
+         screenshot {d}/b\n\
+         quit\n",
+        rx0 = radius.x + 0.5 * radius.width,
+        rx1 = radius.x - 20.0,
+        ry = radius.y + 4.0,
+        ax = aa.0,
+        ay = aa.1,
+        kx = keep.0,
+        ky = keep.1,
+        d = d.display()
+    );
+    let script_path = d.join("panel.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let lf = "builtin:demo";
+    let o = view_in_xvfb(&[lf, "--script", script_path.to_str().unwrap(), "--json"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0, "{err}");
+    let a = json_file(&d.join("a.json"));
+    let n = numbers(&a["plane"]["normal"]);
+    let tilt_deg = n[1].atan2(n[2]).to_degrees();
+    assert!(
+        (tilt_deg - 30.0).abs() < 1.0,
+        "tilt {tilt_deg}° after the drag: {a}"
+    );
+    assert_eq!(a["aperture"]["radius"].as_f64(), Some(0.0), "{a}");
+    assert_eq!(a["antialias"]["used"], false, "{a}");
+    assert_eq!(a["surface"]["kind"], "planes", "{a}");
+    // What the panel set renders as render renders it.
+    let want = render_state(lf, &a, &surface_args(&a), &d.join("ra.png"));
+    assert_eq!(std::fs::read(d.join("a_refocus.png")).unwrap(), want);
+    // The panel is drawn over the scene panel while shown (its dark background), and Tab
+    // hides it; the drags did not orbit the scene behind it.
+    let dark = |s: &str| {
+        let img = decoded(&d.join(format!("{s}_window.png")));
+        let r = panel.rect;
+        (r.x as u32 + 2..(r.x + r.width) as u32 - 2)
+            .flat_map(|x| (r.y as u32 + 30..r.y as u32 + 40).map(move |y| (x, y)))
+            .filter(|&(x, y)| img.get_pixel(x, y).0[..3].iter().all(|&c| c < 40))
+            .count()
+    };
+    assert!(dark("a") > 1000, "{}", dark("a"));
+    assert_eq!(
+        decoded(&d.join("a_scene.png")),
+        decoded(&d.join("b_scene.png")),
+        "the scene camera did not move"
+    );
 }
 
 #[test]

@@ -56,6 +56,7 @@ pub struct ViewArgs {
 }
 
 pub fn run(args: &ViewArgs) -> Result<()> {
+    let launched = std::time::Instant::now();
     // Everything that can be checked without the light field and the window comes first.
     let window = super::synth::parse_pair(&args.window, "--window")?;
     if !script::WINDOW_SIZES.contains(&window.0) || !script::WINDOW_SIZES.contains(&window.1) {
@@ -85,7 +86,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     aperture.validate()?;
     let focus = args.focus.request()?;
     let path = args.light_field.as_deref().unwrap_or(DEFAULT_SCENE);
-    let mut lf = load_light_field(&LightFieldArgs::new(path, &args.read))?;
+    let lf = load_light_field(&LightFieldArgs::new(path, &args.read))?;
     let video = match &args.light_field {
         Some(path) if FrameSequence::is_video(std::path::Path::new(path)) => {
             let sequence = FrameSequence::open(std::path::Path::new(path))?;
@@ -94,38 +95,24 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         }
         _ => None,
     };
-    // The scene panel and clicks need depth: the light field's own map, else an estimate from
-    // its views (cached), made on a headless context before the window opens.
-    // Without depth the viewer still works (keys, scroll, scene without points), so a failed
-    // estimate is a warning, not an error.
-    let ctx = crate::gpu::GpuContext::new(&args.gpu.options())?;
-    let (depth_origin, normal_window) = match super::depth::ensure_for(&ctx, &mut lf) {
-        Ok((origin, window)) => (Some(origin), window),
-        Err(e) => {
-            log::warn!(
-                "no depth for '{}': {e}; clicks and the point cloud are off",
-                lf.name
-            );
-            (None, super::focus::GIVEN_DEPTH_WINDOW)
-        }
-    };
-    drop(ctx);
-    let antialias_on = match args.antialias.requested() {
-        Some(true) if depth_origin.is_none() => {
-            return Err(Error::Invalid(format!(
-                "--antialias on needs depth, and none could be estimated for '{}'",
-                lf.name
-            )))
-        }
-        Some(on) => on,
-        None => depth_origin.is_some(),
-    };
+    // The scene panel, clicks and anti-aliasing need depth: the light field's own map, else
+    // an estimate from its views (cached) that the viewer makes in the background while the
+    // window already shows the refocus image. Without depth the viewer still works (keys,
+    // scroll, scene without points), so a failed estimate is a message, not an error.
+    let depth_origin = crate::depth::cache::given_origin(&lf);
+    let normal_window = depth_origin
+        .as_ref()
+        .map_or(super::focus::GIVEN_DEPTH_WINDOW, |o| o.normal_window());
+    // On by default wherever there is depth; with an estimate, once it arrives.
+    let antialias_on = args.antialias.requested().unwrap_or(true);
+    let (name, grid, size) = (lf.name.clone(), lf.grid, (lf.width, lf.height));
+    let excluded = dark_views(&lf, args.aperture.include_dark);
     let opts = ViewerOptions {
         focus,
         aperture,
         reference,
         averaging: args.aperture.average,
-        excluded: dark_views(&lf, args.aperture.include_dark),
+        excluded,
         present: args.present,
         frame_budget_ms: args.frame_budget_ms,
         window,
@@ -137,28 +124,34 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         normal_window,
         antialias,
         antialias_on,
+        depth: depth_origin,
+        launched,
     };
-    let report = viewer::run(&lf, opts)?;
+    let report = viewer::run(lf, opts)?;
+    let depth_origin = report.depth.as_ref();
     let state = &report.state;
     if args.json {
         let mut out = plan_json(&state.plan);
         let extra = json!({
             "light_field": {
-                "name": lf.name,
-                "grid": [lf.grid.cols, lf.grid.rows],
-                "size": [lf.width, lf.height],
+                "name": name,
+                "grid": [grid.cols, grid.rows],
+                "size": [size.0, size.1],
             },
             "focus": focus_json(&state.resolved),
-            "depth": depth_origin.as_ref().map(super::depth::origin_json),
+            "depth": depth_origin.map(super::depth::origin_json),
+            "first_frame_ms": report.milestones.first_frame_ms,
+            "depth_ready_ms": report.milestones.depth_ready_ms,
             "averaging": state.averaging(),
+            "surface": report.surface,
             "antialias": {
                 "used": state.antialias() && depth_origin.is_some(),
                 "max_samples": antialias.max_samples,
-                "depth_origin": depth_origin.as_ref().map(super::depth::origin_json),
+                "depth_origin": depth_origin.map(super::depth::origin_json),
             },
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},
             "storage": ViewStorage::default(),
-            "size": [lf.width, lf.height],
+            "size": [size.0, size.1],
             "device": report.device,
             "present_mode": report.present_mode,
             "window": [report.window.0, report.window.1],

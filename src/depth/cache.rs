@@ -287,13 +287,33 @@ pub fn ensure_depth_in(
     dir: Option<PathBuf>,
     estimate: impl FnOnce(&LightField, &DepthOptions) -> Result<DepthEstimate>,
 ) -> Result<DepthOrigin> {
-    if let Some((_, map)) = lf.depth.first() {
-        return Ok(DepthOrigin::Given {
-            source: map.source.clone(),
-        });
+    if let Some(origin) = given_origin(lf) {
+        return Ok(origin);
     }
+    let origin = estimated_origin(lf, options, dir, estimate)?;
+    if let DepthOrigin::Estimated { estimate, .. } = &origin {
+        install(lf, estimate)?;
+    }
+    Ok(origin)
+}
+
+/// The origin of `lf`'s own depth map, when it has one.
+pub fn given_origin(lf: &LightField) -> Option<DepthOrigin> {
+    lf.depth.first().map(|(_, map)| DepthOrigin::Given {
+        source: map.source.clone(),
+    })
+}
+
+/// The estimate of [`ensure_depth_in`] (from the cache in `dir`, else made by `estimate` and
+/// stored there) without installing it: the viewer estimates on a background thread from a
+/// light field it keeps drawing, and installs the result ([`install`]) when it arrives.
+pub fn estimated_origin(
+    lf: &LightField,
+    options: &DepthOptions,
+    dir: Option<PathBuf>,
+    estimate: impl FnOnce(&LightField, &DepthOptions) -> Result<DepthEstimate>,
+) -> Result<DepthOrigin> {
     let (est, cached, cache_file) = cached_estimate(lf, options, dir, estimate)?;
-    install(lf, &est)?;
     Ok(DepthOrigin::Estimated {
         cached,
         cache_file,

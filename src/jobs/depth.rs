@@ -234,6 +234,19 @@ pub fn ensure_depth(
     ensure_depth_in(ctx, lf, options, progress, cache_dir())
 }
 
+/// The estimate [`ensure_depth`] would install on `lf` (cached or made on `ctx` now), not
+/// installed: `lf` stays as it is ([`crate::depth::cache::estimated_origin`]).
+pub fn estimate_cached(
+    ctx: &GpuContext,
+    lf: &LightField,
+    options: &DepthOptions,
+    progress: &ProgressBar,
+) -> Result<DepthOrigin> {
+    crate::depth::cache::estimated_origin(lf, options, cache_dir(), |lf, options| {
+        estimate(ctx, lf, options, progress)
+    })
+}
+
 /// [`ensure_depth`] with the cache in `dir` (`None`: no cache).
 pub fn ensure_depth_in(
     ctx: &GpuContext,

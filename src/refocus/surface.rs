@@ -274,13 +274,7 @@ pub fn plan_surface(
     if !surface.needs_depth() {
         return Ok(single(None));
     }
-    let Some(plane) = plan.plane else {
-        return Err(Error::Invalid(format!(
-            "the focus surface '{}' needs the cameras' geometry, but --disparity on a light \
-             field without a rig is classic shift-and-sum; focus with --plane or --focus",
-            surface.name()
-        )));
-    };
+    let (rule, terms) = surface_terms(plan, surface)?;
     let Some(depth) = depth else {
         return Err(Error::Invalid(format!(
             "the focus surface '{}' needs the scene's depth",
@@ -293,6 +287,34 @@ pub fn plan_surface(
             depth.width, depth.height, plan.width, plan.height
         )));
     }
+    Ok(SurfacePlan {
+        surface: surface.clone(),
+        rule,
+        terms,
+        m: plan.m,
+        plane: plan.plane,
+        depth: Some(depth),
+    })
+}
+
+/// The rule and plane terms of `surface` seen from `plan`'s reference camera (the geometry
+/// of [`plan_surface`], without the scene depth): refuses classic shift-and-sum (no plane)
+/// and a slab around the reference camera. Cheap: the viewer checks every change with it.
+pub fn surface_terms(
+    plan: &RefocusPlan,
+    surface: &FocusSurface,
+) -> Result<(SurfaceRule, Vec<DVec3>)> {
+    surface.validate()?;
+    if !surface.needs_depth() {
+        return Ok((SurfaceRule::Plane, vec![plan.m]));
+    }
+    let Some(plane) = plan.plane else {
+        return Err(Error::Invalid(format!(
+            "the focus surface '{}' needs the cameras' geometry, but --disparity on a light \
+             field without a rig is classic shift-and-sum; focus with --plane or --focus",
+            surface.name()
+        )));
+    };
     let rc = &plan.reference_camera;
     let (rule, terms) = match surface {
         FocusSurface::Plane => unreachable!("handled above"),
@@ -327,14 +349,7 @@ pub fn plan_surface(
             "a focus surface plane term is not finite".into(),
         ));
     }
-    Ok(SurfacePlan {
-        surface: surface.clone(),
-        rule,
-        terms,
-        m: plan.m,
-        plane: Some(plane),
-        depth: Some(depth),
-    })
+    Ok((rule, terms))
 }
 
 /// [`plan_surface`] with the depth anti-aliasing uses when `aa` is given (the pass binds one

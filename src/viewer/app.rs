@@ -11,7 +11,7 @@ use std::collections::VecDeque;
 use std::ffi::CString;
 use std::path::PathBuf;
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use ash::vk;
 use ash::vk::Handle;
@@ -21,22 +21,23 @@ use glfw::{Action as KeyAction, Key, Modifiers, MouseButton, WindowEvent};
 use super::controls::{action_for_key, video_step_for_key, FINE};
 use super::gpu::ViewerGpu;
 use super::layout::Layout;
+use super::panel::Hit;
 use super::refine::Refiner;
 use super::script::{self, Command, Line, Panel, Runner};
 use super::session::depth::DepthCache;
 use super::session::stats::FrameStats;
-use super::session::Session;
-use super::state::{Action, Effect, ViewerState};
+use super::session::{framing, DepthPlan, Milestones, Session};
+use super::state::{default_focus, Action, Effect, ViewerState};
+use crate::depth::DepthOrigin;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::Aperture;
-use crate::geometry::depth::ViewDepth;
 use crate::gpu::swapchain::PresentMode;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::video::FrameSequence;
 use crate::lightfield::LightField;
 use crate::passes::texture::ViewStorage;
 use crate::refocus::antialias::AntialiasSettings;
-use crate::refocus::{Averaging, FocusRequest, FocusSpec};
+use crate::refocus::{Averaging, FocusRequest};
 
 /// How long after the last input the view counts as "being interacted with".
 const INTERACTION: Duration = Duration::from_millis(150);
@@ -46,6 +47,8 @@ const CLICK_SLOP: f64 = 3.0;
 const DECODE_POLL_S: f64 = 0.01;
 /// How often the idle loop looks at a script waiting for convergence, seconds.
 const SCRIPT_POLL_S: f64 = 0.05;
+/// How often the idle loop looks at a depth estimate in the background, seconds.
+const DEPTH_POLL_S: f64 = 0.1;
 
 /// Everything `view` is asked to do.
 #[derive(Debug, Clone)]
@@ -72,32 +75,31 @@ pub struct ViewerOptions {
     /// Normal window of clicks (see [`crate::depth::DepthOrigin::normal_window`]).
     pub normal_window: u32,
     /// Anti-aliasing's sampling (the X key toggles it; it needs the light field's depth) and
-    /// whether it starts on.
+    /// whether it is on when there is depth (at start with the light field's own map, else
+    /// once the background estimate arrives).
     pub antialias: AntialiasSettings,
     pub antialias_on: bool,
+    /// Where `lf`'s depth comes from when it has its own map; without one the viewer opens
+    /// at once and estimates depth in the background ([`Session::poll_depth`]).
+    pub depth: Option<DepthOrigin>,
+    /// When the process started (`first_frame_ms` and `depth_ready_ms` count from it).
+    pub launched: Instant,
 }
 
 /// The final state and what the session measured.
 pub struct ViewerReport {
     pub state: ViewerState,
     pub frames: FrameStats,
+    /// The window's context's and the depth estimate's together.
     pub validation_errors: usize,
+    /// Where the depth came from (`None`: the light field has none and none could be made).
+    pub depth: Option<DepthOrigin>,
+    pub milestones: Milestones,
+    /// The final focus surface, as `render --json` reports it.
+    pub surface: serde_json::Value,
     pub device: String,
     pub present_mode: String,
     pub window: (u32, u32),
-}
-
-/// The focus a viewer starts with when none is given.
-fn default_focus(lf: &LightField, depth: Option<&ViewDepth>) -> FocusRequest {
-    match (&lf.rig, depth) {
-        (None, Some(d)) => FocusSpec::FocusTiltSwing {
-            distance: d.typical_depth(),
-            tilt_deg: 0.0,
-            swing_deg: 0.0,
-        }
-        .into(),
-        _ => FocusSpec::Disparity(0.0).into(),
-    }
 }
 
 /// Pointer state between press and release.
@@ -108,6 +110,8 @@ struct Press {
     last: DVec2,
     shift: bool,
     moved: bool,
+    /// The control panel's widget pressed (the panel takes the pointer until release).
+    panel: Option<Hit>,
 }
 
 /// Input in progress.
@@ -122,9 +126,9 @@ struct Input {
 
 /// The open window, its GPU side and the session shown in it. `gpu` is declared (so dropped)
 /// before `window`: the swapchain's surface goes before the window it was made for.
-struct Viewer<'a> {
+struct Viewer {
     gpu: ViewerGpu,
-    session: Session<'a>,
+    session: Session,
     window: glfw::PWindow,
     events: glfw::GlfwReceiver<(f64, WindowEvent)>,
     glfw: glfw::Glfw,
@@ -210,12 +214,11 @@ fn create_context(
 }
 
 /// The UI state the viewer starts in (before the window opens, so bad options fail early).
-fn initial_state(
-    lf: &LightField,
-    opts: &ViewerOptions,
-    depth: Option<&ViewDepth>,
-) -> Result<ViewerState> {
-    let focus = opts.focus.unwrap_or_else(|| default_focus(lf, depth));
+fn initial_state(lf: &LightField, opts: &ViewerOptions) -> Result<ViewerState> {
+    let depth = lf.view_depth().ok();
+    let focus = opts
+        .focus
+        .unwrap_or_else(|| default_focus(lf, depth.as_ref()));
     let mut state = ViewerState::new(
         lf,
         focus,
@@ -226,28 +229,28 @@ fn initial_state(
     )?;
     state.normals = state.normals.with_window(opts.normal_window);
     state.frame = opts.video.as_ref().map(|(_, f)| *f);
-    Ok(state.with_antialias(opts.antialias_on))
+    Ok(state.with_antialias(opts.antialias_on && depth.is_some()))
 }
 
-/// Opens the window on `lf` and runs until the user or the script quits.
-pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
+/// Opens the window on `lf` and runs until the user or the script quits. Without a depth map
+/// of its own, `lf` gets one estimated in the background while the window shows it.
+pub fn run(lf: LightField, opts: ViewerOptions) -> Result<ViewerReport> {
     if !(opts.frame_budget_ms.is_finite() && opts.frame_budget_ms > 0.0) {
         return Err(Error::Invalid(format!(
             "--frame-budget-ms must be a positive number of milliseconds, got {}",
             opts.frame_budget_ms
         )));
     }
-    let depth = lf.view_depth().ok();
-    let state = initial_state(lf, &opts, depth.as_ref())?;
+    let lf = Arc::new(lf);
+    let state = initial_state(&lf, &opts)?;
     script::check(&opts.script, (lf.width, lf.height), opts.window).map_err(Error::Invalid)?;
-    let depth = DepthCache::new(lf, depth)?;
+    let depth = DepthCache::new(&lf, lf.view_depth().ok())?;
+    let has_depth = depth.depth.is_some();
     // The scene panel frames the cloud (where there is one) and the camera array.
-    let cameras: Vec<glam::DVec3> = lf.views.iter().map(|v| v.camera.centre()).collect();
-    let mut keep = depth.corners();
-    keep.extend(&cameras);
+    let (centre, keep, cameras) = framing(&lf, &depth);
     let panel = Layout::new(opts.window.0, opts.window.1, (lf.width, lf.height)).scene;
     let aspect = panel.width.max(1.0) as f64 / panel.height.max(1.0) as f64;
-    let state = state.with_scene_framing(depth.centre(), keep, cameras, aspect);
+    let state = state.with_scene_framing(centre, keep, cameras, aspect);
 
     let mut glfw = init_glfw()?;
     let title = format!("tiltfield — {}", lf.name);
@@ -260,7 +263,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
     };
     let mut gpu = ViewerGpu::new(
         Arc::clone(&ctx),
-        lf,
+        &lf,
         surface,
         extent,
         opts.present,
@@ -272,15 +275,26 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         gpu.set_cloud(&c.vertices())?;
     }
     let refiner = Refiner::new(opts.frame_budget_ms, lf.width as u64 * lf.height as u64);
+    let depth_plan = (!has_depth).then(|| DepthPlan {
+        gpu: opts.gpu.clone(),
+        antialias: opts.antialias_on,
+        default_focus: opts.focus.is_none(),
+    });
     let mut session = Session::new(
-        lf,
+        Arc::clone(&lf),
         state,
         depth,
         layout,
         refiner,
         opts.video.clone(),
         opts.screenshot_prefix.clone(),
-    );
+        opts.launched,
+    )
+    .with_depth_origin(opts.depth.clone());
+    if let Some(plan) = depth_plan {
+        session = session.with_depth_plan(plan);
+    }
+    drop(lf);
     session.antialias = Some(opts.antialias);
     let viewer = Viewer {
         gpu,
@@ -299,7 +313,7 @@ pub fn run(lf: &LightField, opts: ViewerOptions) -> Result<ViewerReport> {
     viewer.run()
 }
 
-impl Viewer<'_> {
+impl Viewer {
     /// The event loop (see the module docs); the report once it quits.
     fn run(mut self) -> Result<ViewerReport> {
         while !self.quit {
@@ -324,6 +338,7 @@ impl Viewer<'_> {
                 continue;
             }
             self.session.poll_video(&mut self.gpu)?;
+            self.session.poll_depth(&mut self.gpu)?;
             if !self.fit_window()? {
                 continue;
             }
@@ -338,7 +353,10 @@ impl Viewer<'_> {
         while !self.quit && self.input.pending.is_empty() && self.session.screenshots.next.is_none()
         {
             let session = &self.session;
-            let Some(line) = self.script.next(|| session.converged()) else {
+            let Some(line) = self
+                .script
+                .next(|| session.converged(), !session.depth_pending())
+            else {
                 break;
             };
             self.run_command(line.command);
@@ -361,12 +379,7 @@ impl Viewer<'_> {
                 y,
                 shift,
             } => {
-                let p = DVec2::new(x, y);
-                s.interact(if shift {
-                    Action::ThreeClick(p)
-                } else {
-                    Action::Click(p)
-                });
+                s.click_depth_pixel(DVec2::new(x, y), shift);
             }
             Command::Click {
                 panel: Panel::Scene,
@@ -374,8 +387,19 @@ impl Viewer<'_> {
                 y,
                 ..
             } => s.click_scene(DVec2::new(x + 0.5, y + 0.5)),
+            Command::Pointer { from, to } => {
+                // The mouse's own path: press, move, release.
+                self.input.cursor = DVec2::new(from.0, from.1);
+                self.pressed(MouseButton::Button1, false);
+                self.pointer_moved(DVec2::new(to.0, to.1));
+                self.pointer_released(MouseButton::Button1);
+            }
             Command::Drag { from, to } => {
-                s.act(Action::Orbit(DVec2::new(to.0 - from.0, to.1 - from.1)));
+                let size = s.scene_size();
+                s.act(Action::Orbit(
+                    DVec2::new(to.0 - from.0, to.1 - from.1),
+                    size,
+                ));
             }
             Command::Scroll {
                 panel: Panel::Refocus,
@@ -416,6 +440,13 @@ impl Viewer<'_> {
         if self.session.video.as_ref().is_some_and(|v| v.decoding()) {
             timeout = Some(timeout.map_or(DECODE_POLL_S, |t| t.min(DECODE_POLL_S)));
         }
+        if let Some(left) = self.session.highlight_left() {
+            let left = left.as_secs_f64();
+            timeout = Some(timeout.map_or(left, |t| t.min(left)));
+        }
+        if self.session.depth_pending() {
+            timeout = Some(timeout.map_or(DEPTH_POLL_S, |t| t.min(DEPTH_POLL_S)));
+        }
         if self.session.refinement.refiner.divisor() > 1 {
             let left = INTERACTION
                 .saturating_sub(self.session.last_input.elapsed())
@@ -446,14 +477,7 @@ impl Viewer<'_> {
             }
             WindowEvent::CursorPos(x, y) => self.pointer_moved(DVec2::new(x, y)),
             WindowEvent::MouseButton(button, KeyAction::Press, mods) => {
-                let at = self.input.cursor;
-                self.input.press = Some(Press {
-                    button,
-                    at,
-                    last: at,
-                    shift: mods.contains(Modifiers::Shift),
-                    moved: false,
-                });
+                self.pressed(button, mods.contains(Modifiers::Shift))
             }
             WindowEvent::MouseButton(button, KeyAction::Release, _) => {
                 self.pointer_released(button)
@@ -461,6 +485,23 @@ impl Viewer<'_> {
             WindowEvent::Scroll(_, dy) => self.scrolled(dy),
             _ => {}
         }
+    }
+
+    /// A button pressed at the cursor; over the control panel's slider it sets the value there.
+    fn pressed(&mut self, button: MouseButton, shift: bool) {
+        let at = self.input.cursor;
+        let panel = self.session.panel_hit(at);
+        if let (Some(Hit::Slider(s, _)), MouseButton::Button1) = (panel, button) {
+            self.session.panel_slide(s, at.x);
+        }
+        self.input.press = Some(Press {
+            button,
+            at,
+            last: at,
+            shift,
+            moved: false,
+            panel,
+        });
     }
 
     /// A drag that started in the scene panel orbits (left button) or pans (other buttons).
@@ -472,9 +513,14 @@ impl Viewer<'_> {
                 p.moved = true;
             }
             let s = &mut self.session;
-            if p.moved && s.layout.scene.contains(p.at.x, p.at.y) {
+            if let Some(hit) = p.panel {
+                // The control panel holds the pointer: a slider follows it, nothing else moves.
+                if let (Hit::Slider(slider, _), MouseButton::Button1) = (hit, p.button) {
+                    s.panel_slide(slider, now.x);
+                }
+            } else if p.moved && s.layout.scene.contains(p.at.x, p.at.y) {
                 let action = match p.button {
-                    MouseButton::Button1 => Action::Orbit(delta),
+                    MouseButton::Button1 => Action::Orbit(delta, s.scene_size()),
                     _ => Action::Pan(delta, s.scene_size()),
                 };
                 s.act(action);
@@ -488,6 +534,15 @@ impl Viewer<'_> {
         let Some(p) = self.input.press.take() else {
             return;
         };
+        if let Some(hit) = p.panel {
+            // A button acts on release over itself (a press that slid off does nothing).
+            if let (Hit::Button(b), MouseButton::Button1) = (hit, button) {
+                if self.session.panel_hit(self.input.cursor) == Some(Hit::Button(b)) {
+                    self.session.panel_press(b);
+                }
+            }
+            return;
+        }
         if p.moved || p.button != button || button != MouseButton::Button1 {
             return;
         }
@@ -506,6 +561,10 @@ impl Viewer<'_> {
     fn scrolled(&mut self, dy: f64) {
         let (cursor, shift) = (self.input.cursor, self.input.shift);
         let s = &mut self.session;
+        if s.panel_hit(cursor).is_some() {
+            // Over the control panel: nothing under it scrolls.
+            return;
+        }
         if s.layout.refocus_area.contains(cursor.x, cursor.y) {
             s.interact(Action::DisparitySteps(if shift { dy * FINE } else { dy }));
         } else if s.layout.scene.contains(cursor.x, cursor.y) {
@@ -592,11 +651,20 @@ impl Viewer<'_> {
             ..
         } = self;
         gpu.wait_idle()?;
-        let validation_errors = gpu.context().validation().errors();
+        let validation_errors =
+            gpu.context().validation().errors() + session.depth_validation_errors;
         let (extent, mode) = gpu.swapchain_info();
         drop(gpu);
+        let surface = super::session::screenshot::surface_json(
+            &session.state,
+            session.surface.as_ref(),
+            session.depth_origin.as_ref(),
+        );
         Ok(ViewerReport {
             frames: session.stats.report(),
+            depth: session.depth_origin,
+            milestones: session.milestones,
+            surface,
             state: session.state,
             validation_errors,
             device,

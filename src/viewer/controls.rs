@@ -15,6 +15,8 @@ pub const DISTANCE_STEP: f64 = 0.01;
 pub const APERTURE_STEP: f64 = 0.5;
 /// Viewpoint step of I/J/K/L, grid steps.
 pub const VIEW_STEP: f64 = 0.25;
+/// Slab half-width step of `=`/`-`, as a fraction of the plane's distance from the camera.
+pub const SLAB_STEP: f64 = 0.02;
 /// What Shift multiplies a step by.
 pub const FINE: f64 = 0.1;
 
@@ -48,9 +50,15 @@ pub const CONTROLS: &[(&str, &str)] = &[
     ("Space", "play/pause video"),
     ("E", "linear/encoded averaging"),
     ("X", "anti-aliasing on/off (needs depth)"),
+    ("N", "keep this plane in focus (up to 8 planes)"),
+    ("Backspace", "drop the plane kept last"),
+    ("Shift+Backspace", "single plane again (no kept, slab, all)"),
+    ("= / -", "widen/narrow the focus slab by 2 %"),
+    ("G", "all in focus on/off (needs depth)"),
     ("F", "frame the cloud and the cameras"),
     ("R", "reset focus and scene view"),
     ("P", "screenshot"),
+    ("Tab", "control panel: sliders and buttons"),
     ("H", "this help"),
     ("Q or Esc", "quit"),
 ];
@@ -75,10 +83,17 @@ pub fn action_for_key(key: Key, shift: bool) -> Option<Action> {
         Key::C => Action::Recentre,
         Key::E => Action::ToggleAveraging,
         Key::X => Action::ToggleAntialias,
+        Key::N => Action::KeepPlane,
+        Key::Backspace if shift => Action::ClearSurface,
+        Key::Backspace => Action::DropPlane,
+        Key::Equal => Action::Slab(SLAB_STEP * f),
+        Key::Minus => Action::Slab(-SLAB_STEP * f),
+        Key::G => Action::ToggleAllInFocus,
         Key::F => Action::Frame,
         Key::R => Action::Reset,
         Key::P => Action::Screenshot,
         Key::H => Action::ToggleHelp,
+        Key::Tab => Action::TogglePanel,
         Key::Q | Key::Escape => Action::Quit,
         _ => return None,
     })
@@ -159,6 +174,7 @@ pub fn key_from_name(name: &str) -> Option<Key> {
         "COMMA" => Key::Comma,
         "PERIOD" => Key::Period,
         "ENTER" => Key::Enter,
+        "BACKSPACE" => Key::Backspace,
         "TAB" => Key::Tab,
         "MINUS" => Key::Minus,
         "EQUAL" => Key::Equal,
@@ -186,5 +202,21 @@ mod tests {
             Some(Action::MoveView(DVec2::new(0.0, -0.25)))
         );
         assert_eq!(action_for_key(Key::B, false), None);
+        assert_eq!(key_from_name("backspace"), Some(Key::Backspace));
+        assert_eq!(
+            action_for_key(Key::Backspace, false),
+            Some(Action::DropPlane)
+        );
+        assert_eq!(
+            action_for_key(Key::Backspace, true),
+            Some(Action::ClearSurface)
+        );
+        assert_eq!(action_for_key(Key::Equal, false), Some(Action::Slab(0.02)));
+        assert_eq!(
+            action_for_key(Key::Minus, true),
+            Some(Action::Slab(-SLAB_STEP * FINE))
+        );
+        // Every control the help lists fits the help box's key column.
+        assert!(CONTROLS.iter().all(|(k, _)| k.len() <= 26));
     }
 }

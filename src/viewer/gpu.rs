@@ -40,6 +40,7 @@ use crate::passes::refocus::{Accumulate, OutputFormat, RefocusPass, RefocusTarge
 use crate::passes::scene::{SceneOverlay, ScenePass, SceneTarget, SceneView};
 use crate::passes::texture::{LightFieldTexture, ViewStorage};
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::surface::{SurfacePlan, SurfaceRule};
 use crate::refocus::{Averaging, RefocusPlan};
 
 use super::layout::Layout;
@@ -54,6 +55,9 @@ pub struct FrameRequest<'a> {
     pub plan: &'a RefocusPlan,
     /// Anti-aliasing: its plan in the same order (`plan` is its `plan`), when on.
     pub antialias: Option<&'a AntialiasPlan>,
+    /// The focus surface, when it is more than the plan's plane (its depth is
+    /// anti-aliasing's when that is on).
+    pub surface: Option<&'a SurfacePlan>,
     pub averaging: Averaging,
     /// Views to add, if refinement is not complete.
     pub batch: Option<Batch>,
@@ -141,6 +145,15 @@ pub struct ViewerGpu {
     /// Output size of full-quality refocus images.
     pub full_size: (u32, u32),
     pub strategy: Strategy,
+    /// The focus surface the pass holds (uploaded by [`ViewerGpu::prepare`]; `None` after
+    /// anything else may have rewritten the pass's scene depth).
+    surface: Option<SurfacePlan>,
+}
+
+/// The surface the pass must run, if any: only surfaces beyond one plane take its SURFACE
+/// path (one plane is the plain path, unchanged).
+fn active(surface: Option<&SurfacePlan>) -> Option<&SurfacePlan> {
+    surface.filter(|s| s.rule != SurfaceRule::Plane)
 }
 
 fn out_size(full: (u32, u32), divisor: u32) -> (u32, u32) {
@@ -178,6 +191,7 @@ impl ViewerGpu {
             ctx,
             full_size: (lf.width, lf.height),
             strategy: Strategy::default(),
+            surface: None,
         };
         // Each step stores what it made, so `Drop` frees it when a later step fails.
         let ctx = Arc::clone(&g.ctx);
@@ -413,6 +427,8 @@ impl ViewerGpu {
                     if let Some(p) = self.pass.as_mut() {
                         p.set_antialias(aa)?;
                     }
+                    // Anti-aliasing rewrote the scene depth the surface reads.
+                    self.surface = None;
                 }
             }
             None => {
@@ -422,6 +438,17 @@ impl ViewerGpu {
                         p.set_views(req.plan)?;
                     }
                 }
+            }
+        }
+        // After anti-aliasing's upload (both bind one scene depth): the surface's terms and
+        // depth, rewritten only when they changed, after the frames in flight are done.
+        if let Some(sp) = active(req.surface) {
+            if self.surface.as_ref() != Some(sp) {
+                self.wait_idle()?;
+                if let Some(p) = self.pass.as_mut() {
+                    p.set_surface(sp)?;
+                }
+                self.surface = Some(sp.clone());
             }
         }
         Ok(())
@@ -481,6 +508,7 @@ impl ViewerGpu {
             let work = RefocusWork {
                 plan: req.plan,
                 antialias: req.antialias.map_or(0, |a| a.settings.max_samples),
+                surface: active(req.surface).is_some(),
                 batch,
                 averaging: req.averaging,
                 strategy: self.strategy,
@@ -557,10 +585,14 @@ impl ViewerGpu {
         &mut self,
         plan: &RefocusPlan,
         aa: Option<&AntialiasPlan>,
+        surface: Option<&SurfacePlan>,
         averaging: Averaging,
         size: (u32, u32),
     ) -> Result<RgbaImage> {
         self.wait_idle()?;
+        // What the capture uploads is not necessarily what the next frame wants.
+        self.surface = None;
+        let surface = active(surface);
         let ctx = Arc::clone(&self.ctx);
         let Some(pass) = self.pass.as_mut() else {
             return Err(Error::Vulkan("the viewer was not fully created".into()));
@@ -575,6 +607,10 @@ impl ViewerGpu {
                 plan
             }
         };
+        // As `render`'s renderer: the surface after anti-aliasing (one scene depth for both).
+        if let Some(sp) = surface {
+            pass.set_surface(sp)?;
+        }
         let (w, h) = size;
         let mut target = pass.create_target(&ctx, w, h)?;
         let captured = (|| -> Result<RgbaImage> {
@@ -596,7 +632,7 @@ impl ViewerGpu {
                 filter: Default::default(),
                 averaging,
                 antialias: aa.map_or(0, |a| a.settings.max_samples),
-                surface: false,
+                surface: surface.is_some(),
             };
             let mut recorded = Ok(());
             let ran = submission.run(&ctx, |d, cmd| {
@@ -648,6 +684,8 @@ struct RefocusWork<'a> {
     plan: &'a RefocusPlan,
     /// Anti-aliasing's sub-sample cap (0: the plain sum).
     antialias: u32,
+    /// The pass's SURFACE path (its surface uploaded by `prepare`).
+    surface: bool,
     batch: &'a Batch,
     averaging: Averaging,
     strategy: Strategy,
@@ -673,7 +711,7 @@ impl RefocusTargets {
             filter: Default::default(),
             averaging: work.averaging,
             antialias: work.antialias,
-            surface: false,
+            surface: work.surface,
         };
         let target = if batch.divisor > 1 {
             match self.preview.as_mut() {

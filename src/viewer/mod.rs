@@ -18,6 +18,7 @@
 //! - [`script`]: `--script` files, checked before the window opens, and their runner;
 //! - [`refine`]: the refinement schedule — view order, batch size, preview size;
 //! - [`orbit`]: the scene panel's camera and point picking;
+//! - [`panel`]: the control panel's widgets (sliders and buttons) and the actions they make;
 //! - [`layout`]: where the panels are;
 //! - [`text`]: the on-screen text canvas;
 //! - [`gpu`]: the Vulkan side (texture, passes, targets, swapchain, frames in flight), which
@@ -31,6 +32,7 @@ pub mod controls;
 pub mod gpu;
 pub mod layout;
 pub mod orbit;
+pub mod panel;
 pub mod refine;
 pub mod script;
 pub mod session;

@@ -1,5 +1,7 @@
 //! The scene panel's camera: orbits a target point (left drag), pans (right or middle drag),
-//! zooms (scroll), and starts over the reference camera's shoulder so the scene panel shows
+//! zooms (scroll) within limits that keep the scene in view (the target stays within the
+//! framed scene's reach of where it started; the distance within [`ZOOM_IN_LIMIT`] and
+//! [`ZOOM_OUT_LIMIT`] of the start's), and starts over the reference camera's shoulder so the scene panel shows
 //! what the refocus panel shows, from a little behind and above. It is an ordinary tiltfield
 //! [`Camera`] (x right, y down, z forward), so projection, picking and the GPU matrix share one
 //! convention. Pure f64 maths.
@@ -11,8 +13,12 @@ use crate::passes::raster::{camera_from_world, projection_rows, Projection};
 
 /// Vertical field of view of the scene panel, degrees.
 pub const FOV_DEG: f64 = 50.0;
-/// Radians per dragged pixel when orbiting.
-const ORBIT_RAD_PER_PX: f64 = 0.006;
+/// Turn of a drag across the whole panel, radians: orbit speed follows the panel's size, so
+/// the same hand movement turns a small and a large panel alike.
+pub const ORBIT_RAD_PER_PANEL: f64 = std::f64::consts::PI;
+/// The closest and farthest the scene camera may get, as fractions of its start distance.
+pub const ZOOM_IN_LIMIT: f64 = 1.0 / 64.0;
+pub const ZOOM_OUT_LIMIT: f64 = 8.0;
 /// Share of the scene panel's width the camera array should span at the start (the framing
 /// stops narrowing its angle once it does).
 pub const ARRAY_SPAN: f64 = 0.12;
@@ -30,6 +36,11 @@ pub struct OrbitCamera {
     pub yaw: f64,
     /// Turn about the frame's right axis, radians (positive: looking down on the target).
     pub pitch: f64,
+    /// Where the target started and how far it may pan from there (the framed scene's
+    /// reach), and the start distance (zoom limits are relative to it).
+    home: DVec3,
+    reach: f64,
+    start_distance: f64,
 }
 
 impl OrbitCamera {
@@ -44,7 +55,19 @@ impl OrbitCamera {
             distance: 1.8 * reach,
             yaw: 12f64.to_radians(),
             pitch: 12f64.to_radians(),
+            home: target,
+            reach,
+            start_distance: 1.8 * reach,
         }
+    }
+
+    /// This camera as the start of its limits: pans stay within `reach` of its target, zooms
+    /// within [`ZOOM_IN_LIMIT`]..[`ZOOM_OUT_LIMIT`] of its distance.
+    fn homed(mut self, reach: f64) -> Self {
+        self.home = self.target;
+        self.reach = reach.max(1e-6);
+        self.start_distance = self.distance;
+        self
     }
 
     /// A start that shows the whole scene and the camera array: looking at `target` (the
@@ -110,7 +133,12 @@ impl OrbitCamera {
                 break;
             }
         }
-        best.map_or(fallback, |(_, o)| o)
+        // The scene's reach around the target: how far the kept points lie from it.
+        let reach = keep
+            .iter()
+            .map(|p| (*p - target).length())
+            .fold(reach, f64::max);
+        best.map_or(fallback, |(_, o)| o).homed(reach)
     }
 
     fn rotation(&self) -> DQuat {
@@ -148,24 +176,33 @@ impl OrbitCamera {
         .clip_from_world
     }
 
-    /// Orbit by a drag of `delta` pixels.
-    pub fn orbit(&mut self, delta: DVec2) {
-        self.yaw += delta.x * ORBIT_RAD_PER_PX;
+    /// Orbit by a drag of `delta` pixels in a panel of `size`: a drag across the panel's
+    /// width (height) turns by [`ORBIT_RAD_PER_PANEL`] about the vertical (horizontal) axis.
+    pub fn orbit(&mut self, delta: DVec2, size: (u32, u32)) {
+        let (w, h) = (size.0.max(1) as f64, size.1.max(1) as f64);
+        self.yaw += delta.x * ORBIT_RAD_PER_PANEL / w;
         let limit = 89f64.to_radians();
-        self.pitch = (self.pitch + delta.y * ORBIT_RAD_PER_PX).clamp(-limit, limit);
+        self.pitch = (self.pitch + delta.y * ORBIT_RAD_PER_PANEL / h).clamp(-limit, limit);
     }
 
-    /// Pan so the scene follows a drag of `delta` pixels in a panel of `size`.
+    /// Pan so the scene follows a drag of `delta` pixels in a panel of `size`; the target
+    /// stops at the framed scene's reach from where it started.
     pub fn pan(&mut self, delta: DVec2, size: (u32, u32)) {
         let c = self.camera(size);
         let per_px = self.distance / c.focal_px();
         let rt = c.r.transpose();
-        self.target -= (rt.x_axis * delta.x + rt.y_axis * delta.y) * per_px;
+        let target = self.target - (rt.x_axis * delta.x + rt.y_axis * delta.y) * per_px;
+        let off = target - self.home;
+        self.target = self.home + off.clamp_length_max(self.reach);
     }
 
-    /// Zoom by `steps` scroll steps (positive: closer).
+    /// Zoom by `steps` scroll steps (positive: closer), within the zoom limits.
     pub fn zoom(&mut self, steps: f64) {
-        self.distance = (self.distance * ZOOM_PER_STEP.powf(steps)).max(1e-6);
+        let (lo, hi) = (
+            self.start_distance * ZOOM_IN_LIMIT,
+            self.start_distance * ZOOM_OUT_LIMIT,
+        );
+        self.distance = (self.distance * ZOOM_PER_STEP.powf(steps)).clamp(lo, hi);
     }
 }
 
@@ -294,9 +331,31 @@ mod tests {
             (after - before - DVec2::new(10.0, -4.0)).length() < 1e-6,
             "{before} {after}"
         );
+        // Zoom and pan stop where the scene would leave the view.
+        let mut z = OrbitCamera::over_shoulder(&reference(), target);
+        let start = z.distance;
+        z.zoom(-1000.0);
+        assert!((z.distance / start - ZOOM_OUT_LIMIT).abs() < 1e-9);
+        z.zoom(1000.0);
+        assert!((z.distance / start - ZOOM_IN_LIMIT).abs() < 1e-9);
+        let mut p = OrbitCamera::over_shoulder(&reference(), target);
+        p.pan(DVec2::new(1e7, 0.0), size);
+        assert!(
+            ((p.target - target).length() - 5.0).abs() < 1e-9,
+            "{}",
+            p.target
+        );
+        // Orbit speed follows the panel: the same share of a small and a large panel turns
+        // the view alike.
+        let mut small = OrbitCamera::over_shoulder(&reference(), target);
+        let mut large = small;
+        small.orbit(DVec2::new(50.0, 0.0), (200, 100));
+        large.orbit(DVec2::new(200.0, 0.0), (800, 400));
+        assert!((small.yaw - large.yaw).abs() < 1e-12);
+        assert!((small.yaw - 12f64.to_radians() - std::f64::consts::PI / 4.0).abs() < 1e-12);
         // Orbiting keeps the distance to the target and clamps the pitch.
         let mut o = OrbitCamera::over_shoulder(&reference(), target);
-        o.orbit(DVec2::new(50.0, 1e6));
+        o.orbit(DVec2::new(50.0, 1e6), size);
         assert!(o.pitch < 90f64.to_radians());
         let c = o.camera(size);
         assert!(((c.centre() - target).length() - o.distance).abs() < 1e-9);

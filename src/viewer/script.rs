@@ -3,13 +3,18 @@
 //! ```text
 //! wait SECONDS                    wall-clock pause (frames keep rendering)
 //! wait-converged                  until refinement reached the full aperture at full size
+//!                                 (and depth being estimated in the background arrived)
 //! key NAME [COUNT]                press and release a key COUNT times, one press per frame
 //!                                 (GLFW names: UP, W, LEFT_BRACKET, …; shift+UP for Shift)
 //! click refocus U V               single-click plane at pixel (U, V) of the depth view — the
-//!                                 pixels `render --click U,V` takes, not window pixels
+//!                                 pixels `render --click U,V` takes, not window pixels; clicks
+//!                                 wait for depth being estimated in the background
 //! shift-click refocus U V         one of three clicks (as `render --points`)
 //! click scene X Y                 pick the cloud point under scene-panel pixel (X, Y)
 //! drag scene X0 Y0 X1 Y1          left-drag in the scene panel (orbit)
+//! click window X Y                a left click at window pixel (X, Y), as the mouse gives it
+//!                                 (the control panel's buttons and sliders, or a panel)
+//! drag window X0 Y0 X1 Y1         a left drag between window pixels (a control panel slider)
 //! scroll refocus|scene DY         scroll DY steps (refocus: disparity; scene: zoom)
 //! resize W H                      resize the window
 //! screenshot PREFIX               write PREFIX_refocus.png, PREFIX_scene.png, PREFIX_window.png
@@ -72,6 +77,12 @@ pub enum Command {
         from: (f64, f64),
         to: (f64, f64),
     },
+    /// A left press at window pixel `from`, moved to `to` and released there (`from == to`:
+    /// a click), through the same handlers as the mouse.
+    Pointer {
+        from: (f64, f64),
+        to: (f64, f64),
+    },
     Scroll {
         panel: Panel,
         dy: f64,
@@ -108,7 +119,9 @@ impl Runner {
 
     /// The next command to run now, or `None` while the script waits (or has ended). `wait`
     /// and `wait-converged` lines are taken here; `converged` says whether the image is final.
-    pub fn next(&mut self, converged: impl Fn() -> bool) -> Option<Line> {
+    /// Clicks wait while `depth_ready` is false (depth still estimated in the background), as
+    /// a user would, so a script's clicks land on the same depth every run.
+    pub fn next(&mut self, converged: impl Fn() -> bool, depth_ready: bool) -> Option<Line> {
         loop {
             if let Some(t) = self.wait_until {
                 if Instant::now() < t {
@@ -121,6 +134,9 @@ impl Runner {
                     return None;
                 }
                 self.wait_converged = false;
+            }
+            if !depth_ready && matches!(self.lines.front()?.command, Command::Click { .. }) {
+                return None;
             }
             let line = self.lines.pop_front()?;
             match line.command {
@@ -284,6 +300,17 @@ fn parse_line(line: &str) -> std::result::Result<Command, String> {
             }
             Command::Key { key, shift, count }
         }
+        "click" | "drag" if line.split_whitespace().nth(1) == Some("window") => {
+            words.next();
+            let n = if name == "click" { 2 } else { 4 };
+            let v: Vec<f64> = ["x0", "y0", "x1", "y1"][..n]
+                .iter()
+                .map(|w| number(words.next(), w))
+                .collect::<std::result::Result<_, _>>()?;
+            let from = (v[0], v[1]);
+            let to = if n == 2 { from } else { (v[2], v[3]) };
+            Command::Pointer { from, to }
+        }
         "click" | "shift-click" => {
             let panel = panel(words.next())?;
             let shift = name == "shift-click";
@@ -401,6 +428,16 @@ pub fn check(
                     }
                 }
             }
+            Command::Pointer { from, to } => {
+                for (x, y) in [from, to] {
+                    if !(*x >= 0.0 && *y >= 0.0 && *x < window.0 as f64 && *y < window.1 as f64) {
+                        return Err(format!(
+                            "line {}: window pixel ({x}, {y}) is outside the {}×{} window",
+                            line.number, window.0, window.1
+                        ));
+                    }
+                }
+            }
             _ => {}
         }
     }
@@ -418,6 +455,45 @@ fn scene_error(line: usize, x: f64, y: f64, scene: &crate::passes::panel::Rect) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn window_clicks_and_drags_parse_and_stay_inside_the_window() {
+        let lines = parse("click window 700 40\ndrag window 10 20 30 40\n").unwrap();
+        assert_eq!(
+            lines[0].command,
+            Command::Pointer {
+                from: (700.0, 40.0),
+                to: (700.0, 40.0)
+            }
+        );
+        assert_eq!(
+            lines[1].command,
+            Command::Pointer {
+                from: (10.0, 20.0),
+                to: (30.0, 40.0)
+            }
+        );
+        assert!(check(&lines, (64, 64), (800, 600)).is_ok());
+        let e = check(&lines, (64, 64), (640, 400)).unwrap_err();
+        assert!(
+            e.contains("line 1") && e.contains("outside the 640×400 window"),
+            "{e}"
+        );
+        assert!(parse("drag window 1 2 3\n").is_err());
+    }
+
+    #[test]
+    fn clicks_wait_for_depth_and_keys_do_not() {
+        let lines = parse("key UP\nclick refocus 1 2\nkey DOWN\n").unwrap();
+        let mut r = Runner::new(&lines);
+        assert_eq!(r.next(|| true, false).unwrap().number, 1);
+        // Depth is still being estimated: the click and everything after it wait.
+        assert!(r.next(|| true, false).is_none());
+        assert!(!r.finished());
+        assert_eq!(r.next(|| true, true).unwrap().number, 2);
+        assert_eq!(r.next(|| true, false).unwrap().number, 3);
+        assert!(r.next(|| true, true).is_none() && r.finished());
+    }
 
     #[test]
     fn parses_every_command() {
@@ -495,7 +571,7 @@ mod tests {
             ("key UP 99999", "count must be 1"),
             ("key UP 2 3", "unexpected '3'"),
             ("click", "missing panel"),
-            ("click window 1 2", "unknown panel 'window'"),
+            ("click desk 1 2", "unknown panel 'desk'"),
             ("click refocus 1", "missing y"),
             ("shift-click scene 1 2", "refocus panel"),
             ("drag refocus 1 2 3 4", "scene panel"),

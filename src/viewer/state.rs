@@ -22,10 +22,12 @@ use glam::{DVec2, DVec3};
 use super::orbit::OrbitCamera;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::geometry::depth::ViewDepth;
 use crate::geometry::normals::NormalParams;
 use crate::geometry::picking::{nudge_plane, KeyboardPlane, Nudge};
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
+use crate::refocus::surface::{surface_terms, FocusSurface, MAX_PLANES};
 use crate::refocus::{
     self, Averaging, FocusRequest, FocusSpec, FocusTarget, RefocusPlan, RefocusRequest,
     ResolvedFocus,
@@ -54,6 +56,18 @@ pub enum Action {
     ToggleAveraging,
     /// Anti-aliased refocus on/off (where the session has depth for it).
     ToggleAntialias,
+    /// Keep the current focus plane in the focus surface's set of planes (the focus then
+    /// moves on, and every kept plane stays in focus with it).
+    KeepPlane,
+    /// Drop the plane kept last.
+    DropPlane,
+    /// Back to the single focus plane: no kept planes, no slab, all in focus off.
+    ClearSurface,
+    /// Widen (negative: narrow) the focus slab around the plane by this fraction of the
+    /// plane's distance from the reference camera; narrowed to nothing, the slab is off.
+    Slab(f64),
+    /// All in focus on/off (the kept planes or the slab come back when it goes off).
+    ToggleAllInFocus,
     /// Back to the state the viewer started in.
     Reset,
     /// The scene camera back to a view of the whole cloud and camera array.
@@ -64,18 +78,34 @@ pub enum Action {
     ThreeClick(DVec2),
     /// One of three picked world points (as `render --points-3d`).
     ScenePick(DVec3),
-    /// Orbit the scene camera by this many dragged pixels.
-    Orbit(DVec2),
+    /// Orbit the scene camera by this many dragged pixels in a scene panel of this size.
+    Orbit(DVec2, (u32, u32)),
     /// Pan the scene camera by this many dragged pixels in a scene panel of this size.
     Pan(DVec2, (u32, u32)),
     /// Zoom the scene camera by scroll steps.
     Zoom(f64),
     /// The video frame with this number is now the one whose views are rendered.
     ShowFrame(u64),
+    /// Depth arrived (estimated in the background): see `ViewerState::depth_arrived`.
+    DepthArrived {
+        normal_window: u32,
+        antialias: bool,
+        focus: Option<FocusRequest>,
+    },
+    /// Frame the scene again, now with these points (the cloud's box corners and the
+    /// cameras) around `centre`, in a panel of `aspect` (see `ViewerState::reframe`).
+    Reframe {
+        centre: Option<DVec3>,
+        keep: Vec<DVec3>,
+        array: Vec<DVec3>,
+        aspect: f64,
+    },
     /// Show why an input could not become an action (a click without depth, a key that needs
     /// a video, a frame that failed to decode).
     Refuse(String),
     ToggleHelp,
+    /// Show or hide the control panel (sliders and buttons).
+    TogglePanel,
     Screenshot,
     Quit,
 }
@@ -99,6 +129,82 @@ pub enum Effect {
     Quit,
 }
 
+/// The focus surface around the focus plane (docs/conventions.md §12) as the viewer keeps it:
+/// world planes kept besides the current focus plane, a slab, all in focus. All in focus
+/// hides the others while it is on; kept planes and a slab exclude each other (the library's
+/// slab lies around exactly one plane).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SurfaceChoice {
+    kept: [Option<Plane>; MAX_PLANES - 1],
+    /// Half-width of the slab (world units along the plane's normal, as `render --slab`).
+    pub slab: Option<f64>,
+    pub all_in_focus: bool,
+}
+
+impl SurfaceChoice {
+    /// The kept planes, in the order they were kept.
+    pub fn kept(&self) -> impl Iterator<Item = Plane> + '_ {
+        self.kept.iter().flatten().copied()
+    }
+
+    /// The library's surface with `focus` the current focus plane (the surface's first).
+    pub fn surface(&self, focus: Option<Plane>) -> FocusSurface {
+        if self.all_in_focus {
+            return FocusSurface::AllInFocus;
+        }
+        if let Some(half_width) = self.slab {
+            return FocusSurface::Slab { half_width };
+        }
+        match focus {
+            Some(f) if self.kept().next().is_some() => {
+                FocusSurface::Planes(std::iter::once(f).chain(self.kept()).collect())
+            }
+            _ => FocusSurface::Plane,
+        }
+    }
+
+    fn keep(&mut self, plane: Plane) -> Result<()> {
+        if self.all_in_focus {
+            return Err(Error::Invalid(
+                "all in focus is on (G turns it off); it keeps no planes".into(),
+            ));
+        }
+        if self.slab.is_some() {
+            return Err(Error::Invalid(
+                "a focus slab lies around one plane: narrow it away (-) before keeping planes"
+                    .into(),
+            ));
+        }
+        if self.kept().any(|p| p == plane) {
+            return Err(Error::Invalid(
+                "this plane is kept already: move the focus (scroll, W/S, arrows, a click), \
+                 then keep the next"
+                    .into(),
+            ));
+        }
+        let slot = self.kept.iter_mut().find(|p| p.is_none()).ok_or_else(|| {
+            Error::Invalid(format!(
+                "a focus surface takes at most {MAX_PLANES} planes (the focus and {} kept): \
+                 drop one (Backspace) first",
+                MAX_PLANES - 1
+            ))
+        })?;
+        *slot = Some(plane);
+        Ok(())
+    }
+
+    fn drop_last(&mut self) -> Result<()> {
+        let last = self
+            .kept
+            .iter_mut()
+            .rev()
+            .find(|p| p.is_some())
+            .ok_or_else(|| Error::Invalid("no kept focus plane to drop".into()))?;
+        *last = None;
+        Ok(())
+    }
+}
+
 /// The parts of the state that define the image.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct Core {
@@ -110,6 +216,7 @@ struct Core {
     averaging: Averaging,
     /// Anti-aliased refocus wanted (the session draws it where it has depth).
     antialias: bool,
+    surface: SurfaceChoice,
 }
 
 /// The viewer's state.
@@ -130,6 +237,8 @@ pub struct ViewerState {
     /// World points of the three-pick plane in progress.
     pub pending_points: Vec<DVec3>,
     pub show_help: bool,
+    /// The control panel is shown.
+    pub show_panel: bool,
     /// Why the last action was refused, or a hint about a pick in progress.
     pub message: Option<String>,
     pub version: u64,
@@ -143,6 +252,21 @@ pub struct ViewerState {
     initial_orbit: OrbitCamera,
     /// The video frame shown, for videos.
     pub frame: Option<u64>,
+}
+
+/// The focus a viewer starts with when none is given: on a calibrated rig without the
+/// parallel-rig disparity, frontoparallel at the scene's typical depth (once there is depth),
+/// else disparity 0.
+pub fn default_focus(lf: &LightField, depth: Option<&ViewDepth>) -> FocusRequest {
+    match (&lf.rig, depth) {
+        (None, Some(d)) => FocusSpec::FocusTiltSwing {
+            distance: d.typical_depth(),
+            tilt_deg: 0.0,
+            swing_deg: 0.0,
+        }
+        .into(),
+        _ => FocusSpec::Disparity(0.0).into(),
+    }
 }
 
 /// Disparity change of one scroll step: 1/64 of the data's disparity range, else 0.05 px.
@@ -184,6 +308,7 @@ impl ViewerState {
             reference: reference.unwrap_or_else(|| lf.grid.centre()),
             averaging,
             antialias: false,
+            surface: SurfaceChoice::default(),
         };
         let (resolved, plan) = resolve(lf, &core, &excluded)?;
         let anchor = anchor_of(&resolved);
@@ -200,6 +325,7 @@ impl ViewerState {
             placed_clicks: Vec::new(),
             pending_points: Vec::new(),
             show_help: false,
+            show_panel: false,
             message: None,
             version: 0,
             marks_version: 0,
@@ -226,6 +352,74 @@ impl ViewerState {
             OrbitCamera::framing(&self.plan.reference_camera, target, &keep, &array, aspect);
         self.initial_orbit = self.orbit;
         self
+    }
+
+    /// The scene framing again (after depth arrived: the cloud joins what is framed); the
+    /// scene camera moves to it unless the user has moved it.
+    fn reframe(
+        &mut self,
+        centre: Option<DVec3>,
+        keep: Vec<DVec3>,
+        array: Vec<DVec3>,
+        aspect: f64,
+    ) -> Effect {
+        let untouched = self.orbit == self.initial_orbit;
+        let target = centre.unwrap_or(self.initial_orbit.target);
+        self.initial_orbit =
+            OrbitCamera::framing(&self.plan.reference_camera, target, &keep, &array, aspect);
+        if !untouched {
+            return Effect::Marked;
+        }
+        self.orbit = self.initial_orbit;
+        Effect::SceneView
+    }
+
+    /// Depth arrived while the window was open (estimated in the background). `lf` is the
+    /// light field with it installed — a grid folder's cameras may have changed (the
+    /// estimate's nominal rig), so the focus is resolved again. Clicks get `normal_window`;
+    /// anti-aliasing turns on when `antialias` (the front end's default with depth) unless
+    /// the user toggled it meanwhile, and R returns to that; `focus` (the default focus with
+    /// depth) replaces the focus if the user has not changed it.
+    fn depth_arrived(
+        &mut self,
+        lf: &LightField,
+        normal_window: u32,
+        antialias: bool,
+        focus: Option<FocusRequest>,
+    ) -> Effect {
+        self.normals = self.normals.with_window(normal_window);
+        let untouched = self.core == self.initial;
+        let toggled = self.core.antialias != self.initial.antialias;
+        self.initial.antialias = antialias;
+        if let (Some(f), true) = (focus, untouched) {
+            self.initial.focus = f;
+            self.initial.anchor = None;
+        }
+        let initial = self.initial;
+        let effect = self.change(lf, |_, core| {
+            if !toggled {
+                core.antialias = antialias;
+            }
+            if let (Some(f), true) = (focus, untouched) {
+                core.focus = f;
+                core.anchor = None;
+            }
+            Ok(())
+        });
+        if let Effect::Refused(_) = effect {
+            // The focus does not resolve with the new cameras: start over from the initial
+            // state on them.
+            return self.change(lf, |_, core| {
+                *core = initial;
+                Ok(())
+            });
+        }
+        if matches!(effect, Effect::Marked) {
+            // Same core and plan, but the cameras (and the scene) may still be new.
+            self.version += 1;
+            return Effect::Changed;
+        }
+        effect
     }
 
     pub fn focus(&self) -> &FocusRequest {
@@ -256,6 +450,19 @@ impl ViewerState {
         self
     }
 
+    /// The focus surface as the viewer keeps it.
+    pub fn surface_choice(&self) -> &SurfaceChoice {
+        &self.core.surface
+    }
+
+    /// The focus surface around the current plan's plane (what `render` is given with
+    /// `--plane` repeated, `--slab` or `--all-in-focus`).
+    pub fn surface(&self) -> FocusSurface {
+        self.core
+            .surface
+            .surface(self.plan.plane.or(self.resolved.plane))
+    }
+
     /// Where the plane quad is centred.
     pub fn anchor(&self) -> Option<DVec3> {
         self.core.anchor
@@ -273,9 +480,14 @@ impl ViewerState {
                 self.marks_version += 1;
                 return Effect::Marked;
             }
+            Action::TogglePanel => {
+                self.show_panel = !self.show_panel;
+                self.marks_version += 1;
+                return Effect::Marked;
+            }
             Action::Screenshot => return Effect::Screenshot,
-            Action::Orbit(delta) => {
-                self.orbit.orbit(delta);
+            Action::Orbit(delta, size) => {
+                self.orbit.orbit(delta, size);
                 return Effect::SceneView;
             }
             Action::Pan(delta, size) => {
@@ -295,6 +507,17 @@ impl ViewerState {
                 self.message = Some(why);
                 return Effect::Message;
             }
+            Action::Reframe {
+                centre,
+                keep,
+                array,
+                aspect,
+            } => return self.reframe(centre, keep, array, aspect),
+            Action::DepthArrived {
+                normal_window,
+                antialias,
+                focus,
+            } => self.depth_arrived(lf, normal_window, antialias, focus),
             Action::Frame => {
                 if self.orbit == self.initial_orbit {
                     return Effect::Marked;
@@ -455,13 +678,30 @@ fn resolve(
     core: &Core,
     excluded: &[bool],
 ) -> Result<(ResolvedFocus, RefocusPlan)> {
-    refocus::resolve_and_plan(
+    let (resolved, plan) = refocus::resolve_and_plan(
         lf,
         &core.focus,
         core.aperture,
         Some(core.reference),
         excluded,
-    )
+    )?;
+    // The surface must hold around the new plane too (a slab must not reach the reference
+    // camera): checked by the library's own geometry, without the scene depth.
+    let surface = core.surface.surface(plan.plane.or(resolved.plane));
+    surface_terms(&plan, &surface)?;
+    Ok((resolved, plan))
+}
+
+/// Focus surfaces choose per pixel from the scene's depth.
+fn need_depth(lf: &LightField) -> Result<()> {
+    if lf.depth.is_empty() {
+        return Err(Error::Invalid(format!(
+            "focus surfaces follow the scene's depth, and '{}' has none (yet: an estimate may \
+             be on its way)",
+            lf.name
+        )));
+    }
+    Ok(())
 }
 
 /// The focus as a world plane that no longer depends on the reference camera (before the
@@ -613,6 +853,41 @@ fn modify(
         }
         Action::ToggleAntialias => {
             core.antialias = !core.antialias;
+            Ok(())
+        }
+        Action::KeepPlane => {
+            need_depth(lf)?;
+            let plane = resolved.plane.ok_or_else(no_plane)?;
+            core.surface.keep(plane)
+        }
+        Action::DropPlane => core.surface.drop_last(),
+        Action::ClearSurface => {
+            core.surface = SurfaceChoice::default();
+            Ok(())
+        }
+        Action::Slab(fraction) => {
+            need_depth(lf)?;
+            let plane = resolved.plane.ok_or_else(no_plane)?;
+            if core.surface.all_in_focus {
+                return Err(Error::Invalid(
+                    "all in focus is on (G turns it off); it has no slab".into(),
+                ));
+            }
+            if core.surface.kept().next().is_some() {
+                return Err(Error::Invalid(
+                    "a focus slab lies around one plane: drop the kept planes (Backspace) first"
+                        .into(),
+                ));
+            }
+            let d = plane.normal.dot(plane.point - camera.centre()).abs();
+            let w = core.surface.slab.unwrap_or(0.0) + fraction * d;
+            // Narrowed to (about) nothing: the single plane again.
+            core.surface.slab = (w > 1e-6 * d).then_some(w);
+            Ok(())
+        }
+        Action::ToggleAllInFocus => {
+            need_depth(lf)?;
+            core.surface.all_in_focus = !core.surface.all_in_focus;
             Ok(())
         }
         Action::ToggleAveraging => {
@@ -815,6 +1090,176 @@ mod tests {
     }
 
     #[test]
+    fn depth_arriving_turns_on_antialiasing_unless_the_user_toggled_it() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        assert!(!s.antialias());
+        let arrived = Action::DepthArrived {
+            normal_window: 31,
+            antialias: true,
+            focus: None,
+        };
+        assert_eq!(s.apply(&lf, arrived.clone()), Effect::Changed);
+        assert!(s.antialias());
+        assert_eq!(s.normals.window, 31);
+        // R returns to anti-aliasing on: it is the start state with depth.
+        s.apply(&lf, Action::ToggleAntialias);
+        s.apply(&lf, Action::Reset);
+        assert!(s.antialias());
+        // Toggled off before depth came: it stays off, and so does the user's focus.
+        let mut t = state(&lf, FocusSpec::Disparity(0.0));
+        t.apply(&lf, Action::ToggleAntialias);
+        t.apply(&lf, Action::ToggleAntialias);
+        t.apply(&lf, Action::ToggleAntialias);
+        t.apply(&lf, Action::Tilt(2.0));
+        let plane = t.resolved.plane;
+        let focus = FocusSpec::FocusTiltSwing {
+            distance: 3.0,
+            tilt_deg: 0.0,
+            swing_deg: 0.0,
+        };
+        t.apply(
+            &lf,
+            Action::DepthArrived {
+                normal_window: 31,
+                antialias: false,
+                focus: Some(focus.into()),
+            },
+        );
+        assert!(t.antialias(), "the user's X stands");
+        assert_eq!(t.resolved.plane, plane, "the user's focus stands");
+        // An untouched state takes the default focus with depth.
+        let mut u = state(&lf, FocusSpec::Disparity(0.0));
+        u.apply(
+            &lf,
+            Action::DepthArrived {
+                normal_window: 31,
+                antialias: false,
+                focus: Some(focus.into()),
+            },
+        );
+        assert_eq!(u.resolved.spec, focus);
+        // The scene camera is framed anew unless the user moved it.
+        let keep = vec![DVec3::new(-5.0, -5.0, 10.0), DVec3::new(5.0, 5.0, 20.0)];
+        let reframe = Action::Reframe {
+            centre: Some(DVec3::new(0.0, 0.0, 15.0)),
+            keep,
+            array: Vec::new(),
+            aspect: 1.0,
+        };
+        let before = u.orbit;
+        assert_eq!(u.apply(&lf, reframe.clone()), Effect::SceneView);
+        assert_ne!(u.orbit, before);
+        u.apply(&lf, Action::Orbit(DVec2::new(30.0, 0.0), (400, 300)));
+        let moved = u.orbit;
+        assert_eq!(u.apply(&lf, reframe), Effect::Marked);
+        assert_eq!(u.orbit, moved);
+        u.apply(&lf, Action::Frame);
+        assert_ne!(u.orbit, moved, "F goes to the new framing");
+    }
+
+    #[test]
+    fn focus_surfaces_are_kept_planes_a_slab_or_all_in_focus_and_refuse_mixtures() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        assert_eq!(s.surface(), FocusSurface::Plane);
+        let first = s.plan.plane.unwrap();
+        // Keep the plane, move on: two planes, the current one first (render's first --plane).
+        assert_eq!(s.apply(&lf, Action::KeepPlane), Effect::Changed);
+        let e = s.apply(&lf, Action::KeepPlane);
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("kept already")),
+            "{e:?}"
+        );
+        s.apply(&lf, Action::DisparitySteps(3.0));
+        let now = s.plan.plane.unwrap();
+        assert_eq!(s.surface(), FocusSurface::Planes(vec![now, first]));
+        // A slab does not mix with kept planes, nor planes with a slab.
+        let e = s.apply(&lf, Action::Slab(0.02));
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("Backspace")),
+            "{e:?}"
+        );
+        // At most 8 planes: the focus and 7 kept.
+        for k in 0..10 {
+            s.apply(&lf, Action::KeepPlane);
+            s.apply(&lf, Action::DisparitySteps(1.0 + k as f64));
+        }
+        match s.surface() {
+            FocusSurface::Planes(p) => assert_eq!(p.len(), MAX_PLANES),
+            other => panic!("{other:?}"),
+        }
+        let e = s.apply(&lf, Action::KeepPlane);
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("at most 8")),
+            "{e:?}"
+        );
+        // Backspace drops the last kept; Shift+Backspace clears.
+        assert_eq!(s.apply(&lf, Action::DropPlane), Effect::Changed);
+        match s.surface() {
+            FocusSurface::Planes(p) => assert_eq!(p.len(), MAX_PLANES - 1),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(s.apply(&lf, Action::ClearSurface), Effect::Changed);
+        assert_eq!(s.surface(), FocusSurface::Plane);
+        assert!(matches!(
+            s.apply(&lf, Action::DropPlane),
+            Effect::Refused(_)
+        ));
+        // The slab widens by 2 % of the plane's distance per step and narrows away to nothing.
+        let d = {
+            let p = s.plan.plane.unwrap();
+            p.normal
+                .dot(p.point - s.plan.reference_camera.centre())
+                .abs()
+        };
+        s.apply(&lf, Action::Slab(0.02));
+        s.apply(&lf, Action::Slab(0.02));
+        match s.surface() {
+            FocusSurface::Slab { half_width } => assert!((half_width - 0.04 * d).abs() < 1e-12),
+            other => panic!("{other:?}"),
+        }
+        let e = s.apply(&lf, Action::KeepPlane);
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("slab")),
+            "{e:?}"
+        );
+        // A slab reaching the reference camera is refused by the library's geometry.
+        let e = s.apply(&lf, Action::Slab(1.5));
+        assert!(
+            matches!(e, Effect::Refused(ref m) if m.contains("inside the focus slab")),
+            "{e:?}"
+        );
+        // All in focus hides the slab and gives it back.
+        assert_eq!(s.apply(&lf, Action::ToggleAllInFocus), Effect::Changed);
+        assert_eq!(s.surface(), FocusSurface::AllInFocus);
+        s.apply(&lf, Action::ToggleAllInFocus);
+        assert!(matches!(s.surface(), FocusSurface::Slab { .. }));
+        s.apply(&lf, Action::Slab(-0.02));
+        s.apply(&lf, Action::Slab(-0.02));
+        assert_eq!(s.surface(), FocusSurface::Plane, "narrowed to nothing");
+        // R returns to the single plane.
+        s.apply(&lf, Action::ToggleAllInFocus);
+        s.apply(&lf, Action::Reset);
+        assert_eq!(s.surface(), FocusSurface::Plane);
+        // Without depth every surface is refused, naming the cause.
+        let mut bare = lf.clone();
+        bare.depth.clear();
+        let mut b = state(&bare, FocusSpec::Disparity(0.0));
+        for a in [
+            Action::KeepPlane,
+            Action::Slab(0.02),
+            Action::ToggleAllInFocus,
+        ] {
+            let e = b.apply(&bare, a);
+            assert!(
+                matches!(e, Effect::Refused(ref m) if m.contains("depth")),
+                "{e:?}"
+            );
+        }
+    }
+
+    #[test]
     fn video_frames_scene_moves_and_messages_are_actions_too() {
         let lf = lf("planes");
         let mut s = state(&lf, FocusSpec::Disparity(0.0));
@@ -826,7 +1271,7 @@ mod tests {
         // The scene camera and messages change neither version.
         let orbit = s.orbit;
         assert_eq!(
-            s.apply(&lf, Action::Orbit(DVec2::new(10.0, 0.0))),
+            s.apply(&lf, Action::Orbit(DVec2::new(10.0, 0.0), (400, 300))),
             Effect::SceneView
         );
         assert_eq!(s.apply(&lf, Action::Zoom(1.0)), Effect::SceneView);
@@ -840,7 +1285,7 @@ mod tests {
         assert_eq!(s.apply(&lf, Action::Reset), Effect::SceneView);
         assert_eq!(s.orbit, orbit);
         assert_eq!(
-            s.apply(&lf, Action::Orbit(DVec2::new(10.0, 0.0))),
+            s.apply(&lf, Action::Orbit(DVec2::new(10.0, 0.0), (400, 300))),
             Effect::SceneView
         );
         assert_eq!(

@@ -3,18 +3,93 @@
 //! averaging, GPU time, frame rate, refinement progress), the last message, the marks of a
 //! three-click plane in progress and the help. Only the parts with content
 //! ([`Hud::parts`]) are composited.
+//!
+//! Feedback: the field of the strip that the last control changed ([`Field`]) is drawn on an
+//! amber background for a moment, and a message about a click (a refusal, a pick in
+//! progress) is drawn next to where the user clicked rather than along the panel's bottom.
 
 use std::time::Instant;
 
 use super::super::controls::CONTROLS;
 use super::super::layout::Layout;
-use super::super::state::{effective_radius, ViewerState};
+use super::super::panel::{self as controls_panel, ControlPanel, Slider};
+use super::super::state::{effective_radius, Action, ViewerState};
 use super::super::text::{Canvas, CLEAR, PANEL_BG, TEXT, WARN};
+use super::depth::DepthState;
 use super::refinement::Refinement;
 use crate::geometry::picking::KeyboardPlane;
 use crate::lightfield::LightField;
 use crate::passes::panel::Rect;
 use crate::refocus::FocusSpec;
+use glam::DVec2;
+
+/// Background of the field the last control changed.
+const HIGHLIGHT: [u8; 4] = [150, 95, 0, 255];
+
+/// A field of the status strip that a control changes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Field {
+    Plane,
+    Distance,
+    Tilt,
+    Swing,
+    Surface,
+    Aperture,
+    View,
+    Averaging,
+    Antialias,
+}
+
+impl Field {
+    /// The field `action` changes, if it changes one shown in the strip.
+    pub fn of(action: &Action) -> Option<Field> {
+        Some(match action {
+            Action::Tilt(_) => Field::Tilt,
+            Action::Swing(_) => Field::Swing,
+            Action::Distance(_) | Action::DisparitySteps(_) => Field::Distance,
+            Action::ApertureRadius(_) | Action::CycleAperture => Field::Aperture,
+            Action::MoveView(_) | Action::Recentre => Field::View,
+            Action::ToggleAveraging => Field::Averaging,
+            Action::ToggleAntialias => Field::Antialias,
+            Action::KeepPlane
+            | Action::DropPlane
+            | Action::ClearSurface
+            | Action::Slab(_)
+            | Action::ToggleAllInFocus => Field::Surface,
+            Action::Click(_) | Action::ThreeClick(_) | Action::ScenePick(_) => Field::Plane,
+            _ => return None,
+        })
+    }
+
+    /// How the field starts in the strip (any of these).
+    fn markers(self) -> &'static [&'static str] {
+        match self {
+            Field::Plane => &["plane p=", "classic shift-and-sum"],
+            Field::Distance => &["distance ", "classic shift-and-sum"],
+            Field::Tilt => &["tilt "],
+            Field::Swing => &["swing "],
+            // A single plane again: the plane's field shows what is in focus.
+            Field::Surface => &["surface: ", "plane p="],
+            Field::Aperture => &["aperture "],
+            Field::View => &["view ("],
+            Field::Averaging => &["linear", "encoded"],
+            Field::Antialias => &["aa "],
+        }
+    }
+}
+
+/// Where in `line` (fields separated by two spaces) the field starting with one of
+/// `markers` lies: its first character and its length, in characters.
+pub fn field_span(line: &str, markers: &[&str]) -> Option<(usize, usize)> {
+    let mut at = 0;
+    for field in line.split("  ") {
+        if !field.is_empty() && markers.iter().any(|m| field.starts_with(m)) {
+            return Some((at, field.chars().count()));
+        }
+        at += field.chars().count() + 2;
+    }
+    None
+}
 
 /// The text canvas and where it has content.
 pub struct Hud {
@@ -30,7 +105,15 @@ pub struct Status<'a> {
     pub lf: &'a LightField,
     pub state: &'a ViewerState,
     pub refinement: &'a Refinement,
+    /// Where the depth stands (an estimate's progress is shown until it arrives).
+    pub depth: &'a DepthState,
     pub fps: f64,
+    /// The field the last control changed, while it is highlighted.
+    pub highlight: Option<Field>,
+    /// Where the user clicked, when the message is about that click (window pixels).
+    pub message_at: Option<DVec2>,
+    /// The control panel, while it is shown.
+    pub panel: Option<&'a ControlPanel>,
 }
 
 impl Status<'_> {
@@ -50,7 +133,7 @@ impl Status<'_> {
                     p.normal.y,
                     p.normal.z,
                     kb.map_or(String::new(), |k| format!(
-                        "  distance {:.4} tilt {:.1}° swing {:.1}°",
+                        "  distance {:.4}  tilt {:.1}°  swing {:.1}°",
                         k.distance, k.tilt_deg, k.swing_deg
                     ))
                 )
@@ -61,11 +144,15 @@ impl Status<'_> {
             },
         };
         format!(
-            "{plane}  [{}]{}",
+            "{plane}  [{}]{}{}{}",
             state.resolved.how,
+            surface_label(state).map_or(String::new(), |l| format!("  surface: {l}")),
             state
                 .frame
-                .map_or(String::new(), |f| format!("  frame {f}"))
+                .map_or(String::new(), |f| format!("  frame {f}")),
+            self.depth
+                .field()
+                .map_or(String::new(), |f| format!("  {f}"))
         )
     }
 
@@ -114,6 +201,39 @@ impl Status<'_> {
     pub fn lines(&self) -> (String, String) {
         (self.focus_line(), self.render_line())
     }
+}
+
+/// The focus surface, named for the status strip (`None`: the single plane).
+pub fn surface_label(state: &ViewerState) -> Option<String> {
+    let choice = state.surface_choice();
+    if choice.all_in_focus {
+        return Some("all in focus".into());
+    }
+    if let Some(w) = choice.slab {
+        return Some(format!("slab ±{w:.4}"));
+    }
+    match choice.kept().count() {
+        0 => None,
+        k => Some(format!("{} planes", k + 1)),
+    }
+}
+
+/// `text` broken between words into lines of at most `chars` characters (a longer word is
+/// cut), at most six lines.
+pub fn wrap_words(text: &str, chars: usize) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for word in text.split_whitespace() {
+        let word: String = word.chars().take(chars).collect();
+        match out.last_mut() {
+            Some(last) if last.chars().count() + 1 + word.chars().count() <= chars => {
+                last.push(' ');
+                last.push_str(&word);
+            }
+            _ => out.push(word),
+        }
+    }
+    out.truncate(6);
+    out
 }
 
 /// `line` broken between its fields (separated by two spaces) into lines of at most `chars`
@@ -178,13 +298,33 @@ impl Hud {
             (1, lines)
         };
         let step = 10 * scale as i64;
+        if let Some(field) = status.highlight {
+            let glyph = 8 * scale as i64;
+            // The first line holding the field (a wrapped strip holds it once).
+            let found = lines
+                .iter()
+                .enumerate()
+                .find_map(|(k, l)| field_span(l, field.markers()).map(|span| (k, span)));
+            if let Some((k, (at, len))) = found {
+                self.canvas.fill(
+                    8 + at as i64 * glyph - 2,
+                    s.y as i64 + 4 + k as i64 * step - 2,
+                    len as i64 * glyph + 4,
+                    glyph + 3,
+                    HIGHLIGHT,
+                );
+            }
+        }
         for (k, line) in lines.iter().enumerate() {
             self.canvas
                 .text(8, s.y as i64 + 4 + k as i64 * step, scale, line, TEXT);
         }
         let state = status.state;
         if let Some(msg) = &state.message {
-            self.message(layout, msg);
+            match status.message_at {
+                Some(at) => self.message_at(layout, msg, at),
+                None => self.message(layout, msg),
+            }
         }
         // Marks of the three-click plane in progress (red), and of the one in effect (green).
         let size = (status.lf.width, status.lf.height);
@@ -195,6 +335,9 @@ impl Hud {
             self.canvas.cross(at.x, at.y, 6, colour);
             self.parts
                 .push(Rect::new(at.x as f32 - 8.0, at.y as f32 - 8.0, 17.0, 17.0));
+        }
+        if let Some(panel) = status.panel {
+            self.control_panel(panel, state, status.lf);
         }
         if state.show_help {
             self.help(layout);
@@ -216,25 +359,102 @@ impl Hud {
         self.canvas.text(area.x as i64 + 8, y, 1, &text, WARN);
     }
 
+    /// The message next to where the user clicked (below and right of it, kept inside the
+    /// window above the strip), wrapped to lines of at most 56 characters.
+    fn message_at(&mut self, layout: &Layout, msg: &str, at: DVec2) {
+        let (w, _) = layout.window;
+        let max_chars = (((w as i64 - 24) / 8).clamp(8, 56)) as usize;
+        let lines = wrap_words(msg, max_chars);
+        let box_w = lines.iter().map(|l| l.chars().count()).max().unwrap_or(0) as i64 * 8 + 16;
+        let box_h = lines.len() as i64 * 12 + 8;
+        let bottom = layout.status.y as i64;
+        let x = (at.x as i64 + 12).min(w as i64 - box_w).max(0);
+        let mut y = at.y as i64 + 12;
+        if y + box_h > bottom {
+            // No room below the click: above it.
+            y = (at.y as i64 - 12 - box_h).max(0);
+        }
+        self.canvas.fill(x, y, box_w, box_h, PANEL_BG);
+        self.parts
+            .push(Rect::new(x as f32, y as f32, box_w as f32, box_h as f32));
+        for (k, line) in lines.iter().enumerate() {
+            self.canvas
+                .text(x + 8, y + 4 + k as i64 * 12, 1, line, WARN);
+        }
+    }
+
+    /// The control panel: sliders (track, knob at the current value, the value) and buttons
+    /// (lit when their setting is on).
+    fn control_panel(&mut self, panel: &ControlPanel, state: &ViewerState, lf: &LightField) {
+        let r = panel.rect;
+        let (x0, y0) = (r.x as i64, r.y as i64);
+        self.canvas
+            .fill(x0, y0, r.width as i64, r.height as i64, PANEL_BG);
+        self.parts.push(r);
+        self.canvas
+            .text(x0 + 8, y0 + 8, 1, "controls (Tab hides)", WARN);
+        for (s, t) in &panel.sliders {
+            let (tx, ty) = (t.x as i64, t.y as i64);
+            self.canvas.text(x0 + 8, ty, 1, s.label(), TEXT);
+            self.canvas
+                .fill(tx, ty + 2, t.width as i64, 4, [80, 80, 92, 255]);
+            let value = controls_panel::current(*s, state, lf);
+            if let Some(v) = value {
+                let f = panel.fraction_of(*s, v, lf);
+                let kx = tx + (f * t.width as f64).round() as i64;
+                self.canvas.fill(kx - 3, ty - 3, 7, 14, TEXT);
+            }
+            let text = match (s, value) {
+                (_, None) => "-".to_string(),
+                (Slider::Distance, Some(v)) => format!("{v:.3}"),
+                (Slider::Tilt | Slider::Swing, Some(v)) => format!("{v:.1}°"),
+                (_, Some(v)) => format!("{v:.2}"),
+            };
+            self.canvas
+                .text(tx + t.width as i64 + 12, ty, 1, &text, TEXT);
+        }
+        for (b, br) in &panel.buttons {
+            let colour = if b.on(state) {
+                [40, 100, 170, 255]
+            } else {
+                [55, 55, 66, 255]
+            };
+            let (bx, by, bw, bh) = (br.x as i64, br.y as i64, br.width as i64, br.height as i64);
+            self.canvas.fill(bx, by, bw, bh, colour);
+            let label = b.label(state);
+            let lw = label.chars().count() as i64 * 8;
+            self.canvas.text(
+                bx + (bw - lw).max(0) / 2,
+                by + (bh - 8) / 2,
+                1,
+                &label,
+                TEXT,
+            );
+        }
+    }
+
     /// Every control, over the scene panel.
     fn help(&mut self, layout: &Layout) {
         let sc = layout.scene;
         let (x0, y0) = (sc.x as i64 + 10, sc.y as i64 + 10);
         let rows = CONTROLS.len() as i64 + 1;
+        // 18-pixel rows where the panel is tall enough, closer (down to 10) where not, so
+        // every control stays listed in a short window.
+        let row = ((sc.height as i64 - 32) / rows).clamp(10, 18);
         let key_w = CONTROLS.iter().map(|(k, _)| k.len()).max().unwrap_or(0) as i64 * 8 + 16;
         let what_w = CONTROLS.iter().map(|(_, w)| w.len()).max().unwrap_or(0) as i64 * 8;
         self.canvas
-            .fill(x0, y0, key_w + what_w + 16, rows * 18 + 12, PANEL_BG);
+            .fill(x0, y0, key_w + what_w + 16, rows * row + 12, PANEL_BG);
         self.parts.push(Rect::new(
             x0 as f32,
             y0 as f32,
             (key_w + what_w + 16) as f32,
-            (rows * 18 + 12) as f32,
+            (rows * row + 12) as f32,
         ));
         self.canvas
             .text(x0 + 8, y0 + 6, 1, "controls (H hides)", WARN);
         for (i, (key, what)) in CONTROLS.iter().enumerate() {
-            let y = y0 + 6 + (i as i64 + 1) * 18;
+            let y = y0 + 6 + (i as i64 + 1) * row;
             self.canvas.text(x0 + 8, y, 1, key, TEXT);
             self.canvas.text(x0 + 8 + key_w, y, 1, what, TEXT);
         }
@@ -248,6 +468,25 @@ mod tests {
     use crate::refocus::Averaging;
     use crate::viewer::refine::Refiner;
     use crate::viewer::state::Action;
+
+    #[test]
+    fn the_changed_field_is_found_in_the_strip_and_messages_wrap_between_words() {
+        let line = "aperture disk r=2.8 (25 of 25 views)  view (2.00, 2.00)  linear  aa 4x4";
+        assert_eq!(field_span(line, Field::Aperture.markers()), Some((0, 36)));
+        assert_eq!(field_span(line, Field::View.markers()), Some((38, 17)));
+        assert_eq!(field_span(line, Field::Averaging.markers()), Some((57, 6)));
+        assert_eq!(field_span(line, Field::Antialias.markers()), Some((65, 6)));
+        assert_eq!(field_span(line, Field::Tilt.markers()), None);
+        assert_eq!(Field::of(&Action::Tilt(1.0)), Some(Field::Tilt));
+        assert_eq!(Field::of(&Action::Slab(0.02)), Some(Field::Surface));
+        assert_eq!(Field::of(&Action::Zoom(1.0)), None);
+        let w = wrap_words("no reliable normal at the clicked pixel (128, 200)", 20);
+        assert!(w.iter().all(|l| l.chars().count() <= 20), "{w:?}");
+        assert_eq!(
+            w.join(" "),
+            "no reliable normal at the clicked pixel (128, 200)"
+        );
+    }
 
     #[test]
     fn narrow_windows_wrap_the_status_between_fields_and_keep_every_field() {
@@ -284,7 +523,11 @@ mod tests {
                 lf: &lf,
                 state,
                 refinement: &refinement,
+                depth: &DepthState::Ready,
                 fps: 30.0,
+                highlight: None,
+                message_at: None,
+                panel: None,
             };
             hud.draw(&layout, &status);
             hud.parts.clone()

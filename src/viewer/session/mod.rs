@@ -23,6 +23,7 @@ pub mod stats;
 pub mod video;
 
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use ash::vk;
@@ -30,15 +31,19 @@ use glam::DVec2;
 
 use super::gpu::{FrameRequest, FrameResult, ViewerGpu};
 use super::layout::Layout;
+use super::panel::{self as controls_panel, Button, ControlPanel, Hit, Slider};
 use super::refine::Refiner;
-use super::state::{Action, Effect, ViewerState};
+use super::state::{default_focus, Action, Effect, ViewerState};
+use crate::depth::DepthOrigin;
 use crate::error::Result;
+use crate::gpu::GpuOptions;
 use crate::lightfield::video::FrameSequence;
 use crate::lightfield::LightField;
 use crate::passes::scene::SceneView;
 use crate::refocus::antialias::{AntialiasPlan, AntialiasSettings};
-use depth::DepthCache;
-use hud::{Hud, Status};
+use crate::refocus::surface::SurfacePlan;
+use depth::{DepthCache, DepthJob, DepthState};
+use hud::{Field, Hud, Status};
 use refinement::{FramePlan, Refinement};
 use screenshot::Screenshots;
 use stats::Stats;
@@ -46,6 +51,8 @@ use video::{Video, VideoStep};
 
 /// How often the status text refreshes its timings while frames are rendered.
 const STATUS_PERIOD: Duration = Duration::from_millis(250);
+/// How long the field a control changed stays highlighted in the status strip.
+pub const HIGHLIGHT_FOR: Duration = Duration::from_millis(1200);
 /// Size of the pick markers in the scene panel, pixels.
 const MARKER_SIZE: f32 = 11.0;
 
@@ -72,9 +79,29 @@ impl Dirty {
     }
 }
 
+/// How the session gets its depth when the light field has none of its own.
+pub struct DepthPlan {
+    /// The GPU options of the background estimate's own context.
+    pub gpu: GpuOptions,
+    /// Anti-aliasing once depth is here (the front end's default; R returns to it).
+    pub antialias: bool,
+    /// No focus was given: the default focus with depth ([`default_focus`]) replaces the
+    /// initial one if the user has not changed it.
+    pub default_focus: bool,
+}
+
+/// When things happened, in milliseconds since the process started.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Milestones {
+    pub first_frame_ms: Option<f64>,
+    pub depth_ready_ms: Option<f64>,
+}
+
 /// A viewing session.
-pub struct Session<'a> {
-    pub lf: &'a LightField,
+pub struct Session {
+    /// The light field (shared with a background depth estimate while one runs; the
+    /// estimate is installed into it when it arrives).
+    pub lf: Arc<LightField>,
     pub state: ViewerState,
     pub depth: DepthCache,
     pub layout: Layout,
@@ -93,20 +120,48 @@ pub struct Session<'a> {
     /// it is on, and the state version it was made for.
     pub aa: Option<AntialiasPlan>,
     aa_version: u64,
+    /// The focus surface of the state resolved with the scene depth (the anti-aliasing plan's
+    /// when on), when it is more than one plane; made with `aa`.
+    pub surface: Option<SurfacePlan>,
+    /// Where the depth came from, once there is depth.
+    pub depth_origin: Option<DepthOrigin>,
+    /// Depth still to be estimated (started after the first frame) and the estimate running.
+    depth_plan: Option<DepthPlan>,
+    depth_job: Option<DepthJob>,
+    /// Validation errors of the depth estimate's own GPU context.
+    pub depth_validation_errors: usize,
+    /// The process's start (`--json` reports milestones from it).
+    launched: Instant,
+    /// The strip's field the last control changed, and when.
+    highlight: Option<(Field, Instant)>,
+    /// Where the user clicked when the state's message is about that click (window pixels).
+    message_at: Option<DVec2>,
+    pub milestones: Milestones,
+    /// The control panel's widgets for the current layout (drawn while the state shows it).
+    pub panel: ControlPanel,
 }
 
-impl<'a> Session<'a> {
+impl Session {
     /// A session on `lf` starting in `state`, in a window of `layout`; `video` is the
     /// sequence `lf` is a frame of and that frame's number.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
-        lf: &'a LightField,
+        lf: Arc<LightField>,
         state: ViewerState,
         depth: DepthCache,
         layout: Layout,
         refiner: Refiner,
         video: Option<(FrameSequence, u64)>,
         screenshot_prefix: PathBuf,
+        launched: Instant,
     ) -> Self {
+        let milestones = Milestones {
+            depth_ready_ms: (depth.depth.is_some()).then(|| launched.elapsed().as_secs_f64() * 1e3),
+            ..Milestones::default()
+        };
+        // The distance slider centres on the starting plane's distance.
+        let centre = controls_panel::current(Slider::Distance, &state, &lf).unwrap_or(1.0);
+        let panel = ControlPanel::new(layout.scene, centre);
         Session {
             lf,
             refinement: Refinement::new(refiner, &state.plan),
@@ -130,13 +185,178 @@ impl<'a> Session<'a> {
             aa: None,
             // No version yet: the first frame makes the plan.
             aa_version: u64::MAX,
+            surface: None,
+            depth_origin: None,
+            depth_plan: None,
+            depth_job: None,
+            depth_validation_errors: 0,
+            launched,
+            milestones,
+            highlight: None,
+            message_at: None,
+            panel,
         }
+    }
+
+    /// What of the control panel lies under window position `p`, while it is shown.
+    pub fn panel_hit(&self, p: DVec2) -> Option<Hit> {
+        self.state.show_panel.then(|| self.panel.hit(p)).flatten()
+    }
+
+    /// Slider `s` dragged to window x: the value there, set through the keys' actions.
+    pub fn panel_slide(&mut self, s: Slider, x: f64) {
+        let value = self.panel.value_at(s, self.panel.fraction(s, x), &self.lf);
+        match controls_panel::set_action(s, value, &self.state, &self.lf) {
+            Some(action) => {
+                self.interact(action);
+            }
+            None if controls_panel::current(s, &self.state, &self.lf).is_none() => {
+                self.refuse(format!(
+                    "{} needs a focus plane; classic shift-and-sum has none",
+                    s.label()
+                ));
+            }
+            None => {}
+        }
+    }
+
+    /// Button `b` pressed.
+    pub fn panel_press(&mut self, b: Button) {
+        self.interact(b.action());
+    }
+
+    /// How long the highlighted field has left (the event loop wakes to clear it).
+    pub fn highlight_left(&self) -> Option<Duration> {
+        self.highlight
+            .map(|(_, at)| HIGHLIGHT_FOR.saturating_sub(at.elapsed()))
+    }
+
+    /// The light field's depth comes from `origin` (its own map, given).
+    pub fn with_depth_origin(mut self, origin: Option<DepthOrigin>) -> Self {
+        self.depth_origin = origin;
+        self
+    }
+
+    /// Estimates depth in the background once the first frame is shown.
+    pub fn with_depth_plan(mut self, plan: DepthPlan) -> Self {
+        self.depth.state = DepthState::Estimating { done: 0, total: 0 };
+        self.depth_plan = Some(plan);
+        self
+    }
+
+    /// Depth is still on its way (a script's clicks and `wait-converged` wait for it).
+    pub fn depth_pending(&self) -> bool {
+        matches!(self.depth.state, DepthState::Estimating { .. })
+    }
+
+    fn since_launch_ms(&self) -> f64 {
+        self.launched.elapsed().as_secs_f64() * 1e3
+    }
+
+    /// Starts the background estimate (after the first frame: the window comes first),
+    /// follows its progress, and installs the depth when it arrives: the point cloud, the
+    /// normals' window, anti-aliasing's default, the scene's framing.
+    pub fn poll_depth(&mut self, gpu: &mut ViewerGpu) -> Result<()> {
+        if self.depth_job.is_none() && self.milestones.first_frame_ms.is_some() {
+            if let Some(plan) = &self.depth_plan {
+                eprintln!(
+                    "estimating the depth of '{}' in the background",
+                    self.lf.name
+                );
+                match DepthJob::start(Arc::clone(&self.lf), plan.gpu.clone()) {
+                    Ok(job) => self.depth_job = Some(job),
+                    Err(e) => self.depth_failed(e.to_string()),
+                }
+            }
+        }
+        let Some(job) = self.depth_job.as_mut() else {
+            return Ok(());
+        };
+        let Some(result) = job.poll(&self.lf.name) else {
+            let (done, total) = job.progress();
+            let now = DepthState::Estimating { done, total };
+            if self.depth.state != now {
+                self.depth.state = now;
+                self.dirty.text = true;
+            }
+            return Ok(());
+        };
+        let elapsed = job.elapsed_s();
+        self.depth_job = None;
+        let plan = self.depth_plan.take();
+        let estimated = match result {
+            Ok(e) => e,
+            Err(e) => {
+                self.depth_failed(e.to_string());
+                return Ok(());
+            }
+        };
+        self.depth_validation_errors += estimated.validation_errors;
+        let origin = estimated.origin;
+        if let DepthOrigin::Estimated { estimate, .. } = &origin {
+            // The job's thread has ended and dropped its reference: no copy of the views.
+            let lf = Arc::make_mut(&mut self.lf);
+            if let Err(e) = crate::depth::cache::install(lf, estimate) {
+                self.depth_failed(e.to_string());
+                return Ok(());
+            }
+        }
+        let lf = Arc::clone(&self.lf);
+        self.depth = DepthCache::new(&lf, lf.view_depth().ok())?;
+        if let Some(c) = &self.depth.cloud {
+            gpu.set_cloud(&c.vertices())?;
+        }
+        eprintln!(
+            "depth of '{}' ready after {elapsed:.1} s: the point cloud, clicks and \
+             anti-aliasing are on",
+            lf.name
+        );
+        self.milestones.depth_ready_ms = Some(self.since_launch_ms());
+        let plan = plan.as_ref();
+        self.act(Action::DepthArrived {
+            normal_window: origin.normal_window(),
+            antialias: plan.is_some_and(|p| p.antialias),
+            focus: plan
+                .is_some_and(|p| p.default_focus)
+                .then(|| default_focus(&lf, self.depth.depth.as_ref())),
+        });
+        let (centre, keep, array) = framing(&lf, &self.depth);
+        let scene = self.layout.scene;
+        self.act(Action::Reframe {
+            centre,
+            keep,
+            array,
+            aspect: scene.width.max(1.0) as f64 / scene.height.max(1.0) as f64,
+        });
+        self.depth_origin = Some(origin);
+        self.dirty.window_changed();
+        self.dirty.cloud = true;
+        Ok(())
+    }
+
+    fn depth_failed(&mut self, why: String) {
+        log::warn!(
+            "no depth for '{}': {why}; clicks and the point cloud are off",
+            self.lf.name
+        );
+        self.depth_plan = None;
+        self.depth.state = DepthState::Unavailable(format!("no depth ({why})"));
+        self.refuse(format!("no depth: {why}"));
     }
 
     /// Applies `action` to the state and notes what to redraw.
     pub fn act(&mut self, action: Action) -> Effect {
         let orbit = self.state.orbit;
-        let effect = self.state.apply(self.lf, action);
+        let field = Field::of(&action);
+        let message = self.state.message.clone();
+        let effect = self.state.apply(&self.lf, action);
+        if let (Some(field), Effect::Changed) = (field, &effect) {
+            self.highlight = Some((field, Instant::now()));
+        }
+        if self.state.message != message {
+            // A new message is anchored by the click that caused it, if any (set after this).
+            self.message_at = None;
+        }
         if self.state.orbit != orbit {
             // The cached cloud layer was rendered from the old scene camera.
             self.dirty.scene = true;
@@ -179,27 +399,45 @@ impl<'a> Session<'a> {
     /// single-click plane, or with `shift` one of three clicks.
     pub fn click_refocus(&mut self, p: DVec2, shift: bool) {
         let reference = self.state.plan.reference_camera;
-        match self.depth.depth_pixel(self.lf, &reference, p) {
-            Ok(d) => {
-                self.interact(if shift {
-                    Action::ThreeClick(d)
-                } else {
-                    Action::Click(d)
-                });
-            }
+        match self.depth.depth_pixel(&self.lf, &reference, p) {
+            Ok(d) => self.click_depth_pixel(d, shift),
             Err(why) => self.refuse(why),
+        }
+        let size = (self.lf.width, self.lf.height);
+        self.anchor_message(self.layout.refocus_to_window(p, size));
+    }
+
+    /// A click at depth-view pixel `d` (what scripts give): a single-click plane, or with
+    /// `shift` one of three clicks; a refusal is shown where the click landed.
+    pub fn click_depth_pixel(&mut self, d: DVec2, shift: bool) {
+        self.interact(if shift {
+            Action::ThreeClick(d)
+        } else {
+            Action::Click(d)
+        });
+        let size = (self.lf.width, self.lf.height);
+        self.anchor_message(self.layout.refocus_to_window(d, size));
+    }
+
+    /// The state's message (if any) is about a click at window position `at`.
+    fn anchor_message(&mut self, at: DVec2) {
+        if self.state.message.is_some() {
+            self.message_at = Some(at);
+            self.dirty.text = true;
         }
     }
 
     /// A click at pixel `p` of the scene panel: picks the cloud point there.
     pub fn click_scene(&mut self, p: DVec2) {
         let size = self.scene_size();
-        match self.depth.scene_pick(self.lf, &self.state.orbit, size, p) {
+        match self.depth.scene_pick(&self.lf, &self.state.orbit, size, p) {
             Ok(point) => {
                 self.interact(Action::ScenePick(point));
             }
             Err(why) => self.refuse(why),
         }
+        let scene = self.layout.scene;
+        self.anchor_message(DVec2::new(scene.x as f64, scene.y as f64) + p);
     }
 
     /// A video key: steps or plays the video, or says this is no video.
@@ -243,8 +481,9 @@ impl<'a> Session<'a> {
 
     /// Lays the window out for `size` and rebuilds the GPU's window-size images.
     pub fn resize(&mut self, gpu: &mut ViewerGpu, size: (u32, u32)) -> Result<()> {
-        let lf = self.lf;
+        let lf = &self.lf;
         self.layout = Layout::new(size.0, size.1, (lf.width, lf.height));
+        self.panel = ControlPanel::new(self.layout.scene, self.panel.distance_centre);
         gpu.resize(
             vk::Extent2D {
                 width: size.0,
@@ -279,7 +518,8 @@ impl<'a> Session<'a> {
     /// The image is final (`wait-converged`): refinement is complete for the current state,
     /// and no video frame asked for is still on its way.
     pub fn converged(&self) -> bool {
-        self.video.as_ref().map_or(true, Video::settled)
+        !self.depth_pending()
+            && self.video.as_ref().map_or(true, Video::settled)
             && self.refinement.refiner.converged()
             && self.refinement.is_current(self.state.version)
     }
@@ -287,8 +527,13 @@ impl<'a> Session<'a> {
     /// Restarts refinement after a change (full size once the input stops) and plans the next
     /// frame; `None` when there is nothing to draw.
     pub fn next_frame(&mut self, interactive: bool) -> Option<FramePlan> {
+        if self.highlight_left() == Some(Duration::ZERO) {
+            self.highlight = None;
+            self.dirty.text = true;
+        }
         if self.aa_version != self.state.version {
             self.aa = self.antialias_plan();
+            self.surface = self.surface_plan();
             self.aa_version = self.state.version;
         }
         let state = &self.state;
@@ -327,7 +572,7 @@ impl<'a> Session<'a> {
         }
         let s = &self.state;
         crate::refocus::antialias::plan_antialias(
-            self.lf,
+            &self.lf,
             &s.plan,
             s.aperture(),
             s.excluded(),
@@ -338,16 +583,44 @@ impl<'a> Session<'a> {
         .ok()
     }
 
+    /// The state's focus surface with the scene depth, when it is more than the plane: the
+    /// same `refocus::surface::surface_for` as `render`, reading anti-aliasing's depth when
+    /// that is on. The state checked its geometry; what fails here (no depth) is shown.
+    fn surface_plan(&mut self) -> Option<SurfacePlan> {
+        let surface = self.state.surface();
+        if !surface.needs_depth() {
+            return None;
+        }
+        let made = crate::refocus::surface::surface_for(
+            &self.lf,
+            &self.state.plan,
+            &surface,
+            self.aa.as_ref(),
+        );
+        match made {
+            Ok(sp) => Some(sp),
+            Err(e) => {
+                log::warn!("the focus surface is off for this view: {e}");
+                self.refuse(format!("focus surface off: {e}"));
+                None
+            }
+        }
+    }
+
     /// Redraws the on-screen text if it changed; returns the new status line (for the title).
     pub fn redraw_text(&mut self) -> Option<String> {
         if !self.dirty.text {
             return None;
         }
         let status = Status {
-            lf: self.lf,
+            lf: &self.lf,
             state: &self.state,
+            depth: &self.depth.state,
             refinement: &self.refinement,
             fps: self.stats.fps,
+            highlight: self.highlight.map(|(f, _)| f),
+            message_at: self.message_at,
+            panel: self.state.show_panel.then_some(&self.panel),
         };
         let line = self.hud.draw(&self.layout, &status);
         self.dirty.text = false;
@@ -357,7 +630,7 @@ impl<'a> Session<'a> {
     /// Records and presents the frame `plan` (its batch goes to the GPU).
     pub fn draw(&mut self, gpu: &mut ViewerGpu, plan: &mut FramePlan) -> Result<FrameResult> {
         let overlay = if self.dirty.scene {
-            Some(scene::scene_overlay(self.lf, &self.state, &self.depth)?)
+            Some(scene::scene_overlay(&self.lf, &self.state, &self.depth)?)
         } else {
             None
         };
@@ -369,6 +642,7 @@ impl<'a> Session<'a> {
         let result = gpu.frame(FrameRequest {
             plan: &self.refinement.ordered,
             antialias: self.refinement.ordered_aa.as_ref(),
+            surface: self.surface.as_ref(),
             averaging: self.state.averaging(),
             batch: plan.batch.take(),
             scene: overlay.as_ref().map(|o| (view, o, self.dirty.cloud)),
@@ -396,6 +670,9 @@ impl<'a> Session<'a> {
         result: FrameResult,
     ) -> Result<()> {
         self.stats.presented(plan.interactive);
+        if self.milestones.first_frame_ms.is_none() {
+            self.milestones.first_frame_ms = Some(self.since_launch_ms());
+        }
         let converged_now = full_size && self.refinement.refiner.converged();
         let mut timings: Vec<_> = result.timing.into_iter().collect();
         if converged_now {
@@ -412,9 +689,11 @@ impl<'a> Session<'a> {
         if let Some(prefix) = self.screenshots.next.take() {
             screenshot::save(
                 gpu,
-                self.lf,
+                &self.lf,
                 &self.state,
                 self.aa.as_ref(),
+                self.surface.as_ref(),
+                self.depth_origin.as_ref(),
                 &prefix,
                 result.window.as_ref(),
                 self.stats.frames,
@@ -422,4 +701,16 @@ impl<'a> Session<'a> {
         }
         Ok(())
     }
+}
+
+/// What the scene panel frames: the cloud's centre (if there is a cloud), the points to keep
+/// in view (its box corners and the camera centres) and the camera array.
+pub fn framing(
+    lf: &LightField,
+    depth: &DepthCache,
+) -> (Option<glam::DVec3>, Vec<glam::DVec3>, Vec<glam::DVec3>) {
+    let cameras: Vec<glam::DVec3> = lf.views.iter().map(|v| v.camera.centre()).collect();
+    let mut keep = depth.corners();
+    keep.extend(&cameras);
+    (depth.centre(), keep, cameras)
 }

@@ -22,10 +22,27 @@ const PLANE_HALF_OF_DIAGONAL: f64 = 0.3;
 /// Opacity of the plane quad in the scene panel.
 const PLANE_OPACITY: f32 = 0.28;
 const REFERENCE_COLOUR: [u8; 3] = [255, 230, 0];
+/// The focus surface's further planes (kept planes, a slab's boundaries): a lighter blue
+/// than the focus plane's, so the plane that moves stays apparent.
+const SURFACE_COLOUR: [u8; 3] = [110, 200, 255];
 
 fn line(out: &mut SceneOverlay, a: DVec3, b: DVec3, c: [u8; 3]) {
     out.lines.push(ColourVertex::new(a, c, 1.0));
     out.lines.push(ColourVertex::new(b, c, 1.0));
+}
+
+/// Points along a thick line: the scene pass draws points (as camera centres, half a marker
+/// wide) but its lines are one pixel wide (`wideLines` is optional in Vulkan), so the optical
+/// axis and the normal, which a reader follows across the panel, are drawn as a dense row of
+/// points over the line.
+const THICK_LINE_POINTS: usize = 400;
+
+fn thick_line(out: &mut SceneOverlay, a: DVec3, b: DVec3, c: [u8; 3]) {
+    line(out, a, b, c);
+    out.points.extend((0..=THICK_LINE_POINTS).map(|i| {
+        let t = i as f64 / THICK_LINE_POINTS as f64;
+        ColourVertex::new(a.lerp(b, t), c, 1.0)
+    }));
 }
 
 /// The frustum of `cam` over the view's image rectangle, cut at depth `s`.
@@ -117,20 +134,44 @@ pub fn scene_overlay(
     let reference = &geometry.reference_camera;
     frustum(&mut out, lf, reference, scale * 1.2, REFERENCE_COLOUR);
     let axis = geometry.optical_axis;
-    line(&mut out, axis.a, axis.b, OPTICAL_AXIS_COLOUR);
+    thick_line(&mut out, axis.a, axis.b, OPTICAL_AXIS_COLOUR);
     if let Some(n) = geometry.normal_line {
-        line(&mut out, n.a, n.b, NORMAL_COLOUR);
+        thick_line(&mut out, n.a, n.b, NORMAL_COLOUR);
     }
     if let Some(q) = &geometry.plane {
         for i in 0..4 {
             line(&mut out, q.corners[i], q.corners[(i + 1) % 4], PLANE_COLOUR);
         }
     }
-    out.triangles
-        .extend(geometry.plane_vertices().into_iter().map(|mut v| {
-            v.colour[3] = PLANE_OPACITY;
-            v
-        }));
+    let mut quads: Vec<ColourVertex> = geometry.plane_vertices();
+    // Every further plane of the focus surface (kept planes; a slab's two boundaries) as its
+    // own outlined transparent quad, the same size as the focus plane's, centred where the
+    // focus quad's centre projects onto it.
+    if let Some(q) = &geometry.plane {
+        let r = geometry.reference_camera.r;
+        for p in state.surface().planes_to_draw(&q.plane).iter().skip(1) {
+            let other = q.moved_to(p, &r);
+            for i in 0..4 {
+                line(
+                    &mut out,
+                    other.corners[i],
+                    other.corners[(i + 1) % 4],
+                    SURFACE_COLOUR,
+                );
+            }
+            let tint = ColourVertex::new(DVec3::ZERO, SURFACE_COLOUR, 1.0).colour;
+            quads.extend(
+                other
+                    .vertices()
+                    .iter()
+                    .map(|v| ColourVertex { colour: tint, ..*v }),
+            );
+        }
+    }
+    out.triangles.extend(quads.into_iter().map(|mut v| {
+        v.colour[3] = PLANE_OPACITY;
+        v
+    }));
     out.markers.extend(
         picks(state, depth)
             .iter()

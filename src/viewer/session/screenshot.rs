@@ -8,9 +8,11 @@ use image::RgbaImage;
 
 use super::super::gpu::ViewerGpu;
 use super::super::state::ViewerState;
+use crate::depth::DepthOrigin;
 use crate::error::Result;
 use crate::lightfield::LightField;
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::surface::SurfacePlan;
 
 /// Screenshots asked for and taken.
 pub struct Screenshots {
@@ -45,9 +47,15 @@ fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
 }
 
 /// The state of a screenshot: the plan as `render --json` reports it, with the focus method,
-/// aperture, averaging and anti-aliasing (`aa`: its plan when on), so `render` can reproduce
-/// `PREFIX_refocus.png`.
-pub fn screenshot_json(state: &ViewerState, aa: Option<&AntialiasPlan>) -> serde_json::Value {
+/// aperture, averaging, anti-aliasing (`aa`: its plan when on) and the focus surface
+/// (`surface`: resolved with the depth, when more than one plane; as `render --json`'s
+/// `surface`), so `render` can reproduce `PREFIX_refocus.png`.
+pub fn screenshot_json(
+    state: &ViewerState,
+    aa: Option<&AntialiasPlan>,
+    surface: Option<&SurfacePlan>,
+    depth: Option<&DepthOrigin>,
+) -> serde_json::Value {
     let mut v = crate::refocus::plan_json(aa.map_or(&state.plan, |a| &a.plan));
     if let Some(obj) = v.as_object_mut() {
         obj.insert("focus_how".into(), state.resolved.how.into());
@@ -63,30 +71,70 @@ pub fn screenshot_json(state: &ViewerState, aa: Option<&AntialiasPlan>) -> serde
             "antialias".into(),
             crate::refocus::antialias::antialias_json(aa, None),
         );
+        obj.insert("surface".into(), surface_json(state, surface, depth));
+        // What the panel says (a refusal, a pick in progress): scripts can check it.
+        obj.insert("message".into(), state.message.clone().into());
     }
     v
 }
 
+/// The focus surface as `render --json` reports it (`kind`, `planes`, `slab_half_width`, …);
+/// a single plane without depth as `{"kind": "plane", "planes": [the plane]}`.
+pub fn surface_json(
+    state: &ViewerState,
+    surface: Option<&SurfacePlan>,
+    depth: Option<&DepthOrigin>,
+) -> serde_json::Value {
+    // Where the depth came from, by name (the full origin carries the whole estimate).
+    let origin = depth.map(|o| match o {
+        DepthOrigin::Given { source } => serde_json::json!({"origin": "given", "source": source}),
+        DepthOrigin::Estimated { cached, .. } => {
+            serde_json::json!({"origin": "estimated", "cached": cached})
+        }
+    });
+    match surface {
+        Some(sp) => sp.json(origin),
+        None => {
+            let planes: Vec<_> = state
+                .plan
+                .plane
+                .iter()
+                .map(|p| {
+                    serde_json::json!({
+                        "point": [p.point.x, p.point.y, p.point.z],
+                        "normal": [p.normal.x, p.normal.y, p.normal.z],
+                    })
+                })
+                .collect();
+            serde_json::json!({"kind": "plane", "planes": planes})
+        }
+    }
+}
+
 /// Writes `PREFIX_refocus.png`, `PREFIX_scene.png`, `PREFIX_window.png` (the composed `window`
 /// of this frame) and `PREFIX.json`; `frames` is the number of frames presented so far.
+#[allow(clippy::too_many_arguments)]
 pub fn save(
     gpu: &mut ViewerGpu,
     lf: &LightField,
     state: &ViewerState,
     aa: Option<&AntialiasPlan>,
+    surface: Option<&SurfacePlan>,
+    depth: Option<&DepthOrigin>,
     prefix: &Path,
     window: Option<&RgbaImage>,
     frames: usize,
 ) -> Result<()> {
     let full = state.plan.clone();
-    let refocus = gpu.capture_refocus(&full, aa, state.averaging(), (lf.width, lf.height))?;
+    let refocus =
+        gpu.capture_refocus(&full, aa, surface, state.averaging(), (lf.width, lf.height))?;
     crate::io::save_png(&refocus, &with_suffix(prefix, "_refocus.png"))?;
     let scene = gpu.capture_scene()?;
     crate::io::save_png(&scene, &with_suffix(prefix, "_scene.png"))?;
     if let Some(w) = window {
         crate::io::save_png(w, &with_suffix(prefix, "_window.png"))?;
     }
-    let mut json = screenshot_json(state, aa);
+    let mut json = screenshot_json(state, aa, surface, depth);
     if let Some(obj) = json.as_object_mut() {
         if let Some(f) = state.frame {
             obj.insert("frame".into(), f.into());
