@@ -332,6 +332,69 @@ pub fn install(lf: &mut LightField, est: &DepthEstimate) -> Result<()> {
     lf.validate()
 }
 
+/// Installs a classic shift-and-sum disparity map of the middle view `(cols/2, rows/2)`,
+/// handed over with a grid of views (the Python module's `from_array(depth=…)`), as
+/// [`install`] installs an estimate of a grid folder: the grid's cameras take the nominal
+/// sensor shift of the map's range ([`super::nominal_rig`]) and the map becomes depth under
+/// it, so a plane picked on it refocuses exactly there. NaN marks pixels without a value.
+pub fn install_classic_disparity(
+    lf: &mut LightField,
+    values: Vec<f32>,
+    focal_px: f64,
+    baseline: f64,
+) -> Result<()> {
+    if values.len() != lf.width as usize * lf.height as usize {
+        return Err(Error::Invalid(format!(
+            "the disparity map has {} values, the views {}×{} pixels",
+            values.len(),
+            lf.width,
+            lf.height
+        )));
+    }
+    let finite = values.iter().filter(|v| v.is_finite()).map(|&v| v as f64);
+    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if lo > hi {
+        return Err(Error::Invalid(
+            "the disparity map has no finite value; pass depth=None for a light field without \
+             depth"
+                .into(),
+        ));
+    }
+    // A flat map has no range to place infinity beyond: give it one pixel per grid step.
+    let range = if lo < hi {
+        (lo, hi)
+    } else {
+        (lo - 0.5, hi + 0.5)
+    };
+    let rig = super::nominal_rig(focal_px, baseline, range);
+    for (v, camera) in lf
+        .views
+        .iter_mut()
+        .zip(rig.cameras(lf.grid, lf.width, lf.height))
+    {
+        v.camera = camera;
+    }
+    let depth = values
+        .iter()
+        .map(|&d| {
+            rig.depth_of_disparity(-(d as f64))
+                .map_or(f32::NAN, |z| z as f32)
+        })
+        .collect();
+    let reference = lf.grid.index(lf.grid.cols / 2, lf.grid.rows / 2);
+    let map = crate::lightfield::DepthMap {
+        width: lf.width,
+        height: lf.height,
+        kind: crate::lightfield::DepthKind::Depth,
+        values: depth,
+        source: format!("{} disparity map", lf.name),
+    };
+    lf.depth.push((reference, map));
+    lf.validate()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
