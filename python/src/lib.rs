@@ -190,6 +190,60 @@ fn planes_of(value: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<Plane>> {
         .collect()
 }
 
+/// A pick keyword's value (`click`, `points`, `points_3d`): a sequence of numbers, or None.
+type Pick<'a, 'py> = Option<&'a Bound<'py, PyAny>>;
+
+/// The focus keywords of `refocus` and `plane` as the library's focus options (checked:
+/// exactly one focus, refinements that belong to it).
+#[allow(clippy::too_many_arguments)] // the focus keywords, grouped where they belong together
+fn focus_options(
+    disparity: Option<f64>,
+    plane: Option<&Bound<'_, PyAny>>,
+    focus: Option<f64>,
+    (tilt, swing): (f64, f64),
+    (click, points, points_3d): (Pick<'_, '_>, Pick<'_, '_>, Pick<'_, '_>),
+    (nudge_distance, nudge_tilt, nudge_swing): (Option<f64>, Option<f64>, Option<f64>),
+    normal_window: Option<u32>,
+    normal_method: &str,
+) -> PyResult<FocusOptions> {
+    let focus = FocusOptions {
+        disparity,
+        planes: planes_of(plane)?,
+        focus,
+        tilt,
+        swing,
+        click: numbers_of(click, 2, "--click")?.map(|v| DVec2::new(v[0], v[1])),
+        points: numbers_of(points, 6, "--points")?.map(|v| {
+            [
+                DVec2::new(v[0], v[1]),
+                DVec2::new(v[2], v[3]),
+                DVec2::new(v[4], v[5]),
+            ]
+        }),
+        points_3d: numbers_of(points_3d, 9, "--points-3d")?.map(|v| {
+            [
+                DVec3::new(v[0], v[1], v[2]),
+                DVec3::new(v[3], v[4], v[5]),
+                DVec3::new(v[6], v[7], v[8]),
+            ]
+        }),
+        nudge: (nudge_distance.is_some() || nudge_tilt.is_some() || nudge_swing.is_some()).then(
+            || Nudge {
+                distance: nudge_distance.unwrap_or(0.0),
+                tilt_deg: nudge_tilt.unwrap_or(0.0),
+                swing_deg: nudge_swing.unwrap_or(0.0),
+            },
+        ),
+        normal_window,
+        normal_method: choice(Some(normal_method))?.unwrap_or_default(),
+    };
+    focus.validate().map_err(py_err)?;
+    Ok(focus)
+}
+
+/// A plane as `((px, py, pz), (nx, ny, nz))`.
+type PointNormal = ((f64, f64, f64), (f64, f64, f64));
+
 /// A [`Session`] that may move between threads (Python may hand a `LightField` to any thread,
 /// and its renders run with the GIL released).
 struct SendSession(Session);
@@ -207,7 +261,7 @@ unsafe impl Send for SendSession {}
 #[pyclass(module = "tiltfield", frozen)]
 struct LightField {
     session: Mutex<SendSession>,
-    /// GPU time of the last render's refocus pass, ms (`None`: no render yet or no timer).
+    /// GPU time of the last render's passes, ms (`None`: no render yet or no timer).
     last_gpu_ms: Mutex<Option<f64>>,
     #[pyo3(get)]
     /// Short name of the light field (its folder, or "array").
@@ -256,8 +310,10 @@ impl LightField {
         lock(&self.session).0.uploaded()
     }
 
-    /// GPU time in milliseconds of the last :meth:`refocus` call's refocus pass (timestamp
-    /// queries), or ``None`` before the first call or on a device without timers.
+    /// GPU time in milliseconds of the last :meth:`refocus` call (its refocus and resolve
+    /// passes, from timestamp queries), or ``None`` before the first call or on a device
+    /// without timers. The call's wall time less this is its overhead: upload (first call),
+    /// planning, submission, readback and conversion.
     #[getter]
     fn last_gpu_ms(&self) -> Option<f64> {
         *lock(&self.last_gpu_ms)
@@ -380,37 +436,16 @@ impl LightField {
         storage: Option<&str>,
         linear: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let focus = FocusOptions {
+        let focus = focus_options(
             disparity,
-            planes: planes_of(plane)?,
+            plane,
             focus,
-            tilt,
-            swing,
-            click: numbers_of(click, 2, "--click")?.map(|v| DVec2::new(v[0], v[1])),
-            points: numbers_of(points, 6, "--points")?.map(|v| {
-                [
-                    DVec2::new(v[0], v[1]),
-                    DVec2::new(v[2], v[3]),
-                    DVec2::new(v[4], v[5]),
-                ]
-            }),
-            points_3d: numbers_of(points_3d, 9, "--points-3d")?.map(|v| {
-                [
-                    DVec3::new(v[0], v[1], v[2]),
-                    DVec3::new(v[3], v[4], v[5]),
-                    DVec3::new(v[6], v[7], v[8]),
-                ]
-            }),
-            nudge: (nudge_distance.is_some() || nudge_tilt.is_some() || nudge_swing.is_some())
-                .then(|| Nudge {
-                    distance: nudge_distance.unwrap_or(0.0),
-                    tilt_deg: nudge_tilt.unwrap_or(0.0),
-                    swing_deg: nudge_swing.unwrap_or(0.0),
-                }),
+            (tilt, swing),
+            (click, points, points_3d),
+            (nudge_distance, nudge_tilt, nudge_swing),
             normal_window,
-            normal_method: choice(Some(normal_method))?.unwrap_or_default(),
-        };
-        focus.validate().map_err(py_err)?;
+            normal_method,
+        )?;
         let options = RenderOptions {
             focus,
             slab,
@@ -447,7 +482,7 @@ impl LightField {
             let (image, timings, _) = session.render(&options, &progress)?;
             Ok((image, timings))
         })?;
-        *lock(&self.last_gpu_ms) = timings.map(|t| t.refocus_ms);
+        *lock(&self.last_gpu_ms) = timings.map(|t| t.refocus_ms + t.resolve_ms);
         image_to_numpy(py, image)
     }
 
@@ -484,38 +519,17 @@ impl LightField {
         aperture_radius: Option<f64>,
         view: Option<&Bound<'py, PyAny>>,
         include_dark: bool,
-    ) -> PyResult<Option<((f64, f64, f64), (f64, f64, f64))>> {
-        let focus = FocusOptions {
+    ) -> PyResult<Option<PointNormal>> {
+        let focus = focus_options(
             disparity,
-            planes: planes_of(plane)?,
+            plane,
             focus,
-            tilt,
-            swing,
-            click: numbers_of(click, 2, "--click")?.map(|v| DVec2::new(v[0], v[1])),
-            points: numbers_of(points, 6, "--points")?.map(|v| {
-                [
-                    DVec2::new(v[0], v[1]),
-                    DVec2::new(v[2], v[3]),
-                    DVec2::new(v[4], v[5]),
-                ]
-            }),
-            points_3d: numbers_of(points_3d, 9, "--points-3d")?.map(|v| {
-                [
-                    DVec3::new(v[0], v[1], v[2]),
-                    DVec3::new(v[3], v[4], v[5]),
-                    DVec3::new(v[6], v[7], v[8]),
-                ]
-            }),
-            nudge: (nudge_distance.is_some() || nudge_tilt.is_some() || nudge_swing.is_some())
-                .then(|| Nudge {
-                    distance: nudge_distance.unwrap_or(0.0),
-                    tilt_deg: nudge_tilt.unwrap_or(0.0),
-                    swing_deg: nudge_swing.unwrap_or(0.0),
-                }),
+            (tilt, swing),
+            (click, points, points_3d),
+            (nudge_distance, nudge_tilt, nudge_swing),
             normal_window,
-            normal_method: choice(Some(normal_method))?.unwrap_or_default(),
-        };
-        focus.validate().map_err(py_err)?;
+            normal_method,
+        )?;
         let options = RenderOptions {
             focus,
             aperture: Aperture {
@@ -695,7 +709,13 @@ fn views_of(views: &Bound<'_, PyAny>) -> PyResult<(GridSize, Vec<image::RgbaImag
         (rows, cols, h, w, c): (usize, usize, u32, u32, usize),
         encode: impl Fn(T, usize) -> u8,
     ) -> Vec<image::RgbaImage> {
-        let a = array.as_array();
+        // Fixed rank for fast indexing (the shape was checked to be 5-D).
+        let Ok(a) = array
+            .as_array()
+            .into_dimensionality::<numpy::ndarray::Ix5>()
+        else {
+            return Vec::new();
+        };
         let mut images = Vec::with_capacity(rows * cols);
         for t in 0..rows {
             for s in 0..cols {
