@@ -400,6 +400,41 @@ mod tests {
     use super::*;
 
     #[test]
+    fn an_installed_classic_disparity_map_puts_larger_disparity_farther() {
+        use crate::lightfield::{grid_folder, DepthKind, GridCameraOptions, GridSize};
+        let grid = GridSize { cols: 3, rows: 3 };
+        let images = vec![image::RgbaImage::new(4, 2); 9];
+        let opts = GridCameraOptions {
+            focal_px: Some(100.0),
+            baseline: 0.5,
+        };
+        let mut lf = grid_folder::from_images("t", grid, images, &opts).unwrap();
+        let values = vec![-1.0, 0.0, 0.5, 1.0, f32::NAN, -1.0, 0.0, 1.0];
+        install_classic_disparity(&mut lf, values, 100.0, 0.5).unwrap();
+        let (view, map) = &lf.depth[0];
+        assert_eq!(
+            (*view, map.kind),
+            (4, DepthKind::Depth),
+            "the middle view's depth"
+        );
+        let z = &map.values;
+        assert!(z[0] < z[1] && z[1] < z[2] && z[2] < z[3], "{z:?}");
+        assert!(z[4].is_nan() && z[..4].iter().all(|v| v.is_finite() && *v > 0.0));
+        // The cameras took the nominal sensor shift: the principal points moved.
+        assert_ne!(lf.views[0].camera.k, lf.views[4].camera.k);
+        let e = install_classic_disparity(&mut lf, vec![1.0; 3], 100.0, 0.5).unwrap_err();
+        assert!(e.to_string().contains("3 values"), "{e}");
+        let flat = grid_folder::from_images("t", grid, vec![image::RgbaImage::new(2, 1); 9], &opts);
+        let mut flat = flat.unwrap();
+        install_classic_disparity(&mut flat, vec![0.0, 0.0], 100.0, 0.5).unwrap();
+        assert!(flat.depth[0]
+            .1
+            .values
+            .iter()
+            .all(|v| v.is_finite() && *v > 0.0));
+    }
+
+    #[test]
     fn the_hash_rides_on_the_metadata_text_and_any_edit_breaks_it() {
         let meta = "{\n  \"width\": 3,\n  \"range\": [0.1, 0.30000000000000004]\n}";
         let h = entry_hash("k", meta, b"data");

@@ -104,3 +104,35 @@ impl DepthRequest {
         Ok(options)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn requests_are_checked_as_the_cli_checks_its_options() {
+        let ok = DepthRequest::default().options().unwrap();
+        assert_eq!(ok, DepthOptions::default());
+        let view = DepthRequest {
+            reference: Some((1.5, 2.0)),
+            ..DepthRequest::default()
+        };
+        let e = view.options().unwrap_err().to_string();
+        assert!(e.starts_with("--view 1.5,2: the reference"), "{e}");
+        let naive = DepthRequest {
+            naive: true,
+            cost: Some(CostKind::Mean),
+            ..DepthRequest::default()
+        };
+        assert!(naive.options().unwrap_err().to_string().contains("--naive"));
+        assert_eq!(
+            parse_kind("height").unwrap_err().to_string(),
+            "unknown --kind 'height': expected disparity or depth"
+        );
+        let no_fit = DepthRequest {
+            no_fit: true,
+            ..DepthRequest::default()
+        };
+        assert!(!no_fit.options().unwrap().params.fit);
+    }
+}

@@ -558,3 +558,67 @@ impl Session {
         self.renderer.is_some()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_from_numbers_are_refused_in_the_words_of_the_cli() {
+        assert_eq!(output_size(96, 80).unwrap(), (96, 80));
+        for (w, h) in [(0, 10), (-3, 5), (5, 1 << 40)] {
+            let e = output_size(w, h).unwrap_err().to_string();
+            assert_eq!(
+                e,
+                format!("--size: expected AxB with positive integers, got '{w}x{h}'")
+            );
+        }
+        let big = RenderOptions {
+            size: Some((MAX_OUTPUT_SIDE + 1, 8)),
+            ..RenderOptions::default()
+        };
+        assert!(big
+            .settings()
+            .unwrap_err()
+            .to_string()
+            .contains("at most 8192"));
+    }
+
+    #[test]
+    fn read_options_refuse_cameras_that_cannot_be() {
+        let bad = |o: ReadOptions| o.validate().unwrap_err().to_string();
+        let base = ReadOptions::default();
+        base.validate().unwrap();
+        assert_eq!(
+            bad(ReadOptions {
+                baseline: f64::INFINITY,
+                ..base.clone()
+            }),
+            "--baseline must be positive, got inf"
+        );
+        assert_eq!(
+            bad(ReadOptions {
+                focal_px: Some(-2.0),
+                ..base
+            }),
+            "--focal-px must be positive, got -2"
+        );
+    }
+
+    #[test]
+    fn the_storage_follows_the_averaging_unless_given() {
+        let encoded = RenderOptions {
+            averaging: Averaging::Encoded,
+            ..RenderOptions::default()
+        };
+        assert_eq!(
+            encoded.storage(),
+            ViewStorage::for_averaging(Averaging::Encoded)
+        );
+        let given = RenderOptions {
+            storage: Some(ViewStorage::Linear16),
+            ..encoded
+        };
+        assert_eq!(given.storage(), ViewStorage::Linear16);
+    }
+}
