@@ -321,14 +321,24 @@ pub fn make_plan(
     options: &RenderOptions,
     default_window: u32,
 ) -> Result<(RefocusPlan, ResolvedFocus)> {
+    let excluded = dark_views(lf, options.include_dark);
+    make_plan_excluding(lf, options, default_window, &excluded)
+}
+
+/// [`make_plan`] leaving out the views `excluded` marks (the dark views, found once).
+fn make_plan_excluding(
+    lf: &LightField,
+    options: &RenderOptions,
+    default_window: u32,
+    excluded: &[bool],
+) -> Result<(RefocusPlan, ResolvedFocus)> {
     let request = options.focus.request(default_window).ok_or_else(|| {
         Error::Invalid(
             "give one of --disparity, --plane, --focus, --click, --points or --points-3d".into(),
         )
     })?;
-    let excluded = dark_views(lf, options.include_dark);
     let (focus, plan) =
-        refocus::resolve_and_plan(lf, &request, options.aperture, options.reference, &excluded)?;
+        refocus::resolve_and_plan(lf, &request, options.aperture, options.reference, excluded)?;
     Ok((plan, focus))
 }
 
@@ -345,12 +355,21 @@ pub fn antialias_plan(
     if !aa_on {
         return Ok(None);
     }
-    let excluded = lf.excluded_views(options.include_dark);
+    antialias_plan_excluding(lf, options, plan, &lf.excluded_views(options.include_dark))
+}
+
+/// [`antialias_plan`], on, leaving out the views `excluded` marks.
+fn antialias_plan_excluding(
+    lf: &LightField,
+    options: &RenderOptions,
+    plan: &RefocusPlan,
+    excluded: &[bool],
+) -> Result<Option<AntialiasPlan>> {
     let made = refocus::antialias::plan_for(
         lf,
         plan,
         options.aperture,
-        &excluded,
+        excluded,
         options.antialias_settings()?,
     );
     match made {
@@ -371,6 +390,18 @@ pub fn prepare(
     lf: &mut LightField,
     options: &RenderOptions,
     progress: &ProgressBar,
+) -> Result<Prepared> {
+    prepare_excluding(ctx, lf, options, progress, None)
+}
+
+/// [`prepare`] with the views to leave out given (`None`: found here; a [`Session`] finds
+/// them once, since scanning every view for darkness costs more than planning).
+fn prepare_excluding(
+    ctx: &GpuContext,
+    lf: &mut LightField,
+    options: &RenderOptions,
+    progress: &ProgressBar,
+    excluded: Option<&[bool]>,
 ) -> Result<Prepared> {
     let settings = options.check()?;
     let surface = options.surface()?;
@@ -399,8 +430,19 @@ pub fn prepare(
         ),
         d => d,
     };
-    let (plan, focus) = make_plan(lf, options, window)?;
-    let antialias = antialias_plan(lf, options, &plan, aa_on)?;
+    let found;
+    let excluded = match excluded {
+        Some(e) => e,
+        None => {
+            found = dark_views(lf, options.include_dark);
+            &found
+        }
+    };
+    let (plan, focus) = make_plan_excluding(lf, options, window, excluded)?;
+    let antialias = match aa_on {
+        true => antialias_plan_excluding(lf, options, &plan, excluded)?,
+        false => None,
+    };
     let surface_plan = refocus::surface::surface_for(lf, &plan, &surface, antialias.as_ref())?;
     Ok(Prepared {
         settings,
@@ -459,6 +501,8 @@ pub struct Session {
     /// `lf` with the scene's depth ensured, made on the first render that needs it.
     with_depth: Option<LightField>,
     renderer: Option<HeadlessRenderer>,
+    /// Which views are (almost) black, found on the first request that leaves them out.
+    dark: Option<Vec<bool>>,
 }
 
 impl Session {
@@ -469,6 +513,7 @@ impl Session {
             lf,
             with_depth: None,
             renderer: None,
+            dark: None,
         }
     }
 
@@ -499,11 +544,30 @@ impl Session {
         self.with_depth.get_or_insert_with(|| self.lf.clone())
     }
 
+    /// The views a request leaves out: none with `include_dark`, else the dark ones (the
+    /// same in the copy with depth: its views are the same pixels).
+    fn excluded(&mut self, include_dark: bool) -> Vec<bool> {
+        if include_dark {
+            return vec![false; self.lf.views.len()];
+        }
+        let lf = &self.lf;
+        self.dark
+            .get_or_insert_with(|| dark_views(lf, false))
+            .clone()
+    }
+
     /// Plans `options` ([`prepare`]) on the light field the request sees.
     pub fn prepare(&mut self, options: &RenderOptions, progress: &ProgressBar) -> Result<Prepared> {
         let depth = self.needs_depth(options)?;
+        let excluded = self.excluded(options.include_dark);
         let ctx = std::sync::Arc::clone(&self.ctx);
-        prepare(&ctx, self.light_field_for(depth), options, progress)
+        prepare_excluding(
+            &ctx,
+            self.light_field_for(depth),
+            options,
+            progress,
+            Some(&excluded),
+        )
     }
 
     /// Resolves the focus of `options` alone (a click estimates depth when the light field
@@ -514,13 +578,14 @@ impl Session {
         progress: &ProgressBar,
     ) -> Result<ResolvedFocus> {
         let ctx = std::sync::Arc::clone(&self.ctx);
+        let excluded = self.excluded(options.include_dark);
         let lf = self.light_field_for(options.focus.needs_depth());
         let window = if options.focus.needs_depth() {
             crate::jobs::depth::ensure_for(&ctx, lf, progress)?.1
         } else {
             crate::geometry::normals::GIVEN_DEPTH_WINDOW
         };
-        Ok(make_plan(lf, options, window)?.1)
+        Ok(make_plan_excluding(lf, options, window, &excluded)?.1)
     }
 
     /// Renders `options` and reads the image back, uploading the views first when no render
