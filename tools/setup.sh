@@ -7,13 +7,15 @@
 #           cmake, python3, a C++ compiler and pkg-config (GLFW's bundled build, and shaderc's
 #           from-source fallback on systems without those packages)
 #   Window: X11 headers for GLFW's bundled build, xvfb for headless window tests
+#   Python: venv and headers for the Python module (tools/test.sh builds it into a virtual
+#           environment; pyo3 needs the interpreter's headers and `python3 -m venv`)
 # Needs root or sudo for apt-get; installs Rust with rustup only if cargo is missing.
 set -euo pipefail
 
 packages=(
   mesa-vulkan-drivers libvulkan1 libvulkan-dev vulkan-validationlayers vulkan-tools
   libshaderc-dev glslang-dev spirv-tools glslc
-  cmake python3 g++ pkg-config
+  cmake python3 python3-venv python3-dev g++ pkg-config
   libx11-dev libxrandr-dev libxinerama-dev libxcursor-dev libxi-dev libxkbcommon-dev xvfb
 )
 

@@ -12,9 +12,7 @@ use super::{
     LightFieldArgs,
 };
 use crate::depth::metrics::{score, HCI_BORDER};
-use crate::depth::{
-    Aggregation, CostKind, DepthEstimate, DepthKind, DepthOptions, SweepParams, ViewSet,
-};
+use crate::depth::{Aggregation, CostKind, DepthEstimate, DepthKind, DepthOptions, ViewSet};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::jobs::depth::estimate;
@@ -193,63 +191,33 @@ pub fn run_set(args: &DepthSetArgs) -> Result<()> {
     Ok(())
 }
 
-/// Parses `--kind`.
-fn parse_kind(text: &str) -> Result<DepthKind> {
-    match text {
-        "disparity" => Ok(DepthKind::Disparity),
-        "depth" => Ok(DepthKind::Depth),
-        _ => Err(Error::Invalid(format!(
-            "unknown --kind '{text}': expected disparity or depth"
-        ))),
-    }
-}
+use crate::depth::request::{parse_kind, DepthRequest};
 
-/// The library options of `args`.
+/// The library options of `args` (parsing only; [`DepthRequest::options`] checks them).
 pub fn options(args: &DepthArgs) -> Result<DepthOptions> {
-    let kind = args.kind.as_deref().map(parse_kind).transpose()?;
-    let range = args
-        .range
-        .as_deref()
-        .map(|t| parse_numbers(t, 2, "--range").map(|v| (v[0], v[1])))
-        .transpose()?;
-    let reference = args
-        .view
-        .as_deref()
-        .map(|t| {
-            let v = parse_numbers(t, 2, "--view")?;
-            if v.iter().any(|x| *x < 0.0 || x.fract() != 0.0 || *x > 1e6) {
-                return Err(Error::Invalid(format!(
-                    "--view {t}: the reference of a depth estimate is a real view: give whole \
-                     grid positions S,T"
-                )));
-            }
-            Ok((v[0] as usize, v[1] as usize))
-        })
-        .transpose()?;
-    let base = if args.naive {
-        SweepParams::baseline()
-    } else {
-        SweepParams::default()
-    };
-    let params = SweepParams {
-        cost: args.cost.unwrap_or(base.cost),
-        aggregation: args.aggregation.unwrap_or(base.aggregation),
-        radius: args.radius.unwrap_or(base.radius),
-        fit: base.fit && !args.no_fit,
-        median_radius: args.median.unwrap_or(base.median_radius),
-        ..base
-    };
-    let options = DepthOptions {
+    DepthRequest {
+        kind: args.kind.as_deref().map(parse_kind).transpose()?,
         planes: args.planes,
-        range,
-        range_kind: kind.unwrap_or(DepthKind::Disparity),
+        range: args
+            .range
+            .as_deref()
+            .map(|t| parse_numbers(t, 2, "--range").map(|v| (v[0], v[1])))
+            .transpose()?,
         views: args.views,
-        reference,
-        params,
+        reference: args
+            .view
+            .as_deref()
+            .map(|t| parse_numbers(t, 2, "--view").map(|v| (v[0], v[1])))
+            .transpose()?,
+        cost: args.cost,
+        aggregation: args.aggregation,
+        radius: args.radius,
+        naive: args.naive,
+        no_fit: args.no_fit,
+        median: args.median,
         include_dark: args.include_dark,
-    };
-    options.validate()?;
-    Ok(options)
+    }
+    .options()
 }
 
 /// Writes `values` as PFM or EXR by the extension of `path`.
@@ -419,57 +387,30 @@ pub fn run(args: &DepthArgs) -> Result<()> {
     Ok(())
 }
 
-/// For commands that need depth (`render --click/--points`, `cloud`): the light field's own map,
-/// or the estimate of its views with the default options, from the cache when there is one
-/// (a progress bar while sweeping). Returns where the depth came from and the default
-/// `--normal-window` for it.
+/// For commands that need depth (`render --click/--points`, `cloud`, `view`):
+/// [`crate::jobs::depth::ensure_for`] with a progress bar while it sweeps.
 pub(crate) fn ensure_for(
     ctx: &GpuContext,
     lf: &mut crate::lightfield::LightField,
 ) -> Result<(crate::depth::DepthOrigin, u32)> {
-    use crate::depth::DepthOrigin;
+    let bar = progress_bar_for(lf);
+    let r = crate::jobs::depth::ensure_for(ctx, lf, &bar);
+    bar.finish_and_clear();
+    r
+}
+
+/// The progress bar of a depth estimate on `lf`: hidden when `lf` has depth (nothing will be
+/// swept).
+pub(crate) fn progress_bar_for(lf: &crate::lightfield::LightField) -> indicatif::ProgressBar {
     if !lf.depth.is_empty() {
-        let origin = crate::jobs::depth::ensure_depth(
-            ctx,
-            lf,
-            &DepthOptions::default(),
-            &indicatif::ProgressBar::hidden(),
-        )?;
-        let window = origin.normal_window();
-        return Ok((origin, window));
+        return indicatif::ProgressBar::hidden();
     }
-    let bar = indicatif::ProgressBar::new(0).with_style(
+    indicatif::ProgressBar::new(0).with_style(
         indicatif::ProgressStyle::with_template(
             "estimating depth {bar:30} {pos}/{len} planes {elapsed}",
         )
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    let origin = crate::jobs::depth::ensure_depth(ctx, lf, &DepthOptions::default(), &bar)?;
-    bar.finish_and_clear();
-    if let DepthOrigin::Estimated {
-        cached, estimate, ..
-    } = &origin
-    {
-        log::info!(
-            "'{}' has no depth map: {} the depth of view ({}, {}) from its views",
-            lf.name,
-            if *cached {
-                "using the cached estimate of"
-            } else {
-                "estimated"
-            },
-            estimate.reference_st.0,
-            estimate.reference_st.1
-        );
-    }
-    let errors = ctx.validation().errors();
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors while estimating depth (see the log above)"
-        )));
-    }
-    let window = origin.normal_window();
-    Ok((origin, window))
+    )
 }
 
 /// The `depth` object of a command's `--json`: where the depth came from.

@@ -19,7 +19,8 @@ use crate::geometry::normals::{NormalMethod, NormalParams};
 use crate::geometry::picking::Nudge;
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
-use crate::refocus::{resolve_focus, FocusRequest, FocusSpec, FocusTarget, ResolvedFocus};
+use crate::refocus::options::{plane_of, FocusOptions};
+use crate::refocus::{resolve_focus, FocusRequest, FocusSpec, ResolvedFocus};
 
 /// Ids of all focus options, for the parent command's mutually exclusive group.
 pub const FOCUS_OPTIONS: [&str; 6] = [
@@ -90,10 +91,7 @@ impl PlaneArgs {
     pub fn planes(&self) -> Result<Vec<Plane>> {
         self.plane
             .iter()
-            .map(|text| {
-                let v = parse_numbers(text, 6, "--plane")?;
-                Plane::new(DVec3::new(v[0], v[1], v[2]), DVec3::new(v[3], v[4], v[5]))
-            })
+            .map(|text| plane_of(&parse_numbers(text, 6, "--plane")?))
             .collect()
     }
 
@@ -221,36 +219,51 @@ impl FocusArgs {
     /// [`FocusArgs::request_with_window`] that takes several `--plane`s (a focus surface,
     /// [`PlaneArgs::planes`]) and focuses on the first.
     pub fn request_of_first(&self, default_window: u32) -> Result<Option<FocusRequest>> {
-        if let Some((_, spec)) = self.keyboard.first_spec()? {
-            return Ok(Some(spec.into()));
-        }
-        let target = if let Some(text) = &self.click {
-            let v = parse_numbers(text, 2, "--click")?;
-            FocusTarget::Click {
-                pixel: DVec2::new(v[0], v[1]),
-                normals: self.normal_params(default_window),
-            }
-        } else if let Some(text) = &self.points {
-            let v = parse_numbers(text, 6, "--points")?;
-            FocusTarget::ThreeClicks([
+        Ok(self.options()?.request(default_window))
+    }
+
+    /// The options as numbers for the library ([`FocusOptions`]); parsing only.
+    pub fn options(&self) -> Result<FocusOptions> {
+        let pixels = |v: Vec<f64>| {
+            [
                 DVec2::new(v[0], v[1]),
                 DVec2::new(v[2], v[3]),
                 DVec2::new(v[4], v[5]),
-            ])
-        } else if let Some(text) = &self.points_3d {
-            let v = parse_numbers(text, 9, "--points-3d")?;
-            FocusTarget::ThreePoints([
-                DVec3::new(v[0], v[1], v[2]),
-                DVec3::new(v[3], v[4], v[5]),
-                DVec3::new(v[6], v[7], v[8]),
-            ])
-        } else {
-            return Ok(None);
+            ]
         };
-        Ok(Some(FocusRequest {
-            target,
+        Ok(FocusOptions {
+            disparity: self.keyboard.disparity,
+            planes: self.keyboard.planes()?,
+            focus: self.keyboard.focus,
+            tilt: self.keyboard.tilt,
+            swing: self.keyboard.swing,
+            click: self
+                .click
+                .as_deref()
+                .map(|t| parse_numbers(t, 2, "--click").map(|v| DVec2::new(v[0], v[1])))
+                .transpose()?,
+            points: self
+                .points
+                .as_deref()
+                .map(|t| parse_numbers(t, 6, "--points").map(pixels))
+                .transpose()?,
+            points_3d: self
+                .points_3d
+                .as_deref()
+                .map(|t| {
+                    parse_numbers(t, 9, "--points-3d").map(|v| {
+                        [
+                            DVec3::new(v[0], v[1], v[2]),
+                            DVec3::new(v[3], v[4], v[5]),
+                            DVec3::new(v[6], v[7], v[8]),
+                        ]
+                    })
+                })
+                .transpose()?,
             nudge: self.nudge(),
-        }))
+            normal_window: self.normal_window,
+            normal_method: self.normal_method,
+        })
     }
 
     /// The focus of these options on `lf` for the reference view `reference` (grid units), or

@@ -7,23 +7,26 @@ use std::sync::Arc;
 use serde_json::json;
 
 use super::focus::{focus_json, focus_summary};
-use super::render::{
-    antialias_plan, make_plan_with_window, plan_json, render_settings, RenderArgs,
-};
+use super::render::{plan_json, RenderArgs};
 use super::{check_output, device_load_limits};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::io::OutputKind;
 use crate::jobs::batch::{render_frames, BatchJob, FramePlan, OutputPattern};
+use crate::jobs::render::{antialias_plan, check_output_fits, make_plan};
 use crate::lightfield::technicolor::describe_frames;
 use crate::lightfield::video::{FrameRange, FrameSequence};
-use crate::passes::texture::ViewStorage;
 
 pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
     // Options and outputs first, then the video's listing, then the device: nothing is
     // decoded before everything that can be checked cheaply has been.
     let range: FrameRange = spec.parse()?;
-    if super::render::focus_surface(args)?.needs_depth() {
+    if args
+        .focus
+        .options()?
+        .surface(args.slab, args.all_in_focus)?
+        .needs_depth()
+    {
         return Err(Error::Invalid(
             "--frames renders one focus plane per frame; focus surfaces (several --plane, \
              --slab, --all-in-focus) are for single renders"
@@ -40,14 +43,12 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
     for &f in &frames {
         check_output(&pattern.path(f))?;
     }
-    let settings = render_settings(args, kind)?;
-    args.antialias.settings()?;
-    let storage = args
-        .storage
-        .unwrap_or_else(|| ViewStorage::for_averaging(args.aperture.average));
+    let options = super::render::options(args, kind)?;
+    let settings = options.check()?;
+    let storage = options.storage();
     let ctx = Arc::new(GpuContext::new(&args.gpu.options())?);
     if let Some(size) = settings.size {
-        super::render::check_output_fits(&ctx, size)?;
+        check_output_fits(&ctx, size)?;
     }
     let job = BatchJob {
         sequence: &sequence,
@@ -73,17 +74,16 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         |lf| {
             // The plane is fixed from the first frame; picks use a depth map the video
             // carries (the range does not estimate one per frame).
-            let (plan, f) = make_plan_with_window(lf, args, super::focus::GIVEN_DEPTH_WINDOW)?;
+            let (plan, f) = make_plan(lf, &options, super::focus::GIVEN_DEPTH_WINDOW)?;
             focus = Some(f);
             // Anti-aliasing's depth too comes from the first frame: the one the video
             // carries, or one estimated from it (`--antialias on`).
-            let aa_on = crate::refocus::antialias::wanted(args.antialias.requested(), lf);
+            let aa_on = crate::refocus::antialias::wanted(options.antialias, lf);
             let antialias = if aa_on {
                 let mut first = lf.clone();
                 depth_origin = Some(super::depth::ensure_for(&ctx, &mut first)?.0);
-                let (plan, _) =
-                    make_plan_with_window(&first, args, super::focus::GIVEN_DEPTH_WINDOW)?;
-                antialias_plan(&first, args, &plan, true)?
+                let (plan, _) = make_plan(&first, &options, super::focus::GIVEN_DEPTH_WINDOW)?;
+                antialias_plan(&first, &options, &plan, true)?
             } else {
                 None
             };

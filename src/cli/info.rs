@@ -86,6 +86,7 @@ pub fn run(args: &InfoArgs) -> Result<()> {
         Source::GridFolder { .. } => "grid of views named by row and column",
         Source::TechnicolorVideo(_) => "camera-array video, Technicolor layout",
         Source::Generated { .. } => "built-in scene",
+        Source::Arrays => "grid of views in memory",
     };
     println!("{} ({format})", lf.name);
     match &lf.source {

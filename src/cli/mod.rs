@@ -17,11 +17,10 @@ use clap::{Args, Parser, Subcommand};
 
 use glam::DVec2;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::geometry::aperture::{Aperture, ApertureShape};
-use crate::gpu::{GpuContext, GpuOptions};
-use crate::lightfield::{self, GridCameraOptions, LightField, LoadLimits};
-use crate::passes::texture::TextureLimits;
+use crate::gpu::GpuOptions;
+use crate::lightfield::{LightField, LoadLimits};
 use crate::refocus::Averaging;
 
 /// Light field tilt-shift refocus with generalized shift-and-sum (Vulkan).
@@ -99,6 +98,17 @@ pub struct ReadArgs {
     /// first frame; the viewer steps through frames with , and . and plays with Space).
     #[arg(long, value_name = "N")]
     pub frame: Option<u64>,
+}
+
+impl ReadArgs {
+    /// The library's read options.
+    pub fn options(&self) -> crate::jobs::render::ReadOptions {
+        crate::jobs::render::ReadOptions {
+            focal_px: self.focal_px,
+            baseline: self.baseline,
+            frame: self.frame,
+        }
+    }
 }
 
 /// The synthetic aperture and the viewpoint: shape, radius, reference view, averaging and dark
@@ -214,77 +224,14 @@ pub fn load_light_field(args: &LightFieldArgs) -> Result<LightField> {
     load_light_field_within(args, &LoadLimits::default())
 }
 
-/// The limits of the device `ctx` for a light field texture, for checking a light field
-/// before its views are decoded.
-pub fn device_load_limits(ctx: &GpuContext) -> LoadLimits {
-    let t = TextureLimits::of(ctx);
-    LoadLimits::for_device(
-        t.max_layers,
-        t.max_dimension,
-        t.heap_bytes.min(t.max_allocation),
-        &ctx.info.name,
-    )
-}
+pub use crate::jobs::render::{builtin_light_field, device_load_limits};
 
 /// [`load_light_field`], refusing a light field beyond `limits` before decoding its views.
 pub fn load_light_field_within(args: &LightFieldArgs, limits: &LoadLimits) -> Result<LightField> {
-    if let Some(name) = args.light_field.strip_prefix("builtin:") {
-        if let Some(n) = args.read.frame {
-            return Err(Error::Invalid(format!(
-                "--frame {n}: builtin:{name} is a single light field, not a video"
-            )));
-        }
-        return builtin_light_field(name);
-    }
-    if args.read.baseline.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-        return Err(Error::Invalid(format!(
-            "--baseline must be positive, got {}",
-            args.read.baseline
-        )));
-    }
-    if let Some(f) = args.read.focal_px {
-        if !(f.is_finite() && f > 0.0) {
-            return Err(Error::Invalid(format!(
-                "--focal-px must be positive, got {f}"
-            )));
-        }
-    }
-    let opts = GridCameraOptions {
-        focal_px: args.read.focal_px,
-        baseline: args.read.baseline,
-    };
-    lightfield::open_frame_within(Path::new(&args.light_field), &opts, limits, args.read.frame)
+    crate::jobs::render::open_light_field(&args.light_field, &args.read.options(), limits)
 }
 
-/// Renders built-in scene `name` (2×2 supersampling).
-pub fn builtin_light_field(name: &str) -> Result<LightField> {
-    let scene = crate::synth::builtin(name).ok_or_else(|| {
-        Error::Invalid(format!(
-            "no built-in scene '{name}'; available: {}",
-            crate::synth::builtin_names().join(", ")
-        ))
-    })?;
-    Ok(scene.light_field(2))
-}
-
-/// Parses "a,b,c" into exactly `n` finite numbers.
-pub fn parse_numbers(text: &str, n: usize, what: &str) -> Result<Vec<f64>> {
-    let values: Vec<f64> = text
-        .split(',')
-        .map(|s| s.trim().parse::<f64>())
-        .collect::<std::result::Result<_, _>>()
-        .map_err(|_| {
-            Error::Invalid(format!(
-                "{what}: expected {n} comma-separated numbers, got '{text}'"
-            ))
-        })?;
-    if values.len() != n || values.iter().any(|v| !v.is_finite()) {
-        return Err(Error::Invalid(format!(
-            "{what}: expected {n} comma-separated finite numbers, got '{text}'"
-        )));
-    }
-    Ok(values)
-}
+pub use crate::refocus::options::parse_numbers;
 
 /// Runs a parsed command line.
 pub fn run(cli: Cli) -> Result<()> {

@@ -352,9 +352,107 @@ pub fn install(lf: &mut LightField, est: &DepthEstimate) -> Result<()> {
     lf.validate()
 }
 
+/// Installs a classic shift-and-sum disparity map of the middle view `(cols/2, rows/2)`,
+/// handed over with a grid of views (the Python module's `from_array(depth=…)`), as
+/// [`install`] installs an estimate of a grid folder: the grid's cameras take the nominal
+/// sensor shift of the map's range ([`super::nominal_rig`]) and the map becomes depth under
+/// it, so a plane picked on it refocuses exactly there. NaN marks pixels without a value.
+pub fn install_classic_disparity(
+    lf: &mut LightField,
+    values: Vec<f32>,
+    focal_px: f64,
+    baseline: f64,
+) -> Result<()> {
+    if values.len() != lf.width as usize * lf.height as usize {
+        return Err(Error::Invalid(format!(
+            "the disparity map has {} values, the views {}×{} pixels",
+            values.len(),
+            lf.width,
+            lf.height
+        )));
+    }
+    let finite = values.iter().filter(|v| v.is_finite()).map(|&v| v as f64);
+    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+        (a.min(v), b.max(v))
+    });
+    if lo > hi {
+        return Err(Error::Invalid(
+            "the disparity map has no finite value; pass depth=None for a light field without \
+             depth"
+                .into(),
+        ));
+    }
+    // A flat map has no range to place infinity beyond: give it one pixel per grid step.
+    let range = if lo < hi {
+        (lo, hi)
+    } else {
+        (lo - 0.5, hi + 0.5)
+    };
+    let rig = super::nominal_rig(focal_px, baseline, range);
+    for (v, camera) in lf
+        .views
+        .iter_mut()
+        .zip(rig.cameras(lf.grid, lf.width, lf.height))
+    {
+        v.camera = camera;
+    }
+    let depth = values
+        .iter()
+        .map(|&d| {
+            rig.depth_of_disparity(-(d as f64))
+                .map_or(f32::NAN, |z| z as f32)
+        })
+        .collect();
+    let reference = lf.grid.index(lf.grid.cols / 2, lf.grid.rows / 2);
+    let map = crate::lightfield::DepthMap {
+        width: lf.width,
+        height: lf.height,
+        kind: crate::lightfield::DepthKind::Depth,
+        values: depth,
+        source: format!("{} disparity map", lf.name),
+    };
+    lf.depth.push((reference, map));
+    lf.validate()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_installed_classic_disparity_map_puts_larger_disparity_farther() {
+        use crate::lightfield::{grid_folder, DepthKind, GridCameraOptions, GridSize};
+        let grid = GridSize { cols: 3, rows: 3 };
+        let images = vec![image::RgbaImage::new(4, 2); 9];
+        let opts = GridCameraOptions {
+            focal_px: Some(100.0),
+            baseline: 0.5,
+        };
+        let mut lf = grid_folder::from_images("t", grid, images, &opts).unwrap();
+        let values = vec![-1.0, 0.0, 0.5, 1.0, f32::NAN, -1.0, 0.0, 1.0];
+        install_classic_disparity(&mut lf, values, 100.0, 0.5).unwrap();
+        let (view, map) = &lf.depth[0];
+        assert_eq!(
+            (*view, map.kind),
+            (4, DepthKind::Depth),
+            "the middle view's depth"
+        );
+        let z = &map.values;
+        assert!(z[0] < z[1] && z[1] < z[2] && z[2] < z[3], "{z:?}");
+        assert!(z[4].is_nan() && z[..4].iter().all(|v| v.is_finite() && *v > 0.0));
+        // The cameras took the nominal sensor shift: the principal points moved.
+        assert_ne!(lf.views[0].camera.k, lf.views[4].camera.k);
+        let e = install_classic_disparity(&mut lf, vec![1.0; 3], 100.0, 0.5).unwrap_err();
+        assert!(e.to_string().contains("3 values"), "{e}");
+        let flat = grid_folder::from_images("t", grid, vec![image::RgbaImage::new(2, 1); 9], &opts);
+        let mut flat = flat.unwrap();
+        install_classic_disparity(&mut flat, vec![0.0, 0.0], 100.0, 0.5).unwrap();
+        assert!(flat.depth[0]
+            .1
+            .values
+            .iter()
+            .all(|v| v.is_finite() && *v > 0.0));
+    }
 
     #[test]
     fn the_hash_rides_on_the_metadata_text_and_any_edit_breaks_it() {

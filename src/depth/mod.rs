@@ -39,6 +39,7 @@ pub mod median;
 pub mod metrics;
 pub mod photometric;
 pub mod refine;
+pub mod request;
 pub mod scenes;
 pub mod sweep;
 pub mod testset;
@@ -296,6 +297,17 @@ pub fn plane_count(plan: &SweepPlan, options: &DepthOptions) -> usize {
     })
 }
 
+/// The nominal rig of a grid folder whose classic disparities span `range` (see
+/// [`DepthEstimate::nominal_rig`]); `lo < hi`.
+pub fn nominal_rig(focal_px: f64, baseline: f64, (lo, hi): (f64, f64)) -> ParallelRig {
+    let at_infinity = hi.max(0.0) + (hi - lo);
+    ParallelRig {
+        focal_px,
+        baseline,
+        focus_distance: focal_px * baseline / at_infinity,
+    }
+}
+
 /// Everything an estimate needs besides the light field.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct DepthOptions {
@@ -410,13 +422,7 @@ impl DepthEstimate {
     pub fn nominal_rig(&self) -> Option<ParallelRig> {
         match self.convention {
             Convention::Classic { focal_px, baseline } => {
-                let (lo, hi) = self.range;
-                let at_infinity = hi.max(0.0) + (hi - lo);
-                Some(ParallelRig {
-                    focal_px,
-                    baseline,
-                    focus_distance: focal_px * baseline / at_infinity,
-                })
+                Some(nominal_rig(focal_px, baseline, self.range))
             }
             _ => None,
         }

@@ -194,7 +194,7 @@ pub fn reference_view(lf: &LightField, requested: Option<(usize, usize)>) -> Res
 pub fn convention_of(lf: &LightField) -> Convention {
     match (&lf.rig, &lf.source) {
         (Some(rig), _) => Convention::Hci(*rig),
-        (None, Source::GridFolder { .. }) => {
+        (None, Source::GridFolder { .. } | Source::Arrays) => {
             // The folder's nominal cameras: focal length and baseline from the loader.
             let c0 = &lf.views[0].camera;
             let next = if lf.grid.cols > 1 { 1 } else { lf.grid.cols };

@@ -259,3 +259,45 @@ pub fn ensure_depth_in(
         estimate(ctx, lf, options, progress)
     })
 }
+
+/// For a render or a pick that needs the scene's depth: the light field's own map, or the
+/// estimate of its views with the default options (from the cache when there is one;
+/// `progress` counts the swept planes). Returns where the depth came from and the default
+/// normal window of a click on it; validation errors of the sweep fail it, so no front end
+/// renders on a depth the validation layer objected to.
+pub fn ensure_for(
+    ctx: &GpuContext,
+    lf: &mut LightField,
+    progress: &ProgressBar,
+) -> Result<(DepthOrigin, u32)> {
+    let had_depth = !lf.depth.is_empty();
+    let origin = ensure_depth(ctx, lf, &DepthOptions::default(), progress)?;
+    if had_depth {
+        let window = origin.normal_window();
+        return Ok((origin, window));
+    }
+    if let DepthOrigin::Estimated {
+        cached, estimate, ..
+    } = &origin
+    {
+        log::info!(
+            "'{}' has no depth map: {} the depth of view ({}, {}) from its views",
+            lf.name,
+            if *cached {
+                "using the cached estimate of"
+            } else {
+                "estimated"
+            },
+            estimate.reference_st.0,
+            estimate.reference_st.1
+        );
+    }
+    let errors = ctx.validation().errors();
+    if errors > 0 {
+        return Err(crate::error::Error::Vulkan(format!(
+            "{errors} validation errors while estimating depth (see the log above)"
+        )));
+    }
+    let window = origin.normal_window();
+    Ok((origin, window))
+}

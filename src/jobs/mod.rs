@@ -9,6 +9,7 @@
 //! never import this layer, `gpu` or `passes`.
 //!
 //! - [`refocus`]: headless refocus images (render, frames, tests);
+//! - [`render`]: one render as a front end asks for it (options, depth, focus, plans);
 //! - [`batch`]: many refocus images of one light field in one set-up (focal stacks, videos);
 //! - [`depth`]: the GPU plane sweep of [`crate::depth`]'s plan, and `ensure_depth` with its cache;
 //! - [`raster`]: synthetic light fields and optical ground truth from the mesh rasterizer.
@@ -17,3 +18,4 @@ pub mod batch;
 pub mod depth;
 pub mod raster;
 pub mod refocus;
+pub mod render;

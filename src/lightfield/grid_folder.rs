@@ -224,6 +224,48 @@ pub fn load_within(
     })
 }
 
+/// A light field of `images` in row-major grid order (`images[t · cols + s]`), handed over in
+/// memory: the Python module's `from_array`. It is read exactly as a grid folder of the same
+/// views would be (the nominal cameras of [`cameras`], classic disparity), so the same request
+/// renders the same image from either.
+pub fn from_images(
+    name: &str,
+    grid: GridSize,
+    images: Vec<image::RgbaImage>,
+    opts: &GridCameraOptions,
+) -> Result<LightField> {
+    let Some(first) = images.first() else {
+        return Err(Error::Invalid(format!("{name}: the grid has no views")));
+    };
+    let (width, height) = first.dimensions();
+    let cameras = cameras(grid, width, height, opts)?;
+    let views = images
+        .into_iter()
+        .zip(cameras)
+        .enumerate()
+        .map(|(i, (image, camera))| super::View {
+            s: i % grid.cols,
+            t: i / grid.cols,
+            camera,
+            image,
+            source: format!("{name} view (s {}, t {})", i % grid.cols, i / grid.cols),
+        })
+        .collect();
+    let lf = LightField {
+        name: name.to_string(),
+        grid,
+        width,
+        height,
+        views,
+        depth: Vec::new(),
+        rig: None,
+        disparity_range: None,
+        source: Source::Arrays,
+    };
+    lf.validate()?;
+    Ok(lf)
+}
+
 /// Reads every view's header; views of different sizes are an error listing each size with
 /// its count and an example file (mixed exports, thumbnails named like views).
 fn check_sizes(paths: &[PathBuf], folder: &Path) -> Result<()> {

@@ -67,6 +67,9 @@ pub enum Source {
     TechnicolorVideo(technicolor::VideoFrameInfo),
     /// Generated in code (built-in scenes, tests).
     Generated { scene: String },
+    /// Views handed over in memory as a grid (the Python module's `from_array`): read with
+    /// a grid folder's conventions (nominal parallel cameras, classic disparity).
+    Arrays,
 }
 
 /// A complete grid of views.

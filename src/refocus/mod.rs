@@ -5,6 +5,7 @@
 pub mod antialias;
 pub mod cpu;
 pub mod focus;
+pub mod options;
 pub mod plan;
 pub mod prefilter;
 pub mod surface;

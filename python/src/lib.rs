@@ -1,0 +1,905 @@
+//! `tiltfield._tiltfield`: the native half of the `tiltfield` Python package (the pure-Python
+//! half, python/tiltfield/__init__.py, re-exports it and carries the package docs).
+//!
+//! This crate only converts: Python arguments into the library's requests
+//! ([`tiltfield::jobs::render::RenderOptions`], [`tiltfield::depth::request::DepthRequest`],
+//! [`tiltfield::jobs::render::ReadOptions`]), numpy arrays into views, and the library's images
+//! and errors back. Every decision — which focus, validation, depth, which pass — is the
+//! library's, exactly as `tiltfield render` and `tiltfield depth` make it, so a request gives
+//! the bytes the CLI writes and fails with the message the CLI prints.
+//!
+//! Invariants:
+//! - one Vulkan context per process ([`context`]), made on first use from the environment
+//!   (`TILTFIELD_DEVICE`, `TILTFIELD_VALIDATION=1`) and kept until the process ends;
+//! - a `LightField` uploads its views on its first render and keeps them
+//!   ([`tiltfield::jobs::render::Session`]);
+//! - the GIL is released for loading, estimating and rendering ([`gpu_work`]); work on the
+//!   device runs one call at a time in the process (one queue and command pool, [`GPU`]);
+//! - nothing panics into Python: errors map to `ValueError` (bad arguments), `OSError` (files)
+//!   and `RuntimeError` (the GPU, validation errors), and a panic inside the library becomes
+//!   a `RuntimeError` too.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::{Arc, Mutex, MutexGuard};
+
+use glam::{DVec2, DVec3};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{IntoPyArray, PyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+
+use tiltfield::depth::request::{parse_kind, DepthRequest};
+use tiltfield::error::Error;
+use tiltfield::geometry::aperture::Aperture;
+use tiltfield::geometry::picking::Nudge;
+use tiltfield::geometry::plane::Plane;
+use tiltfield::gpu::{GpuContext, GpuOptions};
+use tiltfield::jobs::refocus::GpuImage;
+use tiltfield::jobs::render::{self, ReadOptions, RenderOptions, Session};
+use tiltfield::lightfield::{self, GridSize};
+use tiltfield::passes::refocus::OutputFormat;
+use tiltfield::refocus::options::{numbers, plane_of, FocusOptions};
+
+/// The process's Vulkan context (see the module docs).
+static CONTEXT: Mutex<Option<Arc<GpuContext>>> = Mutex::new(None);
+
+/// Held while any work runs on the context: its one queue and its command pool are externally
+/// synchronized objects (Vulkan), so two `LightField`s rendering from two Python threads take
+/// turns on the device while the GIL is free for everything else.
+static GPU: Mutex<()> = Mutex::new(());
+
+/// A mutex guard whatever an earlier panic left: the data are handles and plain values, and
+/// a render that panicked is reported, not retried with half its state.
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// The process's context, made on first use.
+fn context() -> tiltfield::Result<Arc<GpuContext>> {
+    let mut slot = lock(&CONTEXT);
+    if let Some(ctx) = slot.as_ref() {
+        return Ok(Arc::clone(ctx));
+    }
+    let ctx = Arc::new(GpuContext::new(&GpuOptions::from_env())?);
+    *slot = Some(Arc::clone(&ctx));
+    Ok(ctx)
+}
+
+/// The Python exception of a library error, with the message the CLI prints after `error:`.
+fn py_err(e: Error) -> PyErr {
+    let message = e.to_string();
+    match e {
+        Error::Io { .. } | Error::BadFile { .. } | Error::LightField(_) => {
+            PyOSError::new_err(message)
+        }
+        Error::Invalid(_) | Error::Geometry(_) | Error::DeviceLimit(_) => {
+            PyValueError::new_err(message)
+        }
+        Error::Vulkan(_) | Error::Window(_) | Error::VkResult(_) => {
+            PyRuntimeError::new_err(message)
+        }
+    }
+}
+
+/// Runs `work` with the GIL released, turning a library error into its Python exception, a
+/// panic into a `RuntimeError`, and validation errors the work caused into a `RuntimeError`
+/// naming `what` (as the CLI fails a render that drew any).
+fn gpu_work<T: Send>(
+    py: Python<'_>,
+    what: &str,
+    work: impl FnOnce() -> tiltfield::Result<T> + Send,
+) -> PyResult<T> {
+    let before = validation_count();
+    let result = py.allow_threads(|| {
+        let _device = lock(&GPU);
+        catch_unwind(AssertUnwindSafe(work))
+    });
+    let value = match result {
+        Ok(r) => r.map_err(py_err)?,
+        Err(panic) => {
+            let why = panic
+                .downcast_ref::<String>()
+                .map(String::as_str)
+                .or_else(|| panic.downcast_ref::<&str>().copied())
+                .unwrap_or("unknown cause");
+            return Err(PyRuntimeError::new_err(format!(
+                "tiltfield internal error while {what}: {why}"
+            )));
+        }
+    };
+    let errors = validation_count() - before;
+    if errors > 0 {
+        return Err(PyRuntimeError::new_err(format!(
+            "{errors} validation errors while {what} (see the log above)"
+        )));
+    }
+    Ok(value)
+}
+
+/// Validation errors of the process's context so far (0 before it exists).
+fn validation_count() -> usize {
+    lock(&CONTEXT)
+        .as_ref()
+        .map_or(0, |c| c.validation().errors())
+}
+
+/// `n` numbers from a Python sequence, checked as the CLI checks option `what` (count and
+/// finiteness, the same message); `None` passes through.
+fn numbers_of(
+    value: Option<&Bound<'_, PyAny>>,
+    n: usize,
+    what: &str,
+) -> PyResult<Option<Vec<f64>>> {
+    let Some(value) = value else {
+        return Ok(None);
+    };
+    let v: Vec<f64> = value.extract().map_err(|_| {
+        PyValueError::new_err(format!(
+            "{what}: expected {n} numbers (a tuple or sequence), got {}",
+            repr(value)
+        ))
+    })?;
+    numbers(&v, n, what).map(Some).map_err(py_err)
+}
+
+fn repr(value: &Bound<'_, PyAny>) -> String {
+    value
+        .repr()
+        .map_or_else(|_| "an object without repr".into(), |r| r.to_string())
+}
+
+/// A choice given by name, parsed as the CLI parses its option (`FromStr`, the same
+/// message).
+fn choice<T>(value: Option<&str>) -> PyResult<Option<T>>
+where
+    T: std::str::FromStr,
+    T::Err: std::fmt::Display,
+{
+    value
+        .map(|text| {
+            text.parse::<T>()
+                .map_err(|e| PyValueError::new_err(e.to_string()))
+        })
+        .transpose()
+}
+
+/// `plane=`: one plane (six numbers) or several (a sequence of six-number sequences, a focus
+/// surface).
+fn planes_of(value: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<Plane>> {
+    let Some(value) = value else {
+        return Ok(Vec::new());
+    };
+    let lists: Vec<Vec<f64>> = if let Ok(one) = value.extract::<Vec<f64>>() {
+        vec![one]
+    } else if let Ok(several) = value.extract::<Vec<Vec<f64>>>() {
+        several
+    } else {
+        return Err(PyValueError::new_err(format!(
+            "--plane: expected 6 numbers (px, py, pz, nx, ny, nz) or a sequence of such planes, \
+             got {}",
+            repr(value)
+        )));
+    };
+    lists
+        .iter()
+        .map(|v| {
+            numbers(v, 6, "--plane")
+                .and_then(|v| plane_of(&v))
+                .map_err(py_err)
+        })
+        .collect()
+}
+
+/// A pick keyword's value (`click`, `points`, `points_3d`): a sequence of numbers, or None.
+type Pick<'a, 'py> = Option<&'a Bound<'py, PyAny>>;
+
+/// The focus keywords of `refocus` and `plane` as the library's focus options (checked:
+/// exactly one focus, refinements that belong to it).
+#[allow(clippy::too_many_arguments)] // the focus keywords, grouped where they belong together
+fn focus_options(
+    disparity: Option<f64>,
+    plane: Option<&Bound<'_, PyAny>>,
+    focus: Option<f64>,
+    (tilt, swing): (f64, f64),
+    (click, points, points_3d): (Pick<'_, '_>, Pick<'_, '_>, Pick<'_, '_>),
+    (nudge_distance, nudge_tilt, nudge_swing): (Option<f64>, Option<f64>, Option<f64>),
+    normal_window: Option<u32>,
+    normal_method: &str,
+) -> PyResult<FocusOptions> {
+    let focus = FocusOptions {
+        disparity,
+        planes: planes_of(plane)?,
+        focus,
+        tilt,
+        swing,
+        click: numbers_of(click, 2, "--click")?.map(|v| DVec2::new(v[0], v[1])),
+        points: numbers_of(points, 6, "--points")?.map(|v| {
+            [
+                DVec2::new(v[0], v[1]),
+                DVec2::new(v[2], v[3]),
+                DVec2::new(v[4], v[5]),
+            ]
+        }),
+        points_3d: numbers_of(points_3d, 9, "--points-3d")?.map(|v| {
+            [
+                DVec3::new(v[0], v[1], v[2]),
+                DVec3::new(v[3], v[4], v[5]),
+                DVec3::new(v[6], v[7], v[8]),
+            ]
+        }),
+        nudge: (nudge_distance.is_some() || nudge_tilt.is_some() || nudge_swing.is_some()).then(
+            || Nudge {
+                distance: nudge_distance.unwrap_or(0.0),
+                tilt_deg: nudge_tilt.unwrap_or(0.0),
+                swing_deg: nudge_swing.unwrap_or(0.0),
+            },
+        ),
+        normal_window,
+        normal_method: choice(Some(normal_method))?.unwrap_or_default(),
+    };
+    focus.validate().map_err(py_err)?;
+    Ok(focus)
+}
+
+/// A plane as `((px, py, pz), (nx, ny, nz))`.
+type PointNormal = ((f64, f64, f64), (f64, f64, f64));
+
+/// A [`Session`] that may move between threads (Python may hand a `LightField` to any thread,
+/// and its renders run with the GIL released).
+struct SendSession(Session);
+
+// SAFETY: what keeps a Session from being Send is the host pointers of its mapped Vulkan
+// buffers (staging, readback). Vulkan allows host access to mapped memory from any thread and
+// requires only external synchronization of the objects, which the LightField's mutex gives:
+// every use of the session is under it, so no two threads touch it at once.
+unsafe impl Send for SendSession {}
+
+/// A light field on the GPU: views uploaded once, refocused any number of times.
+///
+/// Made by :func:`tiltfield.open` or :func:`tiltfield.from_array`; see the package docs for
+/// the conventions (grid positions, colour, arrays).
+#[pyclass(module = "tiltfield", frozen)]
+struct LightField {
+    session: Mutex<SendSession>,
+    /// GPU time of the last render's passes, ms (`None`: no render yet or no timer).
+    last_gpu_ms: Mutex<Option<f64>>,
+    #[pyo3(get)]
+    /// Short name of the light field (its folder, or "array").
+    name: String,
+}
+
+impl LightField {
+    fn new(session: SendSession) -> Self {
+        LightField {
+            name: session.0.light_field().name.clone(),
+            session: Mutex::new(session),
+            last_gpu_ms: Mutex::new(None),
+        }
+    }
+}
+
+#[pymethods]
+impl LightField {
+    /// The camera grid as ``(rows, cols)``.
+    #[getter]
+    fn grid(&self) -> (usize, usize) {
+        let s = &lock(&self.session).0;
+        (s.light_field().grid.rows, s.light_field().grid.cols)
+    }
+
+    /// The size of one view as ``(H, W)`` (numpy's order).
+    #[getter]
+    fn view_size(&self) -> (u32, u32) {
+        let s = &lock(&self.session).0;
+        (s.light_field().height, s.light_field().width)
+    }
+
+    /// True when the light field carries a depth or disparity map (HCI ground truth, a
+    /// manifest's maps, built-in scenes, ``from_array(depth=...)``). Without one, a click, a
+    /// focus surface or ``antialias=True`` estimates depth from the views first (cached on
+    /// disk), as ``tiltfield render`` does; and anti-aliasing is on by default exactly when
+    /// this is true.
+    #[getter]
+    fn has_depth(&self) -> bool {
+        !lock(&self.session).0.light_field().depth.is_empty()
+    }
+
+    /// True once the views are on the GPU (after the first :meth:`refocus`).
+    #[getter]
+    fn uploaded(&self) -> bool {
+        lock(&self.session).0.uploaded()
+    }
+
+    /// GPU time in milliseconds of the last :meth:`refocus` call (its refocus and resolve
+    /// passes, from timestamp queries), or ``None`` before the first call or on a device
+    /// without timers. The call's wall time less this is its overhead: upload (first call),
+    /// planning, submission, readback and conversion.
+    #[getter]
+    fn last_gpu_ms(&self) -> Option<f64> {
+        *lock(&self.last_gpu_ms)
+    }
+
+    /// The views as loaded, a ``uint8`` array (rows, cols, H, W, 4) of sRGB RGBA: what
+    /// :func:`from_array` takes, so ``from_array(lf.views())`` renders as ``lf`` does when
+    /// ``lf`` is a grid folder.
+    fn views<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let s = &lock(&self.session).0;
+        let lf = s.light_field();
+        let (rows, cols) = (lf.grid.rows, lf.grid.cols);
+        let (h, w) = (lf.height as usize, lf.width as usize);
+        let mut flat = Vec::with_capacity(rows * cols * h * w * 4);
+        for v in &lf.views {
+            flat.extend_from_slice(v.image.as_raw());
+        }
+        let a = numpy::ndarray::Array5::from_shape_vec((rows, cols, h, w, 4), flat)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        Ok(a.into_pyarray(py).into_any())
+    }
+
+    fn __repr__(&self) -> String {
+        let s = &lock(&self.session).0;
+        let lf = s.light_field();
+        format!(
+            "<tiltfield.LightField '{}': {}×{} views of {}×{} px{}>",
+            lf.name,
+            lf.grid.rows,
+            lf.grid.cols,
+            lf.height,
+            lf.width,
+            if lf.depth.is_empty() {
+                ""
+            } else {
+                ", with depth"
+            }
+        )
+    }
+
+    /// Refocus: the weighted average of the views in the synthetic aperture, each warped so
+    /// that the focus surface lines up (``tiltfield render``; the same keyword, the same
+    /// image, the same error message).
+    ///
+    /// Give exactly one focus:
+    ///
+    /// - ``disparity=D``: frontoparallel focus, px per grid step (HCI convention on HCI data,
+    ///   manifests with a rig and built-in scenes, positive nearer; classic shift-and-sum on
+    ///   grid folders and arrays);
+    /// - ``plane=(px, py, pz, nx, ny, nz)``: a world point and normal; a sequence of 2 to 8
+    ///   such planes is a focus surface (each pixel focused on the plane nearest the scene);
+    /// - ``focus=Z`` with ``tilt=`` and ``swing=`` (degrees): the plane through the
+    ///   reference optical axis at distance Z, tilted about the camera's x axis (positive: top
+    ///   farther) and swung about its y axis (positive: right farther);
+    /// - ``click=(u, v)``: the plane through that pixel of the depth map's view with the
+    ///   surface normal there (``normal_window``, ``normal_method``);
+    /// - ``points=(u1, v1, u2, v2, u3, v3)``: through three pixels;
+    ///   ``points_3d=(x1, y1, z1, ..., z3)``: through three world points; either pick, or a
+    ///   click, may be adjusted by ``nudge_distance``, ``nudge_tilt``, ``nudge_swing``.
+    ///
+    /// Other options: ``slab=W`` (keep everything within W of the plane sharp),
+    /// ``all_in_focus=True``, ``aperture`` ("disk", "square", "gaussian"),
+    /// ``aperture_radius`` (grid steps; sigma for gaussian; default all views),
+    /// ``view=(s, t)`` (reference view in grid units, fractional allowed; default the
+    /// centre), ``size=(w, h)`` (output size), ``average`` ("linear" or "encoded"),
+    /// ``include_dark``, ``antialias`` (True/False; default: on when the light field has
+    /// depth), ``antialias_samples``, ``antialias_prefilter`` (True/False: long footprints
+    /// read the views' box-filtered pyramid; default True), ``strategy`` ("fragment", "batched:N", "compute"),
+    /// ``views_per_draw``, ``filter`` ("hardware", "shader", "bicubic", "nearest"),
+    /// ``accumulation`` ("rgba32f", "rgba16f"), ``warps`` ("ubo", "ssbo"), ``storage``
+    /// ("srgb8", "linear16").
+    ///
+    /// Returns a ``uint8`` array of shape (H, W, 4), sRGB-encoded RGBA, byte for byte the
+    /// PNG ``tiltfield render`` writes; with ``linear=True`` a ``float32`` array (H, W, 4) of
+    /// linear-light RGBA, the values of its EXR. Alpha is 0 where no view reached the pixel.
+    ///
+    /// Raises ``ValueError`` for a bad argument or an impossible focus, ``RuntimeError`` for
+    /// the GPU. The views are uploaded on the first call; later calls cost the GPU time and a
+    /// readback (:attr:`last_gpu_ms` is the GPU part).
+    #[pyo3(signature = (
+        *, disparity=None, plane=None, focus=None, tilt=0.0, swing=0.0, click=None,
+        points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
+        normal_window=None, normal_method="inverse-depth", slab=None, all_in_focus=false,
+        aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
+        include_dark=false, antialias=None, antialias_samples=4, antialias_prefilter=true,
+        strategy=None,
+        views_per_draw=0, filter=None, accumulation=None, warps=None, storage=None,
+        linear=false
+    ))]
+    #[allow(clippy::too_many_arguments)] // one keyword per CLI option, as the issue asks
+    fn refocus<'py>(
+        &self,
+        py: Python<'py>,
+        disparity: Option<f64>,
+        plane: Option<&Bound<'py, PyAny>>,
+        focus: Option<f64>,
+        tilt: f64,
+        swing: f64,
+        click: Option<&Bound<'py, PyAny>>,
+        points: Option<&Bound<'py, PyAny>>,
+        points_3d: Option<&Bound<'py, PyAny>>,
+        nudge_distance: Option<f64>,
+        nudge_tilt: Option<f64>,
+        nudge_swing: Option<f64>,
+        normal_window: Option<u32>,
+        normal_method: &str,
+        slab: Option<f64>,
+        all_in_focus: bool,
+        aperture: &str,
+        aperture_radius: Option<f64>,
+        view: Option<&Bound<'py, PyAny>>,
+        size: Option<(i64, i64)>,
+        average: &str,
+        include_dark: bool,
+        antialias: Option<bool>,
+        antialias_samples: u32,
+        antialias_prefilter: bool,
+        strategy: Option<&str>,
+        views_per_draw: usize,
+        filter: Option<&str>,
+        accumulation: Option<&str>,
+        warps: Option<&str>,
+        storage: Option<&str>,
+        linear: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let focus = focus_options(
+            disparity,
+            plane,
+            focus,
+            (tilt, swing),
+            (click, points, points_3d),
+            (nudge_distance, nudge_tilt, nudge_swing),
+            normal_window,
+            normal_method,
+        )?;
+        let options = RenderOptions {
+            focus,
+            slab,
+            all_in_focus,
+            aperture: Aperture {
+                shape: choice(Some(aperture))?.unwrap_or(Aperture::default().shape),
+                radius: aperture_radius,
+            },
+            reference: numbers_of(view, 2, "--view")?.map(|v| DVec2::new(v[0], v[1])),
+            averaging: choice(Some(average))?.unwrap_or_default(),
+            include_dark,
+            antialias,
+            antialias_samples,
+            antialias_prefilter,
+            strategy: choice(strategy)?,
+            views_per_draw,
+            filter: choice(filter)?,
+            accumulation: choice(accumulation)?,
+            warps: choice(warps)?,
+            storage: choice(storage)?,
+            size: size
+                .map(|(w, h)| render::output_size(w, h))
+                .transpose()
+                .map_err(py_err)?,
+            output: if linear {
+                OutputFormat::Float
+            } else {
+                OutputFormat::Srgb8
+            },
+        };
+        options.check().map_err(py_err)?;
+        let (image, timings) = gpu_work(py, "rendering", || {
+            let session = &mut lock(&self.session).0;
+            let progress = indicatif::ProgressBar::hidden();
+            let (image, timings, _) = session.render(&options, &progress)?;
+            Ok((image, timings))
+        })?;
+        *lock(&self.last_gpu_ms) = timings.map(|t| t.refocus_ms + t.resolve_ms);
+        image_to_numpy(py, image)
+    }
+
+    /// The focus plane a :meth:`refocus` call with the same focus keywords would use, as
+    /// ``((px, py, pz), (nx, ny, nz))`` in the world frame (a unit normal), or ``None`` for
+    /// classic shift-and-sum (``disparity=`` on a grid folder or array), which has no plane.
+    /// A click or three pixels estimate the depth first when the light field has none.
+    /// Takes the focus keywords of :meth:`refocus` and ``view``, ``aperture``,
+    /// ``aperture_radius``, ``include_dark`` (the aperture is checked first, as a render does).
+    #[pyo3(signature = (
+        *, disparity=None, plane=None, focus=None, tilt=0.0, swing=0.0, click=None,
+        points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
+        normal_window=None, normal_method="inverse-depth", aperture="disk",
+        aperture_radius=None, view=None, include_dark=false
+    ))]
+    #[allow(clippy::too_many_arguments)] // the focus keywords of `refocus`
+    fn plane<'py>(
+        &self,
+        py: Python<'py>,
+        disparity: Option<f64>,
+        plane: Option<&Bound<'py, PyAny>>,
+        focus: Option<f64>,
+        tilt: f64,
+        swing: f64,
+        click: Option<&Bound<'py, PyAny>>,
+        points: Option<&Bound<'py, PyAny>>,
+        points_3d: Option<&Bound<'py, PyAny>>,
+        nudge_distance: Option<f64>,
+        nudge_tilt: Option<f64>,
+        nudge_swing: Option<f64>,
+        normal_window: Option<u32>,
+        normal_method: &str,
+        aperture: &str,
+        aperture_radius: Option<f64>,
+        view: Option<&Bound<'py, PyAny>>,
+        include_dark: bool,
+    ) -> PyResult<Option<PointNormal>> {
+        let focus = focus_options(
+            disparity,
+            plane,
+            focus,
+            (tilt, swing),
+            (click, points, points_3d),
+            (nudge_distance, nudge_tilt, nudge_swing),
+            normal_window,
+            normal_method,
+        )?;
+        let options = RenderOptions {
+            focus,
+            aperture: Aperture {
+                shape: choice(Some(aperture))?.unwrap_or(Aperture::default().shape),
+                radius: aperture_radius,
+            },
+            reference: numbers_of(view, 2, "--view")?.map(|v| DVec2::new(v[0], v[1])),
+            include_dark,
+            ..RenderOptions::default()
+        };
+        let resolved = gpu_work(py, "resolving the focus", || {
+            let progress = indicatif::ProgressBar::hidden();
+            lock(&self.session).0.resolve(&options, &progress)
+        })?;
+        Ok(resolved.plane.map(|p| {
+            (
+                (p.point.x, p.point.y, p.point.z),
+                (p.normal.x, p.normal.y, p.normal.z),
+            )
+        }))
+    }
+
+    /// Estimates the reference view's disparity or depth from the views (a GPU plane sweep),
+    /// as ``tiltfield depth`` does with the same options: ``kind`` ("disparity" or "depth";
+    /// default: disparity where the light field has a convention, else depth), ``planes``,
+    /// ``range=(min, max)`` (in ``kind`` units), ``views`` ("all", "cross", "cross:N",
+    /// "square:N"), ``view=(s, t)`` (whole grid positions; default the middle view),
+    /// ``cost`` ("robust", "mean"), ``aggregation`` ("guided", "box", "none"), ``radius``,
+    /// ``naive``, ``no_fit``, ``median`` (radius of the colour-weighted median; 0: none),
+    /// ``include_dark``.
+    ///
+    /// Returns a ``float32`` array (H, W), NaN where there is no value. Does not install the
+    /// estimate in the light field (renders that need depth estimate and cache their own).
+    #[pyo3(signature = (
+        *, kind=None, planes=None, range=None, views="cross", view=None, cost=None,
+        aggregation=None, radius=None, naive=false, no_fit=false, median=None,
+        include_dark=false
+    ))]
+    #[allow(clippy::too_many_arguments)] // one keyword per `tiltfield depth` option
+    fn depth<'py>(
+        &self,
+        py: Python<'py>,
+        kind: Option<&str>,
+        planes: Option<usize>,
+        range: Option<&Bound<'py, PyAny>>,
+        views: &str,
+        view: Option<&Bound<'py, PyAny>>,
+        cost: Option<&str>,
+        aggregation: Option<&str>,
+        radius: Option<u32>,
+        naive: bool,
+        no_fit: bool,
+        median: Option<u32>,
+        include_dark: bool,
+    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        let request = DepthRequest {
+            kind: kind.map(parse_kind).transpose().map_err(py_err)?,
+            planes,
+            range: numbers_of(range, 2, "--range")?.map(|v| (v[0], v[1])),
+            views: choice(Some(views))?.unwrap_or(DepthRequest::default().views),
+            reference: numbers_of(view, 2, "--view")?.map(|v| (v[0], v[1])),
+            cost: choice(cost)?,
+            aggregation: choice(aggregation)?,
+            radius,
+            naive,
+            no_fit,
+            median,
+            include_dark,
+        };
+        let options = request.options().map_err(py_err)?;
+        let (w, h, values) = gpu_work(py, "estimating depth", || {
+            let session = &lock(&self.session).0;
+            let progress = indicatif::ProgressBar::hidden();
+            let est = tiltfield::jobs::depth::estimate(
+                session.context(),
+                session.light_field(),
+                &options,
+                &progress,
+            )?;
+            let values = est.values(request.kind.unwrap_or_else(|| est.natural_kind()))?;
+            Ok((est.width, est.height, values))
+        })?;
+        let array = Array2::from_shape_vec((h as usize, w as usize), values)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        Ok(array.into_pyarray(py))
+    }
+}
+
+/// A refocus image as numpy: uint8 (H, W, 4) sRGB, or float32 (H, W, 4) linear light.
+fn image_to_numpy(py: Python<'_>, image: GpuImage) -> PyResult<Bound<'_, PyAny>> {
+    let shape_err = |e: numpy::ndarray::ShapeError| PyRuntimeError::new_err(e.to_string());
+    match image {
+        GpuImage::Srgb8(img) => {
+            let (w, h) = img.dimensions();
+            let a = Array3::from_shape_vec((h as usize, w as usize, 4), img.into_raw())
+                .map_err(shape_err)?;
+            Ok(a.into_pyarray(py).into_any())
+        }
+        GpuImage::Float(img) => {
+            // What `save_exr` writes: encoded averages decoded to linear light.
+            let (w, h) = (img.width, img.height);
+            let flat: Vec<f32> = img.linear().into_iter().flatten().collect();
+            let a = Array3::from_shape_vec((h as usize, w as usize, 4), flat).map_err(shape_err)?;
+            Ok(a.into_pyarray(py).into_any())
+        }
+    }
+}
+
+/// Opens a light field: an HCI folder, a manifest (.json, or a folder with
+/// tiltfield.json), a folder of views named by row and column, a camera-array video folder
+/// (``frame``: the frame by its number in the file names; default the first), or
+/// ``"builtin:NAME"`` (the built-in scenes of ``tiltfield demo --list``).
+///
+/// ``focal_px`` and ``baseline`` give the cameras of a grid folder (default: focal length
+/// max(W, H) px, baseline 1), as ``--focal-px`` and ``--baseline`` do.
+///
+/// Raises ``OSError`` for a missing or unreadable file and ``ValueError`` for bad arguments,
+/// with the CLI's messages. The GPU context is made on first use (one per process).
+#[pyfunction]
+#[pyo3(signature = (source, frame=None, *, focal_px=None, baseline=1.0))]
+fn open(
+    py: Python<'_>,
+    source: std::path::PathBuf,
+    frame: Option<u64>,
+    focal_px: Option<f64>,
+    baseline: f64,
+) -> PyResult<LightField> {
+    let read = ReadOptions {
+        focal_px,
+        baseline,
+        frame,
+    };
+    let source = source.to_string_lossy().into_owned();
+    let session = gpu_work(py, "loading", || {
+        let ctx = context()?;
+        // The device first, so a light field it cannot hold is refused before decoding.
+        let lf = render::open_light_field(&source, &read, &render::device_load_limits(&ctx))?;
+        Ok(SendSession(Session::new(ctx, lf)))
+    })?;
+    Ok(LightField::new(session))
+}
+
+/// The views of an array of shape (rows, cols, H, W, C), C = 3 or 4, as sRGB images in
+/// row-major grid order.
+fn views_of(views: &Bound<'_, PyAny>) -> PyResult<(GridSize, Vec<image::RgbaImage>)> {
+    let shape_error = |shape: &[usize]| {
+        PyValueError::new_err(format!(
+            "views must have shape (rows, cols, H, W, 3 or 4), got shape {}",
+            match shape {
+                [one] => format!("({one},)"),
+                _ => format!(
+                    "({})",
+                    shape
+                        .iter()
+                        .map(usize::to_string)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            }
+        ))
+    };
+    let check = |shape: &[usize]| -> PyResult<(usize, usize, u32, u32, usize)> {
+        match *shape {
+            [rows, cols, h, w, c]
+                if rows > 0 && cols > 0 && h > 0 && w > 0 && (c == 3 || c == 4) =>
+            {
+                let side = |n: usize| {
+                    u32::try_from(n).map_err(|_| {
+                        PyValueError::new_err(format!("views of {n} pixels a side are too large"))
+                    })
+                };
+                Ok((rows, cols, side(h)?, side(w)?, c))
+            }
+            _ => Err(shape_error(shape)),
+        }
+    };
+    // Each view's pixels in the array's logical order (a transposed, strided view reads
+    // right): sRGB bytes as given, linear floats encoded as sRGB with rounding to nearest.
+    fn collect<T: Copy + numpy::Element>(
+        array: &PyReadonlyArrayDyn<'_, T>,
+        (rows, cols, h, w, c): (usize, usize, u32, u32, usize),
+        encode: impl Fn(T, usize) -> u8,
+    ) -> Vec<image::RgbaImage> {
+        // Fixed rank for fast indexing (the shape was checked to be 5-D).
+        let Ok(a) = array
+            .as_array()
+            .into_dimensionality::<numpy::ndarray::Ix5>()
+        else {
+            return Vec::new();
+        };
+        let mut images = Vec::with_capacity(rows * cols);
+        for t in 0..rows {
+            for s in 0..cols {
+                let mut img = image::RgbaImage::new(w, h);
+                for (y, row) in img.rows_mut().enumerate() {
+                    for (x, px) in row.enumerate() {
+                        let mut out = [0u8, 0, 0, 255];
+                        for (ch, o) in out.iter_mut().enumerate().take(c) {
+                            *o = encode(a[[t, s, y, x, ch]], ch);
+                        }
+                        px.0 = out;
+                    }
+                }
+                images.push(img);
+            }
+        }
+        images
+    }
+    let (dims, images) = if let Ok(array) = views.extract::<PyReadonlyArrayDyn<'_, u8>>() {
+        let dims = check(array.shape())?;
+        (dims, collect(&array, dims, |v, _| v))
+    } else if let Ok(array) = views.extract::<PyReadonlyArrayDyn<'_, f32>>() {
+        let dims = check(array.shape())?;
+        if array.as_array().iter().any(|v| !v.is_finite()) {
+            return Err(PyValueError::new_err(
+                "float32 views must be finite (linear light, 0 to 1)",
+            ));
+        }
+        // Colour channels are linear light; alpha is coverage and is not encoded.
+        let encoded = collect(&array, dims, |v, ch| {
+            if ch < 3 {
+                tiltfield::color::encode_srgb8(v)
+            } else {
+                tiltfield::color::to_u8(v as f64)
+            }
+        });
+        (dims, encoded)
+    } else {
+        let dtype = views.getattr("dtype").map_or_else(
+            |_| format!("a {}", type_name(views)),
+            |d| format!("dtype {d}"),
+        );
+        return Err(PyValueError::new_err(format!(
+            "views must be a numpy array of dtype uint8 (sRGB) or float32 (linear light) with \
+             shape (rows, cols, H, W, 3 or 4), got {dtype}"
+        )));
+    };
+    let (rows, cols, ..) = dims;
+    Ok((GridSize { cols, rows }, images))
+}
+
+fn type_name(value: &Bound<'_, PyAny>) -> String {
+    value
+        .get_type()
+        .name()
+        .map_or_else(|_| "object".into(), |n| n.to_string())
+}
+
+/// Makes a light field from views in memory, read as a grid folder of the same images would
+/// be: nominal parallel cameras (focal length ``focal_px``, default max(W, H) px; neighbours
+/// ``baseline`` apart, default 1) and classic shift-and-sum ``disparity``.
+///
+/// ``views``: a numpy array of shape (rows, cols, H, W, C) with C = 3 (RGB) or 4 (RGBA):
+/// ``uint8`` sRGB-encoded (as read from PNG files), or ``float32`` linear light in 0..1
+/// (encoded to 8-bit sRGB with rounding to nearest, as tiltfield stores every view). Row t,
+/// column s is the camera at grid row t (downwards) and column s (to the right), as in the
+/// CLI's ``--view S,T``.
+///
+/// Other libraries' layouts are a transpose away (``numpy.transpose`` makes a view; strided
+/// arrays are read as they are, no copy needed):
+///
+/// - plenpy's (u, v, s, t, ch): angular (u, v), then spatial (s, t), each pair in numpy's
+///   (row, column) order, is already (rows, cols, H, W, C); an array with x before y in
+///   both pairs, (cols, rows, W, H, C), is ``numpy.transpose(a, (1, 0, 3, 2, 4))``;
+/// - the Light Field Toolbox's LF(t, s, v, u, c) (t, s: grid row and column; v, u: pixel row
+///   and column) read with ``scipy.io.loadmat`` is already (rows, cols, H, W, C) — drop its
+///   weight channel, ``LF[..., :3]``, when the 4th is a weight rather than alpha; a v7.3
+///   file read with h5py comes reversed, (c, u, v, s, t): ``numpy.transpose(a, (4, 3, 2, 1, 0))``.
+///
+/// ``depth``: an optional (H, W) ``float32`` classic disparity map of the middle view
+/// (cols // 2, rows // 2), px per grid step (view (s, t) sees that view's pixel x at
+/// x + (s - s_r, t - t_r) * D), NaN where unknown. With it the cameras take the nominal sensor
+/// shift that gives every disparity a depth (docs/conventions.md §10), clicks and focus
+/// surfaces use it, and anti-aliasing is on by default.
+#[pyfunction]
+#[pyo3(signature = (views, *, focal_px=None, baseline=None, depth=None))]
+fn from_array(
+    py: Python<'_>,
+    views: &Bound<'_, PyAny>,
+    focal_px: Option<f64>,
+    baseline: Option<f64>,
+    depth: Option<&Bound<'_, PyAny>>,
+) -> PyResult<LightField> {
+    let read = ReadOptions {
+        focal_px,
+        baseline: baseline.unwrap_or(1.0),
+        frame: None,
+    };
+    read.validate().map_err(py_err)?;
+    let (grid, images) = views_of(views)?;
+    let (w, h) = images[0].dimensions();
+    let depth = depth
+        .map(|d| {
+            let bad = || {
+                PyValueError::new_err(format!(
+                    "depth must be a float32 array of shape (H, W) = ({h}, {w}) (the views' \
+                     size), got {}",
+                    d.getattr("shape")
+                        .map_or_else(|_| type_name(d), |s| format!("shape {s}"))
+                ))
+            };
+            let a = d
+                .extract::<PyReadonlyArrayDyn<'_, f32>>()
+                .map_err(|_| bad())?;
+            if a.shape() != [h as usize, w as usize] {
+                return Err(bad());
+            }
+            Ok(a.as_array().iter().copied().collect::<Vec<f32>>())
+        })
+        .transpose()?;
+    let session = gpu_work(py, "loading", || {
+        let ctx = context()?;
+        let mut lf =
+            lightfield::grid_folder::from_images("array", grid, images, &read.grid_cameras())?;
+        if let Some(values) = depth {
+            let f = read.focal_px.unwrap_or(w.max(h) as f64);
+            tiltfield::depth::cache::install_classic_disparity(&mut lf, values, f, read.baseline)?;
+        }
+        Ok(SendSession(Session::new(ctx, lf)))
+    })?;
+    Ok(LightField::new(session))
+}
+
+/// The Vulkan device the module renders on, as ``{"name", "kind", "driver", "api_version"}``
+/// (makes the process's GPU context when there is none yet).
+#[pyfunction]
+fn device(py: Python<'_>) -> PyResult<std::collections::HashMap<&'static str, String>> {
+    let ctx = gpu_work(py, "starting Vulkan", context)?;
+    let i = &ctx.info;
+    Ok([
+        ("name", i.name.clone()),
+        ("kind", i.kind.clone()),
+        ("driver", i.driver.clone()),
+        ("api_version", i.api_version.clone()),
+    ]
+    .into_iter()
+    .collect())
+}
+
+/// Messages the Khronos validation layer has reported as errors in this process (0 when
+/// validation is off: set ``TILTFIELD_VALIDATION=1`` before the first GPU call to turn it on).
+/// Every call that caused one raises ``RuntimeError`` as well.
+#[pyfunction]
+fn validation_errors() -> usize {
+    validation_count()
+}
+
+/// Whether the Khronos validation layer is on in this process's context.
+#[pyfunction]
+fn validation_enabled() -> bool {
+    GpuOptions::from_env().validation
+}
+
+#[pymodule]
+fn _tiltfield(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    // The library's warnings (views left out as dark, anti-aliasing turned off) go to stderr
+    // as the CLI prints them; RUST_LOG changes the level.
+    let _ = env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
+        .format_target(false)
+        .try_init();
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<LightField>()?;
+    m.add_function(wrap_pyfunction!(open, m)?)?;
+    m.add_function(wrap_pyfunction!(from_array, m)?)?;
+    m.add_function(wrap_pyfunction!(device, m)?)?;
+    m.add_function(wrap_pyfunction!(validation_errors, m)?)?;
+    m.add_function(wrap_pyfunction!(validation_enabled, m)?)?;
+    Ok(())
+}

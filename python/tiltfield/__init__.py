@@ -1,0 +1,49 @@
+"""tiltfield: GPU (Vulkan) tilt-shift refocus of light fields, numpy in and numpy out.
+
+A light field is a grid of views taken by a camera array or a plenoptic camera. tiltfield
+renders the refocus image: the weighted average of the views in a synthetic aperture, each
+warped so that a chosen surface lines up -- a plane in any orientation (a tilt-shift lens), a
+frontoparallel disparity, a plane picked by a click, several planes, a slab, or all in focus.
+
+    >>> import tiltfield
+    >>> lf = tiltfield.open("/data/hci/backgammon")          # or tiltfield.from_array(views)
+    >>> img = lf.refocus(disparity=0.5)                       # uint8 (H, W, 4), sRGB
+    >>> tilted = lf.refocus(focus=3.0, tilt=10, linear=True)  # float32 (H, W, 4), linear
+
+Conventions (as the ``tiltfield`` command line's; see its README):
+
+- grid position (s, t): s the column (to the right), t the row (downwards); ``view=(s, t)``
+  may be fractional (a virtual camera between the real ones);
+- pixel (u, v): u the column, v the row of the depth map's view (normally the centre view);
+- arrays are numpy-ordered: images (H, W, channels), light fields (rows, cols, H, W, C);
+- colour: ``uint8`` is sRGB-encoded, ``float32`` is linear light; views are averaged in linear
+  light unless ``average="encoded"``;
+- world units are those of the data (metres on HCI data, ``baseline`` units on grid folders).
+
+Every keyword mirrors a ``tiltfield render`` option (``aperture_radius`` is
+``--aperture-radius``) and is checked by the same code: a bad value raises ``ValueError``
+with the message the command line prints (``OSError`` for files, ``RuntimeError`` for the
+GPU). One GPU context serves the whole process; each LightField uploads its views once.
+Set ``TILTFIELD_DEVICE`` to pick a device and ``TILTFIELD_VALIDATION=1`` (before the first GPU
+call) to run under the Khronos validation layer.
+"""
+
+from ._tiltfield import (  # noqa: F401  (re-exported API)
+    LightField,
+    __version__,
+    device,
+    from_array,
+    open,
+    validation_enabled,
+    validation_errors,
+)
+
+__all__ = [
+    "LightField",
+    "__version__",
+    "device",
+    "from_array",
+    "open",
+    "validation_enabled",
+    "validation_errors",
+]

@@ -1,0 +1,194 @@
+"""The module renders what `tiltfield render` writes: byte for byte against its PNG, value for
+value against its EXR, for every focus form and render option, on the same light field."""
+
+import numpy as np
+import pytest
+
+import tiltfield
+from conftest import srgb_to_linear
+
+# (CLI options, refocus keywords): every focus form, then the options that change the image.
+# builtin:planes ships depth, so these are anti-aliased by default, and clicks use its map.
+CASES = {
+    "disparity": (["--disparity", "0.5"], dict(disparity=0.5)),
+    "plane": (["--plane", "0,0,3,0,0.2,1"], dict(plane=(0, 0, 3, 0, 0.2, 1))),
+    "focus-tilt-swing": (
+        ["--focus", "3", "--tilt", "10", "--swing", "-5"],
+        dict(focus=3, tilt=10, swing=-5),
+    ),
+    "click": (["--click", "20,30"], dict(click=(20, 30))),
+    "click-nudged": (
+        ["--click", "20,30", "--nudge-distance", "0.2", "--nudge-tilt", "3"],
+        dict(click=(20, 30), nudge_distance=0.2, nudge_tilt=3),
+    ),
+    "points": (["--points", "8,8,56,10,30,56"], dict(points=(8, 8, 56, 10, 30, 56))),
+    "points-3d": (
+        ["--points-3d", "0,0,3,1,0,3.2,0,1,3"],
+        dict(points_3d=(0, 0, 3, 1, 0, 3.2, 0, 1, 3)),
+    ),
+    "view": (["--disparity", "0.5", "--view", "1.5,2.25"], dict(disparity=0.5, view=(1.5, 2.25))),
+    "size": (["--disparity", "0.5", "--size", "96x80"], dict(disparity=0.5, size=(96, 80))),
+    "aperture": (
+        ["--disparity", "0.5", "--aperture", "gaussian", "--aperture-radius", "1"],
+        dict(disparity=0.5, aperture="gaussian", aperture_radius=1),
+    ),
+    "aperture-square": (
+        ["--disparity", "0.5", "--aperture", "square", "--aperture-radius", "1"],
+        dict(disparity=0.5, aperture="square", aperture_radius=1),
+    ),
+    "antialias-off": (
+        ["--disparity", "0.5", "--antialias", "off"],
+        dict(disparity=0.5, antialias=False),
+    ),
+    "encoded": (
+        ["--disparity", "0.5", "--average", "encoded"],
+        dict(disparity=0.5, average="encoded"),
+    ),
+    "planes": (
+        ["--plane", "0,0,4,0,0,1", "--plane", "0,0,2,0,0,1"],
+        dict(plane=[(0, 0, 4, 0, 0, 1), (0, 0, 2, 0, 0, 1)]),
+    ),
+    "slab": (["--focus", "3", "--slab", "0.5"], dict(focus=3, slab=0.5)),
+    "all-in-focus": (["--disparity", "0", "--all-in-focus"], dict(disparity=0, all_in_focus=True)),
+    "compute-bicubic": (
+        ["--disparity", "0.5", "--strategy", "compute", "--filter", "bicubic"],
+        dict(disparity=0.5, strategy="compute", filter="bicubic"),
+    ),
+}
+
+
+@pytest.mark.parametrize("name", CASES)
+def test_png_bytes_equal_the_cli(name, cli, planes, tmp_path):
+    args, kwargs = CASES[name]
+    expected = cli.png("builtin:planes", *args, tmp=tmp_path)
+    got = planes.refocus(**kwargs)
+    assert got.dtype == np.uint8 and got.shape == expected.shape
+    assert np.array_equal(got, expected), f"{name}: {np.count_nonzero(got != expected)} bytes differ"
+
+
+@pytest.mark.parametrize("name", ["disparity", "focus-tilt-swing", "click", "encoded", "slab"])
+def test_linear_output_equals_the_cli_exr(name, cli, planes, tmp_path):
+    args, kwargs = CASES[name]
+    expected = cli.exr("builtin:planes", *args, tmp=tmp_path)
+    got = planes.refocus(linear=True, **kwargs)
+    assert got.dtype == np.float32 and got.shape == expected.shape
+    assert np.array_equal(got, expected)
+
+
+def test_a_render_differs_between_focus_forms(planes):
+    # Guards the comparisons above against a module that ignores its keywords.
+    a = planes.refocus(disparity=0.5)
+    b = planes.refocus(focus=3, tilt=20)
+    assert not np.array_equal(a, b)
+
+
+def test_grid_folder_and_arrays_render_alike(cli, planes, grid_folder, tmp_path):
+    """from_array reads its views as a grid folder of the same images: uint8, linear float32,
+    and a transposed (strided) plenpy-style array all give the folder's bytes."""
+    views = planes.views()
+    folder = tiltfield.open(grid_folder)
+    assert folder.grid == (5, 5) and folder.view_size == (64, 64) and not folder.has_depth
+    args, kwargs = ["--disparity", "-0.7"], dict(disparity=-0.7)
+    expected = cli.png(str(grid_folder), *args, tmp=tmp_path)
+    assert np.array_equal(folder.refocus(**kwargs), expected)
+    from_u8 = tiltfield.from_array(views)
+    assert np.array_equal(from_u8.refocus(**kwargs), expected)
+    from_rgb = tiltfield.from_array(np.ascontiguousarray(views[..., :3]))
+    assert np.array_equal(from_rgb.refocus(**kwargs), expected)
+    linear = srgb_to_linear(views)
+    linear[..., 3] = views[..., 3] / 255.0
+    from_f32 = tiltfield.from_array(linear)
+    assert np.array_equal(from_f32.views(), views)
+    assert np.array_equal(from_f32.refocus(**kwargs), expected)
+    # (cols, rows, W, H, C) in memory, handed over as a transposed view: strided, no copy.
+    swapped = np.ascontiguousarray(views.transpose(1, 0, 3, 2, 4))
+    plenpy_style = swapped.transpose(1, 0, 3, 2, 4)
+    assert not plenpy_style.flags["C_CONTIGUOUS"]
+    assert np.array_equal(tiltfield.from_array(plenpy_style).refocus(**kwargs), expected)
+
+
+def test_grid_cameras_follow_focal_and_baseline(cli, planes, grid_folder, tmp_path):
+    args = ["--focus", "40", "--tilt", "8", "--focal-px", "80", "--baseline", "0.5"]
+    expected = cli.png(str(grid_folder), *args, tmp=tmp_path)
+    lf = tiltfield.from_array(planes.views(), focal_px=80, baseline=0.5)
+    assert np.array_equal(lf.refocus(focus=40, tilt=8), expected)
+    assert np.array_equal(tiltfield.open(grid_folder, focal_px=80, baseline=0.5).refocus(focus=40, tilt=8), expected)
+
+
+def test_a_click_on_a_grid_without_depth_estimates_it_as_the_cli_does(cli, grid_folder, tmp_path):
+    """The click estimates depth (shared cache); a later plain render still sees the folder
+    as loaded (no depth, so no default anti-aliasing, and the original cameras)."""
+    lf = tiltfield.open(grid_folder)
+    click = cli.png(str(grid_folder), "--click", "20,30", tmp=tmp_path)
+    assert np.array_equal(lf.refocus(click=(20, 30)), click)
+    plain = cli.png(str(grid_folder), "--focus", "40", "--tilt", "5", tmp=tmp_path)
+    assert np.array_equal(lf.refocus(focus=40, tilt=5), plain)
+    assert not lf.has_depth
+
+
+def test_plane_reports_the_plane_the_render_uses(planes):
+    point, normal = planes.plane(focus=3, tilt=10)
+    assert point == pytest.approx((0, 0, 3))
+    assert np.linalg.norm(normal) == pytest.approx(1)
+    assert normal[1] == pytest.approx(np.sin(np.radians(10)))
+    # A click on the frontoparallel plane at 4 m finds it (the centre pixel sees it).
+    p, n = planes.plane(click=(32, 32))
+    assert abs(n[2]) == pytest.approx(1, abs=0.02) and p[2] == pytest.approx(4, rel=0.02)
+    # The resolved plane renders as its click.
+    by_click = planes.refocus(click=(32, 32))
+    by_plane = planes.refocus(plane=(*p, *n))
+    assert np.abs(by_click.astype(int) - by_plane.astype(int)).max() <= 1
+    assert tiltfield.open("builtin:planes").plane(disparity=0.5) is not None
+
+
+def test_classic_disparity_has_no_plane(planes):
+    assert tiltfield.from_array(planes.views()).plane(disparity=0.5) is None
+
+
+def test_depth_equals_the_cli_estimate(cli, planes, tmp_path):
+    out = tmp_path / "d.pfm"
+    cli.ok("depth", "builtin:planes", "-o", str(out), "--planes", "24")
+    expected = read_pfm(out)
+    got = planes.depth(planes=24)
+    assert got.dtype == np.float32 and got.shape == (64, 64)
+    assert np.array_equal(np.isnan(got), np.isnan(expected))
+    assert np.array_equal(got[~np.isnan(got)], expected[~np.isnan(expected)])
+    # The two planes are at 4 m and 2 m; depth puts the centre on the far one.
+    z = planes.depth(planes=24, kind="depth")
+    assert z[32, 32] == pytest.approx(4, rel=0.05)
+
+
+def test_from_array_with_a_disparity_map_uses_it(planes):
+    views = planes.views()
+    disparity = planes.depth(planes=24)
+    # Classic disparity: the estimate's HCI disparity with the sign of the shift turned.
+    lf = tiltfield.from_array(views, depth=-disparity)
+    assert lf.has_depth
+    # Depth is used by default (anti-aliased), so a plane's render differs from the plain sum.
+    assert not np.array_equal(lf.refocus(focus=40), lf.refocus(focus=40, antialias=False))
+    # A click picks the plane under the pixel: frontoparallel there.
+    _, n = lf.plane(click=(32, 32), normal_window=21)
+    assert abs(n[2]) == pytest.approx(1, abs=0.05)
+
+
+def test_hci_backgammon_matches_the_cli(cli, tmp_path):
+    """The HCI scene this issue names, where the test machine has it."""
+    from pathlib import Path
+
+    folder = Path("/work/shared/data/hci/backgammon")
+    if not (folder / "parameters.cfg").exists():
+        pytest.skip("the HCI backgammon folder is not on this machine")
+    lf = tiltfield.open(folder)
+    args = ["--disparity", "0.8", "--size", "128x128", "--aperture-radius", "2"]
+    expected = cli.png(str(folder), *args, tmp=tmp_path)
+    assert np.array_equal(lf.refocus(disparity=0.8, size=(128, 128), aperture_radius=2), expected)
+
+
+def read_pfm(path):
+    """A one-channel PFM (rows bottom-up, negative scale: little-endian) as (H, W) float32."""
+    with open(path, "rb") as f:
+        assert f.readline().strip() == b"Pf"
+        w, h = map(int, f.readline().split())
+        scale = float(f.readline())
+        data = np.frombuffer(f.read(), dtype="<f4" if scale < 0 else ">f4")
+    return data.reshape(h, w)[::-1].astype(np.float32)

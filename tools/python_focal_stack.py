@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""Measures the Python module on a light field: a focal stack of N planes through one loaded
+light field, each call's wall time against its GPU time (the per-call overhead), the first call
+(which uploads the views) against the later ones, and the images against the command line's
+and against `from_array` of the same views.
+
+    python tools/python_focal_stack.py /work/shared/data/hci/backgammon --planes 20 \
+        --cli ~/.cache/tiltfield/target/debug/tiltfield
+
+Run it with the Python of an environment the module is installed in (`pip install .`).
+"""
+
+import argparse
+import statistics
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import tiltfield
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("source")
+    ap.add_argument("--planes", type=int, default=20)
+    ap.add_argument("--range", type=float, nargs=2, default=(-1.5, 1.5), metavar=("MIN", "MAX"))
+    ap.add_argument("--cli", help="a tiltfield binary: compare the first and last images with it")
+    ap.add_argument("--antialias", choices=["on", "off"], default="off")
+    a = ap.parse_args()
+    aa = a.antialias == "on"
+
+    t = time.perf_counter()
+    lf = tiltfield.open(a.source)
+    open_s = time.perf_counter() - t
+    print(f"{lf!r} on {tiltfield.device()['name']}; open {open_s * 1e3:.0f} ms")
+
+    walls, gpus, stack = [], [], []
+    for d in np.linspace(*a.range, a.planes):
+        t = time.perf_counter()
+        stack.append(lf.refocus(disparity=float(d), antialias=aa))
+        walls.append(time.perf_counter() - t)
+        gpus.append(lf.last_gpu_ms / 1e3)
+    over = [w - g for w, g in zip(walls, gpus)]
+    later = slice(1, None)
+    print(
+        f"first call: wall {walls[0] * 1e3:.1f} ms, GPU {gpus[0] * 1e3:.1f} ms, "
+        f"overhead {over[0] * 1e3:.1f} ms (upload and set-up)"
+    )
+    print(
+        f"later {len(walls) - 1} calls (median): wall {statistics.median(walls[later]) * 1e3:.1f} ms, "
+        f"GPU {statistics.median(gpus[later]) * 1e3:.1f} ms, overhead "
+        f"{statistics.median(over[later]) * 1e3:.1f} ms (max wall {max(walls[later]) * 1e3:.1f} ms, "
+        f"{max(walls[later]) / walls[0]:.2f} of the first call)"
+    )
+
+    # from_array of the same views: a grid folder's conventions (classic disparity D = -d of
+    # HCI's), so the same focus is the opposite disparity.
+    t = time.perf_counter()
+    arr = tiltfield.from_array(lf.views())
+    same = [arr.refocus(disparity=-float(d)) for d in (a.range[0], a.range[1])]
+    for x, y in zip(same, (stack[0], stack[-1])):
+        diff = np.abs(x.astype(int) - y.astype(int))
+        print(
+            f"from_array of the same views: mean difference {diff.mean():.2e} levels, largest "
+            f"{diff.max()}, {np.count_nonzero(diff > 1)} values differ by more than 1"
+        )
+    print(f"  (from_array and its two renders: {time.perf_counter() - t:.2f} s)")
+
+    if a.cli:
+        from PIL import Image
+
+        with tempfile.TemporaryDirectory() as tmp:
+            for i, d in [(0, a.range[0]), (len(stack) - 1, a.range[1])]:
+                out = Path(tmp) / "cli.png"
+                t = time.perf_counter()
+                subprocess.run(
+                    [a.cli, "render", a.source, "-o", str(out), f"--disparity={d}", "--antialias", a.antialias],
+                    check=True,
+                    capture_output=True,
+                )
+                cli_s = time.perf_counter() - t
+                cli = np.asarray(Image.open(out).convert("RGBA"))
+                print(f"plane {i}: CLI {cli_s:.2f} s per image, equal to the module's: {np.array_equal(cli, stack[i])}")
+
+
+if __name__ == "__main__":
+    main()
