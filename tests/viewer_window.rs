@@ -852,3 +852,54 @@ fn without_a_display_the_viewer_says_so() {
     assert!(!err.contains("panicked"), "{err}");
     assert!(err.contains("display") && err.contains("xvfb-run"), "{err}");
 }
+
+/// The status strip reads the depth under the cursor over the refocus image (the light
+/// field's own map here), and nothing off it; the screenshot JSON carries the reading.
+#[test]
+fn the_strip_reads_the_depth_under_the_cursor() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let script = format!(
+        "wait 0\n\
+         click window 120 200\n\
+         wait-converged\n\
+         screenshot {d}/over\n\
+         click window 1000 20\n\
+         wait-converged\n\
+         screenshot {d}/off\n\
+         quit\n",
+        d = d.display()
+    );
+    let script_path = d.join("hover.txt");
+    std::fs::write(&script_path, script).unwrap();
+    let o = view_in_xvfb(&[
+        "builtin:demo",
+        "--window",
+        "1120x600",
+        "--script",
+        script_path.to_str().unwrap(),
+        "--json",
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0, "{err}");
+    let over = json_file(&d.join("over.json"));
+    let reading = over["cursor_depth"]
+        .as_str()
+        .unwrap_or_default()
+        .to_string();
+    assert!(
+        reading.starts_with("cursor: z ") && reading.ends_with("(given)"),
+        "{over}"
+    );
+    let z: f64 = reading["cursor: z ".len()..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(z.is_finite() && z > 0.0, "{reading}");
+    let off = json_file(&d.join("off.json"));
+    assert!(off["cursor_depth"].is_null(), "{off}");
+}

@@ -527,6 +527,7 @@ impl Viewer {
             }
         }
         self.input.cursor = now;
+        self.session.hover(now);
     }
 
     /// A left click (press and release without moving) on the refocus image or the scene.

@@ -184,6 +184,35 @@ impl DepthCache {
     }
 
     /// Why there is no depth to click on (the panel shows it where the user clicked).
+    /// The status strip's reading of the depth under refocus-image position `p` (full-size
+    /// reference pixels): the depth there and where it came from, with an estimate's
+    /// confidence; `None` while depth is coming or where there is none to read.
+    pub fn reading(
+        &self,
+        lf: &LightField,
+        reference: &crate::geometry::camera::Camera,
+        p: DVec2,
+        origin: Option<&DepthOrigin>,
+    ) -> Option<String> {
+        let depth = self.depth.as_ref()?;
+        let d = self.depth_pixel(lf, reference, p).ok()?;
+        let (x, y) = (d.x.round().max(0.0) as u32, d.y.round().max(0.0) as u32);
+        let Some(z) = depth.depth(x, y) else {
+            return Some("cursor: no depth here".into());
+        };
+        let source = match origin {
+            Some(DepthOrigin::Estimated { estimate, .. }) => {
+                let i = (y * estimate.width + x) as usize;
+                match estimate.confidence.get(i) {
+                    Some(c) => format!("estimate, confidence {c:.3}"),
+                    None => "estimate".into(),
+                }
+            }
+            _ => "given".into(),
+        };
+        Some(format!("cursor: z {z:.3} ({source})"))
+    }
+
     fn missing(&self, lf: &LightField, what: &str) -> String {
         match &self.state {
             DepthState::Estimating { done, total } => format!(

@@ -114,6 +114,8 @@ pub struct Status<'a> {
     pub message_at: Option<DVec2>,
     /// The control panel, while it is shown.
     pub panel: Option<&'a ControlPanel>,
+    /// The depth under the cursor over the refocus image (`DepthCache::reading`).
+    pub cursor: Option<&'a str>,
 }
 
 impl Status<'_> {
@@ -152,8 +154,8 @@ impl Status<'_> {
                 .map_or(String::new(), |f| format!("  frame {f}")),
             self.depth
                 .field()
-                .map_or(String::new(), |f| format!("  {f}"))
-        )
+                .map_or(String::new(), |f| format!("  {f}")),
+        ) + &self.cursor.map_or(String::new(), |c| format!("  {c}"))
     }
 
     /// Aperture, viewpoint, averaging, GPU time, frame rate and refinement progress.
@@ -528,6 +530,7 @@ mod tests {
                 highlight: None,
                 message_at: None,
                 panel: None,
+                cursor: Some("cursor: z 2.000 (given)"),
             };
             hud.draw(&layout, &status);
             hud.parts.clone()

@@ -125,6 +125,8 @@ pub struct Session {
     pub surface: Option<SurfacePlan>,
     /// Where the depth came from, once there is depth.
     pub depth_origin: Option<DepthOrigin>,
+    /// The status strip's reading of the depth under the cursor.
+    cursor_depth: Option<String>,
     /// Depth still to be estimated (started after the first frame) and the estimate running.
     depth_plan: Option<DepthPlan>,
     depth_job: Option<DepthJob>,
@@ -187,6 +189,7 @@ impl Session {
             aa_version: u64::MAX,
             surface: None,
             depth_origin: None,
+            cursor_depth: None,
             depth_plan: None,
             depth_job: None,
             depth_validation_errors: 0,
@@ -419,6 +422,27 @@ impl Session {
         self.anchor_message(self.layout.refocus_to_window(d, size));
     }
 
+    /// The cursor is at window position `at`: the status strip reads the depth under it when
+    /// it is over the refocus image (redrawn only when the reading changes).
+    pub fn hover(&mut self, at: DVec2) {
+        let view = (self.lf.width, self.lf.height);
+        let reading = self
+            .layout
+            .refocus_pixel(at.x + 0.5, at.y + 0.5, view)
+            .and_then(|p| {
+                self.depth.reading(
+                    &self.lf,
+                    &self.state.plan.reference_camera,
+                    p,
+                    self.depth_origin.as_ref(),
+                )
+            });
+        if reading != self.cursor_depth {
+            self.cursor_depth = reading;
+            self.dirty.text = true;
+        }
+    }
+
     /// The state's message (if any) is about a click at window position `at`.
     fn anchor_message(&mut self, at: DVec2) {
         if self.state.message.is_some() {
@@ -621,6 +645,7 @@ impl Session {
             highlight: self.highlight.map(|(f, _)| f),
             message_at: self.message_at,
             panel: self.state.show_panel.then_some(&self.panel),
+            cursor: self.cursor_depth.as_deref(),
         };
         let line = self.hud.draw(&self.layout, &status);
         self.dirty.text = false;
@@ -697,6 +722,7 @@ impl Session {
                 &prefix,
                 result.window.as_ref(),
                 self.stats.frames,
+                self.cursor_depth.as_deref(),
             )?;
         }
         Ok(())

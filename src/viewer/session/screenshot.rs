@@ -124,6 +124,7 @@ pub fn save(
     prefix: &Path,
     window: Option<&RgbaImage>,
     frames: usize,
+    cursor: Option<&str>,
 ) -> Result<()> {
     let full = state.plan.clone();
     let refocus =
@@ -142,6 +143,8 @@ pub fn save(
         // Frames presented so far (this one included): scripts can check that an idle
         // viewer renders nothing.
         obj.insert("frames_presented".into(), frames.into());
+        // The status strip's reading of the depth under the cursor (null off the image).
+        obj.insert("cursor_depth".into(), cursor.into());
     }
     let path = with_suffix(prefix, ".json");
     crate::io::write_bytes(&path, "JSON", format!("{json:#}\n").as_bytes())?;
