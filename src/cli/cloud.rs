@@ -113,7 +113,7 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         )
     };
     let depth = lf.view_depth()?;
-    let params = args.focus.normal_params(window);
+    let params = args.focus.options()?.normal_params(window);
     params.validate()?;
     let t0 = Instant::now();
     let normals = estimate_normals(&depth, &params);

@@ -15,7 +15,7 @@ use serde_json::{json, Value};
 
 use super::parse_numbers;
 use crate::error::{Error, Result};
-use crate::geometry::normals::{NormalMethod, NormalParams};
+use crate::geometry::normals::NormalMethod;
 use crate::geometry::picking::Nudge;
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
@@ -169,18 +169,6 @@ pub struct FocusArgs {
 pub use crate::geometry::normals::GIVEN_DEPTH_WINDOW;
 
 impl FocusArgs {
-    /// True when the options pick pixels of the depth view (`--click`, `--points`).
-    pub fn needs_depth(&self) -> bool {
-        self.click.is_some() || self.points.is_some()
-    }
-
-    /// The normal parameters: `--normal-method`, and `--normal-window` or `default_window`.
-    pub fn normal_params(&self, default_window: u32) -> NormalParams {
-        NormalParams::default()
-            .with_method(self.normal_method)
-            .with_window(self.normal_window.unwrap_or(default_window))
-    }
-
     /// True when any focus option is given.
     pub fn any(&self) -> bool {
         self.keyboard.disparity.is_some()
