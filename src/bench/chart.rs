@@ -164,6 +164,10 @@ where
             (p.gpu_ms_median, p.psnr_vs_truth_db, label)
         })
         .collect();
+    // By time, so that alternating labels below and above separates neighbours on the chart
+    // (the study lists prefiltered and sharp settings apart, whose times interleave).
+    let mut aa = aa;
+    aa.sort_by(|a, b| a.0.total_cmp(&b.0));
     let (tlo, thi) = span(
         points
             .iter()
@@ -243,11 +247,12 @@ where
             .map_err(chart_err)?
             .label("anti-aliasing study vs its lens (× plain sum's time)")
             .legend(move |(x, y)| Rectangle::new([(x - 5, y - 5), (x + 5, y + 5)], green.filled()));
-        // Alternately below and above, since neighbouring caps often sit close together.
+        // Below, above and further below in turn, since neighbouring settings often sit close
+        // together (two rows were not enough for seven settings).
         for (k, (t, p, label)) in aa.iter().enumerate() {
             let (px, py) = chart.backend_coord(&(*t, *p));
             let style = TextStyle::from((FONT, 13).into_font()).color(&green);
-            let dy = if k % 2 == 0 { 4 } else { -18 };
+            let dy = [4, -18, 20][k % 3];
             root.draw(&Text::new(label.clone(), (px + 8, py + dy), style))
                 .map_err(chart_err)?;
         }
