@@ -6,14 +6,15 @@ use ash::vk;
 
 use super::commands::{level_copy, levels_barrier, stage, ImageTransition, Submission};
 use super::context::GpuContext;
-use super::resources::{Buffer, Image, ImageDesc};
+use super::resources::{Buffer, Image};
 use crate::error::Result;
 
-/// Where one image's texels start in the staging buffer (tightly packed, layer after layer;
-/// with mip levels, level after level, each holding every layer).
+/// Where one image's texels lie in the staging buffer: one offset per mip level (level 0
+/// first), each level tightly packed, layer after layer. The caller packed the buffer, so it
+/// says where; the levels' sizes follow from the image's (halved, at least 1).
 pub struct ImageRegion<'a> {
     pub image: &'a Image,
-    pub offset: u64,
+    pub offsets: Vec<u64>,
 }
 
 /// Copies `bytes` bytes, written by `fill` into a staging buffer, into `regions` and waits.
@@ -29,33 +30,6 @@ pub fn upload_images(
     let result = staging.upload(ctx, regions, bytes, fill);
     staging.destroy(ctx);
     result
-}
-
-/// Where each mip level of `desc` starts in a staging region at `offset` and its size: level
-/// after level, each `width × height × layers` texels of `texel_bytes(desc.format)`.
-fn level_offsets(desc: &ImageDesc, offset: u64) -> Vec<(u64, (u32, u32))> {
-    let texel = texel_bytes(desc.format);
-    let mut at = offset;
-    (0..desc.mip_levels.max(1))
-        .map(|l| {
-            let size = ((desc.width >> l).max(1), (desc.height >> l).max(1));
-            let here = at;
-            at += size.0 as u64 * size.1 as u64 * desc.layers as u64 * texel;
-            (here, size)
-        })
-        .collect()
-}
-
-/// Bytes per texel of the formats uploaded through staging.
-fn texel_bytes(format: vk::Format) -> u64 {
-    match format {
-        vk::Format::R16G16B16A16_UNORM
-        | vk::Format::R16G16B16A16_SFLOAT
-        | vk::Format::R32G32_SFLOAT => 8,
-        vk::Format::R32G32B32A32_SFLOAT => 16,
-        vk::Format::R8_UNORM => 1,
-        _ => 4,
-    }
 }
 
 /// A staging buffer and submission kept for repeated uploads of the same size (the frames of
@@ -99,6 +73,16 @@ impl Staging {
                 self.buffer.size
             )));
         }
+        if let Some(r) = regions
+            .iter()
+            .find(|r| r.offsets.len() != r.image.desc.mip_levels.max(1) as usize)
+        {
+            return Err(crate::error::Error::Invalid(format!(
+                "{} staging offsets for an image of {} mip levels",
+                r.offsets.len(),
+                r.image.desc.mip_levels.max(1)
+            )));
+        }
         fill(&mut self.buffer.bytes_mut()[..bytes as usize])?;
         let staging = &self.buffer;
         self.submission.run(ctx, |d, cmd| {
@@ -111,10 +95,15 @@ impl Staging {
                     to: stage::TRANSFER_DST,
                 };
                 levels_barrier(d, cmd, img.image, layers, levels, to_dst);
-                let copies: Vec<vk::BufferImageCopy> = level_offsets(desc, region.offset)
-                    .into_iter()
+                let copies: Vec<vk::BufferImageCopy> = region
+                    .offsets
+                    .iter()
                     .enumerate()
-                    .map(|(l, (offset, size))| level_copy(offset, size, layers, l as u32))
+                    .map(|(l, &offset)| {
+                        let l = l as u32;
+                        let size = ((desc.width >> l).max(1), (desc.height >> l).max(1));
+                        level_copy(offset, size, layers, l)
+                    })
                     .collect();
                 // SAFETY: recording; the staging buffer holds every region (the caller sized it).
                 unsafe {

@@ -586,7 +586,10 @@ impl PassBuilder {
             .map(|(image, a)| {
                 let offset = at;
                 at += a.2.len() as u64;
-                ImageRegion { image, offset }
+                ImageRegion {
+                    image,
+                    offsets: vec![offset],
+                }
             })
             .collect();
         let upload = upload_images(ctx, &regions, total as u64, "mesh texture staging", |dst| {

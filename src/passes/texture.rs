@@ -225,12 +225,13 @@ impl LightFieldTexture {
                 self.height
             )));
         }
+        let storage = self.storage;
+        let (offsets, total) = staging_layout(storage, self.width, self.height, self.layers);
         let regions = [ImageRegion {
             image: &self.image,
-            offset: 0,
+            offsets,
         }];
-        let storage = self.storage;
-        staging.upload(ctx, &regions, self.staging_bytes(), |dst| {
+        staging.upload(ctx, &regions, total, |dst| {
             fill_staging(dst, storage, lf);
             Ok(())
         })
@@ -239,7 +240,7 @@ impl LightFieldTexture {
     /// Bytes of all layers and levels in this texture's storage: the staging size
     /// [`Self::reupload`] needs.
     pub fn staging_bytes(&self) -> u64 {
-        staging_bytes(self.storage, self.width, self.height, self.layers)
+        staging_layout(self.storage, self.width, self.height, self.layers).1
     }
 
     /// Frees the texture.
@@ -256,22 +257,32 @@ fn write_views(
     storage: ViewStorage,
     lf: &LightField,
 ) -> Result<()> {
-    let total = staging_bytes(storage, lf.width, lf.height, lf.views.len() as u32);
-    let regions = [ImageRegion { image, offset: 0 }];
+    let (offsets, total) = staging_layout(storage, lf.width, lf.height, lf.views.len() as u32);
+    let regions = [ImageRegion { image, offsets }];
     upload_images(ctx, &regions, total, "light field staging", |dst| {
         fill_staging(dst, storage, lf);
         Ok(())
     })
 }
 
-/// Bytes of every level of `layers` views of `w × h` in `storage`, level after level.
-fn staging_bytes(storage: ViewStorage, w: u32, h: u32, layers: u32) -> u64 {
-    (0..prefilter::level_count(w, h))
+/// Bytes of one view's level `l` (of a `w × h` view) in `storage`.
+fn level_bytes(storage: ViewStorage, (w, h): (u32, u32), l: u32) -> usize {
+    let (lw, lh) = prefilter::level_size(w, h, l);
+    lw as usize * lh as usize * storage.texel_bytes() as usize
+}
+
+/// Where each level of `layers` views of `w × h` starts in the staging buffer (level after
+/// level, each holding every layer: what [`fill_staging`] writes), and the bytes of all.
+fn staging_layout(storage: ViewStorage, w: u32, h: u32, layers: u32) -> (Vec<u64>, u64) {
+    let mut total = 0u64;
+    let offsets = (0..prefilter::level_count(w, h))
         .map(|l| {
-            let (lw, lh) = prefilter::level_size(w, h, l);
-            lw as u64 * lh as u64 * storage.texel_bytes() * layers as u64
+            let at = total;
+            total += level_bytes(storage, (w, h), l) as u64 * layers as u64;
+            at
         })
-        .sum()
+        .collect();
+    (offsets, total)
 }
 
 /// Writes every view of `lf` in `storage`, layer after layer, into `dst` (views in parallel),
@@ -280,10 +291,7 @@ fn staging_bytes(storage: ViewStorage, w: u32, h: u32, layers: u32) -> u64 {
 fn fill_staging(dst: &mut [u8], storage: ViewStorage, lf: &LightField) {
     let (w, h) = (lf.width, lf.height);
     let layers = lf.views.len();
-    let level_bytes = |l: u32| {
-        let (lw, lh) = prefilter::level_size(w, h, l);
-        lw as usize * lh as usize * storage.texel_bytes() as usize
-    };
+    let level_bytes = |l: u32| level_bytes(storage, (w, h), l);
     let (level0, mut rest) = dst.split_at_mut(level_bytes(0) * layers);
     level0
         .par_chunks_exact_mut(level_bytes(0))
