@@ -181,12 +181,10 @@ impl AntialiasArgs {
 
     /// The sampling settings (validated).
     pub fn settings(&self) -> Result<crate::refocus::antialias::AntialiasSettings> {
-        let s = crate::refocus::antialias::AntialiasSettings {
-            max_samples: self.antialias_samples,
-            prefilter: self.antialias_prefilter == Switch::On,
-        };
-        s.validate()?;
-        Ok(s)
+        crate::refocus::antialias::AntialiasSettings::checked(
+            self.antialias_samples,
+            self.antialias_prefilter == Switch::On,
+        )
     }
 }
 

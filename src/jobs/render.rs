@@ -216,12 +216,7 @@ impl RenderOptions {
 
     /// The anti-aliasing sample settings (validated).
     pub fn antialias_settings(&self) -> Result<AntialiasSettings> {
-        let s = AntialiasSettings {
-            max_samples: self.antialias_samples,
-            prefilter: self.antialias_prefilter,
-        };
-        s.validate()?;
-        Ok(s)
+        AntialiasSettings::checked(self.antialias_samples, self.antialias_prefilter)
     }
 
     /// The focus surface (validated; the plane alone unless several planes, a slab or

@@ -71,6 +71,16 @@ impl Default for AntialiasSettings {
 }
 
 impl AntialiasSettings {
+    /// The settings of a request (`--antialias-samples`, `--antialias-prefilter`), checked.
+    pub fn checked(max_samples: u32, prefilter: bool) -> Result<Self> {
+        let s = AntialiasSettings {
+            max_samples,
+            prefilter,
+        };
+        s.validate()?;
+        Ok(s)
+    }
+
     /// Checks the sample cap.
     pub fn validate(&self) -> Result<()> {
         if !(1..=MAX_SAMPLES_LIMIT).contains(&self.max_samples) {
