@@ -154,7 +154,7 @@ where
         .collect();
     // The anti-aliasing study's points: (GPU ms, PSNR against its lens, name with the cost
     // ratio to the plain sum).
-    let aa: Vec<(f64, f64, String)> = report
+    let mut aa: Vec<(f64, f64, String)> = report
         .antialias
         .iter()
         .flat_map(|a| &a.points)
@@ -166,7 +166,6 @@ where
         .collect();
     // By time, so that alternating labels below and above separates neighbours on the chart
     // (the study lists prefiltered and sharp settings apart, whose times interleave).
-    let mut aa = aa;
     aa.sort_by(|a, b| a.0.total_cmp(&b.0));
     let (tlo, thi) = span(
         points
