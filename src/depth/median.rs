@@ -33,8 +33,17 @@ pub fn weighted_median(values: &[f32], guide: &RgbaImage, radius: u32, sigma: f3
     }
     let scale = (BINS - 1) as f32 / (hi - lo);
     let bin = |v: f32| ((v - lo) * scale).round() as usize;
+    // Every value's bin once (NO_BIN where it takes no part): a rounding per neighbour was a
+    // library call each.
+    const NO_BIN: u16 = u16::MAX;
+    let bins: Vec<u16> = values
+        .iter()
+        .map(|&v| if v.is_finite() { bin(v) as u16 } else { NO_BIN })
+        .collect();
     // Weight by squared colour distance, tabulated (at most 3 · 255²): an exp per neighbour
-    // was most of the time.
+    // was most of the time. The whole range: where every sampled neighbour differs strongly
+    // from the centre, their weights of e^−20 to e^−80 still rank them (cutting the table at
+    // e^−18 cost 0.8 % BadPix on the occlusion-edge scene).
     let inv = -1.0 / (2.0 * sigma * sigma);
     let table: Vec<f32> = (0..=3 * 255 * 255)
         .map(|d2| (d2 as f32 * inv).exp())
@@ -53,7 +62,7 @@ pub fn weighted_median(values: &[f32], guide: &RgbaImage, radius: u32, sigma: f3
         let mut hist = [0f32; BINS];
         for (x, o) in row.iter_mut().enumerate() {
             let i = y * w + x;
-            if !values[i].is_finite() {
+            if bins[i] == NO_BIN {
                 continue;
             }
             hist.fill(0.0);
@@ -70,17 +79,22 @@ pub fn weighted_median(values: &[f32], guide: &RgbaImage, radius: u32, sigma: f3
                         continue;
                     }
                     let j = yy as usize * w + xx as usize;
-                    let v = values[j];
-                    if !v.is_finite() {
+                    let b = bins[j];
+                    if b == NO_BIN {
                         continue;
                     }
                     let n = colour(j);
                     let d2 =
                         ((c[0] - n[0]).pow(2) + (c[1] - n[1]).pow(2) + (c[2] - n[2]).pow(2)) as u32;
                     let wt = weight_of(d2);
-                    hist[bin(v)] += wt;
+                    hist[b as usize] += wt;
                     total += wt;
                 }
+            }
+            // No neighbour of a colour near enough to weigh (the window is sampled every
+            // other pixel, the centre itself left out): the pixel keeps its value.
+            if total <= 0.0 {
+                continue;
             }
             let half = 0.5 * total;
             let mut acc = 0f32;
@@ -92,7 +106,7 @@ pub fn weighted_median(values: &[f32], guide: &RgbaImage, radius: u32, sigma: f3
                     break;
                 }
             }
-            if median != bin(values[i]) {
+            if median != bins[i] as usize {
                 *o = lo + median as f32 / scale;
             }
         }
