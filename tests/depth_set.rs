@@ -52,14 +52,14 @@ fn the_default_beats_the_sweep_and_the_naive_sweep_over_the_whole_set() {
     };
     let (d, s, n) = (mean("default"), mean("sweep"), mean("naive"));
     eprintln!("{}", testset::markdown(&rows));
-    // Measured at 64 px: default 21.1 % / 7.0, without the median 20.8 % / 8.2, sweep
+    // Measured at 64 px: default 19.2 % / 6.1, without the median 19.3 % / 8.4, sweep
     // 24.7 % / 9.0, naive 46.5 % / 52.9.
     assert!(
         d.bad_pix_007 <= 25.0,
         "default mean BadPix0.07 {}",
         d.bad_pix_007
     );
-    assert!(d.mse_x100 <= 9.0, "default mean MSE×100 {}", d.mse_x100);
+    assert!(d.mse_x100 <= 7.0, "default mean MSE×100 {}", d.mse_x100);
     let nm = mean("no-median");
     assert!(d.mse_x100 <= nm.mse_x100 - 0.5, "{d:?} vs no median {nm:?}");
     assert!(
@@ -82,10 +82,12 @@ fn the_default_beats_the_sweep_and_the_naive_sweep_over_the_whole_set() {
         })
         .collect();
     let (bust, bust_sweep) = (at[&("bust", "default")], at[&("bust", "sweep")]);
-    // The median gives the dark wall back the pixels the bust was fattened into (measured
-    // MSE×100 5.0 against 16.2 without it).
+    // The median gives the dark wall back the pixels the bust was fattened into, its second
+    // pass those in the concave corners too (measured MSE×100 4.7 at 64 px;
+    // the issue asks at most 5 on the HCI scene the bust stands in for).
     let bust_nm = at[&("bust", "no-median")];
     assert!(bust.1 <= 0.6 * bust_nm.1, "bust {bust:?} vs {bust_nm:?}");
+    assert!(bust.1 <= 5.0, "bust {bust:?}");
     assert!(
         bust.0 <= bust_sweep.0 - 10.0,
         "bust {bust:?} vs {bust_sweep:?}"

@@ -110,8 +110,8 @@ pub struct DepthSetArgs {
     #[arg(long, value_name = "FILE.md")]
     pub markdown: Option<PathBuf>,
     /// Write a figure per scene and variant into DIR (SCENE-VARIANT.png: estimate, truth and
-    /// error side by side; error black within 0.03 px, yellow within 0.07, red beyond) and the
-    /// estimate itself (SCENE-VARIANT.pfm, disparity).
+    /// error side by side; error black within 0.03 px, yellow within 0.07, red beyond), the
+    /// estimate itself (SCENE-VARIANT.pfm, disparity) and the truth (SCENE-truth.pfm).
     #[arg(long, value_name = "DIR")]
     pub maps: Option<PathBuf>,
     /// Print the rows as JSON on stdout instead of the table.
@@ -156,7 +156,14 @@ pub fn run_set(args: &DepthSetArgs) -> Result<()> {
         let (w, h) = (scene.light_field.width, scene.light_field.height);
         dir.track(&dir.path().join(format!("{stem}.pfm")), |p| {
             write_pfm(p, w, h, 1, d)
-        })
+        })?;
+        // The truth beside the estimates (once per scene, with its first variant), for
+        // anyone's own analysis of the errors.
+        if args.variants.first().map(String::as_str) != Some(variant) {
+            return Ok(());
+        }
+        let truth = dir.path().join(format!("{}-truth.pfm", scene.name));
+        dir.track(&truth, |p| write_pfm(p, w, h, 1, &scene.truth))
     })?;
     bar.finish_and_clear();
     if let Some(dir) = maps {

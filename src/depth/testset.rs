@@ -100,9 +100,9 @@ pub fn hci(folder: &Path) -> Result<SetScene> {
 }
 
 /// The estimator variants the set compares, by name: `default` (today's defaults), `naive`
-/// (SAD over the same views with box aggregation) and `sweep` (the default without the
-/// continuous fit).
-pub const VARIANTS: [&str; 4] = ["default", "no-median", "sweep", "naive"];
+/// (SAD over the same views with box aggregation), `sweep` (the sweep alone: no median, no
+/// continuous fit), `no-fit` and `no-median` (the default without either step).
+pub const VARIANTS: [&str; 5] = ["default", "no-fit", "no-median", "sweep", "naive"];
 
 /// The options of variant `name` ([`VARIANTS`]).
 pub fn variant(name: &str) -> Result<DepthOptions> {
@@ -113,6 +113,13 @@ pub fn variant(name: &str) -> Result<DepthOptions> {
             params: SweepParams {
                 fit: false,
                 median_radius: 0,
+                ..SweepParams::default()
+            },
+            ..base
+        }),
+        "no-fit" => Ok(DepthOptions {
+            params: SweepParams {
+                fit: false,
                 ..SweepParams::default()
             },
             ..base

@@ -85,7 +85,7 @@ pub fn estimate(
         .collect();
     if options.params.median_radius > 0 {
         let t = Instant::now();
-        param = crate::depth::median::weighted_median(
+        param = crate::depth::median::weighted_median_twice(
             &param,
             reference,
             options.params.median_radius,
