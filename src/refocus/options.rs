@@ -127,12 +127,6 @@ impl FocusOptions {
                 )))
             }
         }
-        let turned = self.tilt.iter().chain(&self.swing).any(|&a| a != 0.0);
-        if self.focus.is_empty() && turned {
-            return Err(Error::Invalid(
-                "--tilt and --swing turn the --focus plane; give --focus with them".into(),
-            ));
-        }
         if !self.tilt.iter().chain(&self.swing).all(|a| a.is_finite()) {
             return Err(Error::Invalid(format!(
                 "--tilt and --swing must be finite numbers, got {} and {}",
@@ -167,8 +161,14 @@ impl FocusOptions {
     /// Every plane the scene-free options give, in order: each `--disparity`, each `--plane`,
     /// each `--focus` with its `--tilt` and `--swing` (one value turns every `--focus`
     /// plane, one per `--focus` pairs by order; none is 0°). Empty for a pick. Refuses any
-    /// other count of `--tilt` or `--swing`, naming the options and the counts.
+    /// other count of `--tilt` or `--swing`, naming the options and the counts, and either
+    /// without `--focus` (the CLI's parser lets `--tilt` pass with another focus option).
     pub fn specs(&self) -> Result<Vec<FocusSpec>> {
+        if self.focus.is_empty() && !(self.tilt.is_empty() && self.swing.is_empty()) {
+            return Err(Error::Invalid(
+                "--tilt and --swing turn the --focus plane; give --focus with them".into(),
+            ));
+        }
         let angle = |values: &[f64], name: &str, k: usize| -> Result<f64> {
             match values.len() {
                 0 => Ok(0.0),
@@ -193,12 +193,6 @@ impl FocusOptions {
                 tilt_deg: angle(&self.tilt, "--tilt", k)?,
                 swing_deg: angle(&self.swing, "--swing", k)?,
             });
-        }
-        if self.focus.is_empty() {
-            // Without --focus only an unturned angle can be given (see `validate`); a count
-            // is still checked, so `tilt=[0, 0]` is not silently dropped.
-            angle(&self.tilt, "--tilt", 0)?;
-            angle(&self.swing, "--swing", 0)?;
         }
         Ok(specs)
     }
@@ -313,6 +307,18 @@ mod tests {
             ..Default::default()
         };
         assert!(tilt.validate().unwrap_err().to_string().contains("--tilt"));
+        // Given without --focus, even at 0°, the angle is refused, not dropped.
+        let zero = FocusOptions {
+            planes: vec![Plane::new(DVec3::new(0.0, 0.0, 2.0), DVec3::Z).unwrap()],
+            swing: vec![0.0],
+            ..Default::default()
+        };
+        for e in [zero.validate().unwrap_err(), zero.request(9).unwrap_err()] {
+            assert_eq!(
+                e.to_string(),
+                "--tilt and --swing turn the --focus plane; give --focus with them"
+            );
+        }
         let ok = FocusOptions {
             focus: vec![2.0],
             tilt: vec![5.0],
