@@ -53,7 +53,8 @@ pub struct PlaneArgs {
     pub disparity: Vec<f64>,
     /// Refocus plane: world point and normal. `render` and `cloud` take it 2 to 8 times: a
     /// focus surface of several planes (each pixel focused on the plane nearest the scene
-    /// there).
+    /// there; the first is the render's focus). One form per surface: --plane, --focus or
+    /// --disparity repeated, not mixed.
     #[arg(
         long,
         value_name = "PX,PY,PZ,NX,NY,NZ",

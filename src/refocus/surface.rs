@@ -38,9 +38,10 @@ pub const MAX_PLANES: usize = 8;
 /// [`FocusSurface::Planes`] is given: a world [`Plane`] (the default, what a render uses), or
 /// as asked for, a [`FocusSpec`] (the keyboard definition and a disparity are relative to the
 /// reference camera; [`FocusSurface::resolve`] places them in the world).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Default)]
 pub enum FocusSurface<P = Plane> {
     /// The plan's plane alone: the classic tilt-shift refocus (needs no scene depth).
+    #[default]
     Plane,
     /// Several planes, the plan's first (the plan is made from `planes[0]`): 2 to
     /// [`MAX_PLANES`] in all.
@@ -50,12 +51,6 @@ pub enum FocusSurface<P = Plane> {
     Slab { half_width: f64 },
     /// Every pixel focused on the scene point it sees.
     AllInFocus,
-}
-
-impl<P> Default for FocusSurface<P> {
-    fn default() -> Self {
-        FocusSurface::Plane
-    }
 }
 
 impl<P: Clone> FocusSurface<P> {
