@@ -645,3 +645,325 @@ fn render_reports_surfaces_and_refuses_bad_ones() {
         ],
     );
 }
+
+/// The `--plane` text of the plane a single-plane render of `focus` resolves (its `--json`):
+/// the plane each repeated form must give on its own. Rust prints an f64 so that it parses
+/// back to the same number.
+fn plane_alone(focus: &[&str], out: &str) -> String {
+    let mut args = vec!["render", "builtin:demo", "-o", out, "--json"];
+    args.extend_from_slice(focus);
+    let j = json_of(&tiltfield(&args));
+    assert_eq!(j["surface"]["kind"], "plane", "{focus:?} is one plane");
+    let p = &j["plane"];
+    let v: Vec<f64> = ["point", "normal"]
+        .iter()
+        .flat_map(|k| (0..3).map(move |i| p[k][i].as_f64().unwrap()))
+        .collect();
+    format!(
+        "--plane={}",
+        v.iter().map(f64::to_string).collect::<Vec<_>>().join(",")
+    )
+}
+
+/// The RGBA pixels of a PNG, and how many differ between two.
+fn pixels(path: &str) -> Vec<[u8; 4]> {
+    let img = image::open(path).unwrap().to_rgba8();
+    img.pixels().map(|p| p.0).collect()
+}
+
+fn differing(a: &str, b: &str) -> usize {
+    let (a, b) = (pixels(a), pixels(b));
+    assert_eq!(a.len(), b.len());
+    a.iter().zip(&b).filter(|(x, y)| x != y).count()
+}
+
+/// `--focus` (with `--tilt`/`--swing` once or once per `--focus`) and `--disparity` repeated
+/// are focus surfaces of the planes each gives alone: the image is byte for byte the one of
+/// `--plane` repeated with those planes, and `--json` reports them. Wrong counts, a ninth
+/// plane, mixed forms, a surface with a slab or `--frames`, and one-plane commands are refused
+/// by name; `cloud` draws the planes as it does for `--plane`.
+#[test]
+fn repeated_focus_and_disparity_are_the_surfaces_of_their_planes() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let (scratch, focus_png, plane_png, first_png) = (
+        path("scratch.png"),
+        path("focus.png"),
+        path("plane.png"),
+        path("first.png"),
+    );
+    // Tilt once per --focus (paired by order), swing once (every plane).
+    let keyboard = [
+        "--focus", "1.6", "--focus", "2.4", "--tilt", "0", "--tilt", "25", "--swing", "5",
+    ];
+    let p1 = plane_alone(&["--focus", "1.6", "--swing", "5"], &scratch);
+    let p2 = plane_alone(
+        &["--focus", "2.4", "--tilt", "25", "--swing", "5"],
+        &scratch,
+    );
+    assert_ne!(p1, p2);
+    let mut args = vec!["render", "builtin:demo", "-o", &focus_png, "--json"];
+    args.extend_from_slice(&keyboard);
+    let j = json_of(&tiltfield(&args));
+    assert_eq!(j["surface"]["kind"], "planes");
+    assert_eq!(j["focus"]["how"], "focus-tilt-swing");
+    let reported: Vec<String> = j["surface"]["planes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|p| {
+            let v: Vec<String> = ["point", "normal"]
+                .iter()
+                .flat_map(|k| (0..3).map(move |i| p[k][i].as_f64().unwrap().to_string()))
+                .collect();
+            format!("--plane={}", v.join(","))
+        })
+        .collect();
+    assert_eq!(reported, vec![p1.clone(), p2.clone()]);
+    let o = tiltfield(&["render", "builtin:demo", &p1, &p2, "-o", &plane_png]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(&focus_png).unwrap(),
+        std::fs::read(&plane_png).unwrap(),
+        "--focus repeated and the same planes by --plane render alike"
+    );
+    // The second plane matters: the first alone renders otherwise.
+    let o = tiltfield(&[
+        "render",
+        "builtin:demo",
+        "--focus",
+        "1.6",
+        "--swing",
+        "5",
+        "-o",
+        &first_png,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let changed = differing(&focus_png, &first_png);
+    assert!(
+        changed > 1000,
+        "only {changed} pixels from the second plane"
+    );
+
+    // --disparity repeated on a rig: its frontoparallel planes.
+    let d1 = plane_alone(&["--disparity", "0.5"], &scratch);
+    let d2 = plane_alone(&["--disparity", "-0.5"], &scratch);
+    let o = tiltfield(&[
+        "render",
+        "builtin:demo",
+        "--disparity",
+        "0.5",
+        "--disparity=-0.5",
+        "-o",
+        &focus_png,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = tiltfield(&["render", "builtin:demo", &d1, &d2, "-o", &plane_png]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(&focus_png).unwrap(),
+        std::fs::read(&plane_png).unwrap(),
+        "--disparity repeated and the same planes by --plane render alike"
+    );
+
+    // Counts of --tilt and --swing other than once or once per --focus.
+    let out = scratch.as_str();
+    fn with<'a>(out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+        let mut a = vec!["render", "builtin:demo", "-o", out];
+        a.extend_from_slice(extra);
+        a
+    }
+    let render = |extra: &[&'static str]| with(out, extra);
+    fails_with(
+        &render(&[
+            "--focus", "2", "--focus", "3", "--focus", "4", "--tilt", "1", "--tilt", "2",
+        ]),
+        &[
+            "--tilt is given 2 times and --focus 3 times",
+            "paired by order",
+        ],
+    );
+    fails_with(
+        &render(&["--focus", "2", "--swing", "1", "--swing", "2"]),
+        &["--swing is given 2 times and --focus once"],
+    );
+    // --tilt or --swing without --focus: refused, not ignored (even at 0°).
+    for extra in [
+        &["--plane=0,0,2,0,0,1", "--tilt", "3"][..],
+        &["--disparity", "0.5", "--swing", "0"],
+    ] {
+        fails_with(
+            &render(extra),
+            &["--tilt and --swing turn the --focus plane; give --focus with them"],
+        );
+    }
+    // A ninth plane, in any form.
+    let nine: Vec<String> = (0..9).map(|k| format!("--focus={}", 2 + k)).collect();
+    let mut a = render(&[]);
+    a.extend(nine.iter().map(|s| s.as_str()));
+    fails_with(&a, &["at most 8 planes, got 9"]);
+    let nine: Vec<String> = (0..9).map(|k| format!("--disparity={}", k)).collect();
+    let mut a = render(&[]);
+    a.extend(nine.iter().map(|s| s.as_str()));
+    fails_with(&a, &["at most 8 planes, got 9"]);
+    // Forms do not mix in one surface.
+    fails_with(
+        &render(&["--plane=0,0,2,0,0,1", "--focus", "3"]),
+        &["--plane", "--focus", "cannot be used with"],
+    );
+    // A slab lies around one plane; --frames renders one plane per frame.
+    fails_with(
+        &render(&["--focus", "2", "--focus", "3", "--slab", "0.1"]),
+        &["exactly one plane, got 2 planes"],
+    );
+    fails_with(
+        &[
+            "render",
+            "builtin:demo",
+            "--frames",
+            "0..1",
+            "--focus",
+            "2",
+            "--focus",
+            "3",
+            "-o",
+            &path("f_{frame}.png"),
+        ],
+        &["focus surfaces", "are for single renders"],
+    );
+    // A later plane that cannot be is named by its place.
+    fails_with(
+        &render(&[
+            "--focus", "2", "--focus", "3", "--tilt", "0", "--tilt", "95",
+        ]),
+        &["focus plane 2: tilt must lie strictly between"],
+    );
+
+    // `cloud` draws the keyboard planes as it draws the same planes given by --plane.
+    let ply = path("c.ply");
+    let mut a = vec!["cloud", "builtin:demo", "-o", &ply, "--json"];
+    a.extend_from_slice(&keyboard);
+    let j = json_of(&tiltfield(&a));
+    assert_eq!(j["surface"]["kind"], "planes");
+    let j2 = json_of(&tiltfield(&[
+        "cloud",
+        "builtin:demo",
+        &p1,
+        &p2,
+        "-o",
+        &ply,
+        "--json",
+    ]));
+    assert_eq!(
+        j["surface"]["other_planes"][0]["point"],
+        j2["surface"]["other_planes"][0]["point"]
+    );
+    let n = |j: &serde_json::Value| {
+        (0..3)
+            .map(|i| {
+                j["surface"]["other_planes"][0]["normal"][i]
+                    .as_f64()
+                    .unwrap()
+            })
+            .collect::<Vec<_>>()
+    };
+    let (a_n, b_n) = (n(&j), n(&j2));
+    assert!(
+        a_n.iter().zip(&b_n).all(|(x, y)| (x - y).abs() < 1e-12),
+        "{a_n:?} vs {b_n:?}"
+    );
+    fails_with(
+        &[
+            "cloud",
+            "builtin:demo",
+            "--focus",
+            "2",
+            "--focus",
+            "3",
+            "--tilt",
+            "1",
+            "--tilt",
+            "2",
+            "--tilt",
+            "3",
+            "-o",
+            &ply,
+        ],
+        &["--tilt is given 3 times and --focus 2 times"],
+    );
+    // Commands that take one plane refuse any form repeated, naming it.
+    for (form, values) in [("--focus", ["2", "3"]), ("--disparity", ["0.5", "1"])] {
+        fails_with(
+            &[
+                "synth",
+                "builtin:planes",
+                form,
+                values[0],
+                form,
+                values[1],
+                "-o",
+                &path("synth"),
+            ],
+            &[
+                &format!("{form} is given 2 times"),
+                "only `render` and `cloud` take",
+            ],
+        );
+    }
+}
+
+/// `--disparity` repeated without a camera rig (a grid folder: classic shift-and-sum) has no
+/// planes to choose between: refused with the cause, after the depth it needs is estimated.
+#[test]
+fn repeated_disparity_without_a_rig_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let hci = dir.path().join("hci");
+    let o = tiltfield(&[
+        "synth",
+        "builtin:planes",
+        "--grid",
+        "3x3",
+        "--size",
+        "32x32",
+        "--layout",
+        "hci",
+        "-o",
+        hci.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // The same views as a grid folder (row_col.png): nominal cameras, no rig, no depth.
+    let grid = dir.path().join("grid");
+    std::fs::create_dir(&grid).unwrap();
+    for k in 0..9 {
+        std::fs::copy(
+            hci.join(format!("input_Cam{k:03}.png")),
+            grid.join(format!("{:02}_{:02}.png", k / 3, k % 3)),
+        )
+        .unwrap();
+    }
+    let out = dir.path().join("o.png");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+        .args([
+            "render",
+            grid.to_str().unwrap(),
+            "--disparity",
+            "0.5",
+            "--disparity",
+            "1",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .env("TILTFIELD_VALIDATION", "1")
+        .env("TILTFIELD_CACHE_DIR", dir.path().join("cache"))
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success() && !err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("the focus surface 'planes' needs the cameras' geometry")
+            && err.contains("classic shift-and-sum"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}

@@ -142,6 +142,23 @@ fn numbers_of(
     numbers(&v, n, what).map(Some).map_err(py_err)
 }
 
+/// A keyword that takes one number or several (`focus=`, `tilt=`, `swing=`, `disparity=`,
+/// each as its CLI option given once or repeated): none, one or every number, in order.
+fn values_of(value: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
+    let Some(value) = value else {
+        return Ok(Vec::new());
+    };
+    if let Ok(one) = value.extract::<f64>() {
+        return Ok(vec![one]);
+    }
+    value.extract::<Vec<f64>>().map_err(|_| {
+        PyValueError::new_err(format!(
+            "{what}: expected a number or a sequence of numbers (one per plane), got {}",
+            repr(value)
+        ))
+    })
+}
+
 fn repr(value: &Bound<'_, PyAny>) -> String {
     value
         .repr()
@@ -197,21 +214,21 @@ type Pick<'a, 'py> = Option<&'a Bound<'py, PyAny>>;
 /// exactly one focus, refinements that belong to it).
 #[allow(clippy::too_many_arguments)] // the focus keywords, grouped where they belong together
 fn focus_options(
-    disparity: Option<f64>,
+    disparity: Option<&Bound<'_, PyAny>>,
     plane: Option<&Bound<'_, PyAny>>,
-    focus: Option<f64>,
-    (tilt, swing): (f64, f64),
+    focus: Option<&Bound<'_, PyAny>>,
+    (tilt, swing): (Option<&Bound<'_, PyAny>>, Option<&Bound<'_, PyAny>>),
     (click, points, points_3d): (Pick<'_, '_>, Pick<'_, '_>, Pick<'_, '_>),
     (nudge_distance, nudge_tilt, nudge_swing): (Option<f64>, Option<f64>, Option<f64>),
     normal_window: Option<u32>,
     normal_method: &str,
 ) -> PyResult<FocusOptions> {
     let focus = FocusOptions {
-        disparity,
+        disparity: values_of(disparity, "--disparity")?,
         planes: planes_of(plane)?,
-        focus,
-        tilt,
-        swing,
+        focus: values_of(focus, "--focus")?,
+        tilt: values_of(tilt, "--tilt")?,
+        swing: values_of(swing, "--swing")?,
         click: numbers_of(click, 2, "--click")?.map(|v| DVec2::new(v[0], v[1])),
         points: numbers_of(points, 6, "--points")?.map(|v| {
             [
@@ -363,11 +380,14 @@ impl LightField {
     /// - ``disparity=D``: frontoparallel focus, px per grid step (HCI convention on HCI data,
     ///   manifests with a rig and built-in scenes, positive nearer; classic shift-and-sum on
     ///   grid folders and arrays);
-    /// - ``plane=(px, py, pz, nx, ny, nz)``: a world point and normal; a sequence of 2 to 8
-    ///   such planes is a focus surface (each pixel focused on the plane nearest the scene);
+    /// - ``plane=(px, py, pz, nx, ny, nz)``: a world point and normal;
     /// - ``focus=Z`` with ``tilt=`` and ``swing=`` (degrees): the plane through the
     ///   reference optical axis at distance Z, tilted about the camera's x axis (positive: top
     ///   farther) and swung about its y axis (positive: right farther);
+    /// - a sequence of 2 to 8 values of ``plane``, ``focus`` or ``disparity`` (on a rig) is a
+    ///   focus surface of several planes (each pixel focused on the plane nearest the scene;
+    ///   the first is the render's focus), as the repeated CLI option; ``tilt`` and ``swing``
+    ///   are then one number (every ``focus`` plane) or one per ``focus`` (paired by order);
     /// - ``click=(u, v)``: the plane through that pixel of the depth map's view with the
     ///   surface normal there (``normal_window``, ``normal_method``);
     /// - ``points=(u1, v1, u2, v2, u3, v3)``: through three pixels;
@@ -394,7 +414,7 @@ impl LightField {
     /// the GPU. The views are uploaded on the first call; later calls cost the GPU time and a
     /// readback (:attr:`last_gpu_ms` is the GPU part).
     #[pyo3(signature = (
-        *, disparity=None, plane=None, focus=None, tilt=0.0, swing=0.0, click=None,
+        *, disparity=None, plane=None, focus=None, tilt=None, swing=None, click=None,
         points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
         normal_window=None, normal_method="inverse-depth", slab=None, all_in_focus=false,
         aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
@@ -407,11 +427,11 @@ impl LightField {
     fn refocus<'py>(
         &self,
         py: Python<'py>,
-        disparity: Option<f64>,
+        disparity: Option<&Bound<'py, PyAny>>,
         plane: Option<&Bound<'py, PyAny>>,
-        focus: Option<f64>,
-        tilt: f64,
-        swing: f64,
+        focus: Option<&Bound<'py, PyAny>>,
+        tilt: Option<&Bound<'py, PyAny>>,
+        swing: Option<&Bound<'py, PyAny>>,
         click: Option<&Bound<'py, PyAny>>,
         points: Option<&Bound<'py, PyAny>>,
         points_3d: Option<&Bound<'py, PyAny>>,
@@ -490,14 +510,15 @@ impl LightField {
         image_to_numpy(py, image)
     }
 
-    /// The focus plane a :meth:`refocus` call with the same focus keywords would use, as
+    /// The focus plane a :meth:`refocus` call with the same focus keywords would use (the
+    /// first of several: the render's own focus), as
     /// ``((px, py, pz), (nx, ny, nz))`` in the world frame (a unit normal), or ``None`` for
     /// classic shift-and-sum (``disparity=`` on a grid folder or array), which has no plane.
     /// A click or three pixels estimate the depth first when the light field has none.
     /// Takes the focus keywords of :meth:`refocus` and ``view``, ``aperture``,
     /// ``aperture_radius``, ``include_dark`` (the aperture is checked first, as a render does).
     #[pyo3(signature = (
-        *, disparity=None, plane=None, focus=None, tilt=0.0, swing=0.0, click=None,
+        *, disparity=None, plane=None, focus=None, tilt=None, swing=None, click=None,
         points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
         normal_window=None, normal_method="inverse-depth", aperture="disk",
         aperture_radius=None, view=None, include_dark=false
@@ -506,11 +527,11 @@ impl LightField {
     fn plane<'py>(
         &self,
         py: Python<'py>,
-        disparity: Option<f64>,
+        disparity: Option<&Bound<'py, PyAny>>,
         plane: Option<&Bound<'py, PyAny>>,
-        focus: Option<f64>,
-        tilt: f64,
-        swing: f64,
+        focus: Option<&Bound<'py, PyAny>>,
+        tilt: Option<&Bound<'py, PyAny>>,
+        swing: Option<&Bound<'py, PyAny>>,
         click: Option<&Bound<'py, PyAny>>,
         points: Option<&Bound<'py, PyAny>>,
         points_3d: Option<&Bound<'py, PyAny>>,

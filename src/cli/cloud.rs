@@ -136,13 +136,13 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         }
         None => lf.grid.centre(),
     };
-    let surface = FocusSurface::from_request(&args.focus.keyboard.planes()?, args.slab, false)?;
+    let asked = args.focus.options()?.surface(args.slab, false)?;
     let focus = args
         .focus
         .request_of_first(window)?
         .map(|req| crate::refocus::resolve_focus(&lf, &req, reference))
         .transpose()?;
-    if surface != FocusSurface::Plane && focus.is_none() {
+    if asked != FocusSurface::Plane && focus.is_none() {
         return Err(Error::Invalid(
             "--slab needs a focus plane to lie around; give --plane, --focus or a click".into(),
         ));
@@ -156,6 +156,8 @@ pub fn run(args: &CloudArgs) -> Result<()> {
             )));
         }
     }
+    // The surface's planes placed as the focus is, from the reference camera.
+    let surface = asked.resolve(&lf, &lf.camera_at(reference)?)?;
     let mut builder = SceneBuilder::new(&lf).reference(reference).cloud(cloud);
     if let Some(f) = &focus {
         builder = builder.focus(f);

@@ -14,7 +14,7 @@ use glam::{DVec2, DVec3};
 use serde_json::{json, Value};
 
 use super::parse_numbers;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::geometry::normals::NormalMethod;
 use crate::geometry::picking::Nudge;
 use crate::geometry::plane::Plane;
@@ -34,15 +34,27 @@ pub const FOCUS_OPTIONS: [&str; 6] = [
 
 /// The keyboard and plane definitions of the refocus plane (shared by `render`, `cloud` and
 /// `synth`'s optical ground truth). Mutual exclusion is the parent command's group.
+///
+/// `render` and `cloud` take each plane form 2 to 8 times, a focus surface of several planes
+/// (the first is the render's focus); the forms do not mix. Other commands take one plane.
 #[derive(Debug, Clone, Args)]
 pub struct PlaneArgs {
     /// Frontoparallel focus by disparity in pixels per grid step. HCI convention on HCI data,
     /// rig manifests and built-in scenes (positive = nearer than the focus distance); classic
     /// shift-and-sum elsewhere (view (s,t) sampled at u + (s − s_r)·D, v + (t − t_r)·D).
-    #[arg(long, value_name = "D", allow_hyphen_values = true)]
-    pub disparity: Option<f64>,
-    /// Refocus plane: world point and normal. `render` takes it 2 to 8 times: a focus
-    /// surface of several planes (each pixel focused on the plane nearest the scene there).
+    /// `render` and `cloud` take it 2 to 8 times on a rig: a focus surface of frontoparallel
+    /// planes (classic shift-and-sum has no planes to choose between).
+    #[arg(
+        long,
+        value_name = "D",
+        allow_hyphen_values = true,
+        action = clap::ArgAction::Append
+    )]
+    pub disparity: Vec<f64>,
+    /// Refocus plane: world point and normal. `render` and `cloud` take it 2 to 8 times: a
+    /// focus surface of several planes (each pixel focused on the plane nearest the scene
+    /// there; the first is the render's focus). One form per surface: --plane, --focus or
+    /// --disparity repeated, not mixed.
     #[arg(
         long,
         value_name = "PX,PY,PZ,NX,NY,NZ",
@@ -51,40 +63,46 @@ pub struct PlaneArgs {
     )]
     pub plane: Vec<String>,
     /// Refocus plane through the reference optical axis at distance Z (world units).
-    #[arg(long, value_name = "Z", allow_hyphen_values = true)]
-    pub focus: Option<f64>,
-    /// Tilt of the --focus plane in degrees (positive: top of the image farther).
+    /// `render` and `cloud` take it 2 to 8 times: a focus surface of several planes, each
+    /// turned by --tilt and --swing.
+    #[arg(
+        long,
+        value_name = "Z",
+        allow_hyphen_values = true,
+        action = clap::ArgAction::Append
+    )]
+    pub focus: Vec<f64>,
+    /// Tilt of the --focus plane in degrees (positive: top of the image farther; default 0).
+    /// With several --focus: once (every plane) or once per --focus (paired by order).
     #[arg(
         long,
         value_name = "DEG",
         requires = "focus",
         allow_hyphen_values = true,
-        default_value_t = 0.0
+        action = clap::ArgAction::Append
     )]
-    pub tilt: f64,
-    /// Swing of the --focus plane in degrees (positive: right side farther).
+    pub tilt: Vec<f64>,
+    /// Swing of the --focus plane in degrees (positive: right side farther; default 0).
+    /// With several --focus: once (every plane) or once per --focus (paired by order).
     #[arg(
         long,
         value_name = "DEG",
         requires = "focus",
         allow_hyphen_values = true,
-        default_value_t = 0.0
+        action = clap::ArgAction::Append
     )]
-    pub swing: f64,
+    pub swing: Vec<f64>,
 }
 
 impl PlaneArgs {
     /// The focus these options give, with its name for reports; `None` when none is given.
-    /// `--plane` given more than once is a focus surface, which only `render` takes.
+    /// A plane form given more than once is a focus surface, which only `render` and `cloud`
+    /// take ([`FocusOptions::one_spec`]).
     pub fn spec(&self) -> Result<Option<(&'static str, FocusSpec)>> {
-        if self.plane.len() > 1 {
-            return Err(Error::Invalid(format!(
-                "--plane is given {} times; several planes are a focus surface, which only \
-                 `render` takes",
-                self.plane.len()
-            )));
-        }
-        self.first_spec()
+        Ok(self.options()?.one_spec()?.map(|spec| {
+            let name = FocusRequest::from(spec).name();
+            (name, spec)
+        }))
     }
 
     /// Every `--plane`, in order (empty when none is given).
@@ -95,24 +113,16 @@ impl PlaneArgs {
             .collect()
     }
 
-    /// [`PlaneArgs::spec`] of the first `--plane` when several are given.
-    fn first_spec(&self) -> Result<Option<(&'static str, FocusSpec)>> {
-        if let Some(d) = self.disparity {
-            return Ok(Some(("disparity", FocusSpec::Disparity(d))));
-        }
-        if let Some(p) = self.planes()?.first() {
-            return Ok(Some(("plane", FocusSpec::Plane(*p))));
-        }
-        Ok(self.focus.map(|z| {
-            (
-                "focus-tilt-swing",
-                FocusSpec::FocusTiltSwing {
-                    distance: z,
-                    tilt_deg: self.tilt,
-                    swing_deg: self.swing,
-                },
-            )
-        }))
+    /// The plane options as numbers for the library (parsing only).
+    fn options(&self) -> Result<FocusOptions> {
+        Ok(FocusOptions {
+            disparity: self.disparity.clone(),
+            planes: self.planes()?,
+            focus: self.focus.clone(),
+            tilt: self.tilt.clone(),
+            swing: self.swing.clone(),
+            ..FocusOptions::default()
+        })
     }
 }
 
@@ -171,9 +181,9 @@ pub use crate::geometry::normals::GIVEN_DEPTH_WINDOW;
 impl FocusArgs {
     /// True when any focus option is given.
     pub fn any(&self) -> bool {
-        self.keyboard.disparity.is_some()
+        !self.keyboard.disparity.is_empty()
             || !self.keyboard.plane.is_empty()
-            || self.keyboard.focus.is_some()
+            || !self.keyboard.focus.is_empty()
             || self.click.is_some()
             || self.points.is_some()
             || self.points_3d.is_some()
@@ -198,16 +208,17 @@ impl FocusArgs {
         self.request_with_window(GIVEN_DEPTH_WINDOW)
     }
 
-    /// [`FocusArgs::request`] with `default_window` for a click's normal.
+    /// [`FocusArgs::request`] with `default_window` for a click's normal (one plane: a
+    /// plane form given several times is refused, [`FocusOptions::one_spec`]).
     pub fn request_with_window(&self, default_window: u32) -> Result<Option<FocusRequest>> {
         self.keyboard.spec()?;
         self.request_of_first(default_window)
     }
 
-    /// [`FocusArgs::request_with_window`] that takes several `--plane`s (a focus surface,
-    /// [`PlaneArgs::planes`]) and focuses on the first.
+    /// [`FocusArgs::request_with_window`] that takes a plane form several times (a focus
+    /// surface, [`FocusOptions::surface`]) and focuses on the first.
     pub fn request_of_first(&self, default_window: u32) -> Result<Option<FocusRequest>> {
-        Ok(self.options()?.request(default_window))
+        self.options()?.request(default_window)
     }
 
     /// The options as numbers for the library ([`FocusOptions`]); parsing only.
@@ -220,11 +231,6 @@ impl FocusArgs {
             ]
         };
         Ok(FocusOptions {
-            disparity: self.keyboard.disparity,
-            planes: self.keyboard.planes()?,
-            focus: self.keyboard.focus,
-            tilt: self.keyboard.tilt,
-            swing: self.keyboard.swing,
             click: self
                 .click
                 .as_deref()
@@ -251,6 +257,7 @@ impl FocusArgs {
             nudge: self.nudge(),
             normal_window: self.normal_window,
             normal_method: self.normal_method,
+            ..self.keyboard.options()?
         })
     }
 

@@ -28,7 +28,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         .needs_depth()
     {
         return Err(Error::Invalid(
-            "--frames renders one focus plane per frame; focus surfaces (several --plane, \
+            "--frames renders one focus plane per frame; focus surfaces (several planes, \
              --slab, --all-in-focus) are for single renders"
                 .into(),
         ));

@@ -24,7 +24,7 @@ use crate::passes::texture::{TextureLimits, ViewStorage};
 use crate::refocus::antialias::{AntialiasPlan, AntialiasSettings};
 use crate::refocus::options::FocusOptions;
 use crate::refocus::surface::{FocusSurface, SurfacePlan};
-use crate::refocus::{self, Averaging, RefocusPlan, ResolvedFocus};
+use crate::refocus::{self, Averaging, FocusSpec, RefocusPlan, ResolvedFocus};
 
 /// Largest `--size` side: a float accumulation target of 8192² takes 1 GiB, which every
 /// device tiltfield runs on can hold; larger requests failed deep inside Vulkan.
@@ -219,9 +219,9 @@ impl RenderOptions {
         AntialiasSettings::checked(self.antialias_samples, self.antialias_prefilter)
     }
 
-    /// The focus surface (validated; the plane alone unless several planes, a slab or
-    /// all-in-focus are given).
-    pub fn surface(&self) -> Result<FocusSurface> {
+    /// The focus surface as asked for (validated; the plane alone unless several planes, a
+    /// slab or all-in-focus are given), its planes placed by [`prepare`].
+    pub fn surface(&self) -> Result<FocusSurface<FocusSpec>> {
         self.focus.surface(self.slab, self.all_in_focus)
     }
 
@@ -331,7 +331,7 @@ fn make_plan_excluding(
     default_window: u32,
     excluded: &[bool],
 ) -> Result<(RefocusPlan, ResolvedFocus)> {
-    let request = options.focus.request(default_window).ok_or_else(|| {
+    let request = options.focus.request(default_window)?.ok_or_else(|| {
         Error::Invalid(
             "give one of --disparity, --plane, --focus, --click, --points or --points-3d".into(),
         )
@@ -403,7 +403,10 @@ fn prepare_excluding(
     excluded: Option<&[bool]>,
 ) -> Result<Prepared> {
     let settings = options.check()?;
-    let surface = options.surface()?;
+    // The surface's planes as given: placed in the world once the plan's reference camera
+    // is known (after any depth estimate, which may give a grid folder's cameras their
+    // nominal model).
+    let asked = options.surface()?;
     // Clicks need depth: the light field's own map, or one estimated from its views.
     let (depth, window) = if options.focus.needs_depth() {
         let (origin, window) = crate::jobs::depth::ensure_for(ctx, lf, progress)?;
@@ -416,13 +419,13 @@ fn prepare_excluding(
     let depth = match depth {
         None if aa_on => Some(crate::jobs::depth::ensure_for(ctx, lf, progress)?.0),
         // A focus surface chooses its focus from the scene's depth at every pixel.
-        None if surface.needs_depth() => Some(
+        None if asked.needs_depth() => Some(
             crate::jobs::depth::ensure_for(ctx, lf, progress)
                 .map_err(|e| {
                     Error::Invalid(format!(
                         "the focus surface '{}' needs the scene's depth, which this light \
                          field lacks and cannot be estimated: {e}",
-                        surface.name()
+                        asked.name()
                     ))
                 })?
                 .0,
@@ -438,6 +441,7 @@ fn prepare_excluding(
         }
     };
     let (plan, focus) = make_plan_excluding(lf, options, window, excluded)?;
+    let surface = asked.resolve(lf, &plan.reference_camera)?;
     let antialias = match aa_on {
         true => antialias_plan_excluding(lf, options, &plan, excluded)?,
         false => None,

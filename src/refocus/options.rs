@@ -5,6 +5,16 @@
 //! Messages name the options by their command-line spelling (`--plane`, `--click`): the CLI
 //! and the Python module report a bad value in the same words, and the README maps the
 //! spellings one to one (`--points-3d` is `points_3d=`).
+//!
+//! **Several planes.** Each plane form may be given 2 to 8 times
+//! ([`crate::refocus::surface::MAX_PLANES`]), a focus surface of several planes
+//! ([`FocusSurface::Planes`]) whose first is the render's focus: `--plane`, `--focus` (each
+//! the keyboard plane through the reference optical axis) and `--disparity` (each a
+//! frontoparallel plane of the rig). `--tilt` and `--swing` are given once (they turn every
+//! `--focus` plane) or once per `--focus` (paired by order); any other count is refused. The
+//! forms do not mix in one surface: which plane is the first (the render's own focus and the
+//! fallback where the depth is unknown) would then depend on an order that neither the
+//! command line's option groups nor Python's keywords keep.
 
 use glam::{DVec2, DVec3};
 
@@ -56,16 +66,19 @@ pub fn plane_of(v: &[f64]) -> Result<Plane> {
 }
 
 /// The focus of a render, as given (see the module docs). At most one of `disparity`,
-/// `planes`, `focus`, `click`, `points` and `points_3d` may be set; several `planes` are a
-/// focus surface focused on the first.
+/// `planes`, `focus`, `click`, `points` and `points_3d` may be set; several `disparity`,
+/// `planes` or `focus` values are a focus surface focused on the first.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FocusOptions {
-    pub disparity: Option<f64>,
+    /// Disparities, px per grid step (each a frontoparallel plane on a rig).
+    pub disparity: Vec<f64>,
     pub planes: Vec<Plane>,
-    /// On-axis distance of the keyboard definition, with `tilt` and `swing` in degrees.
-    pub focus: Option<f64>,
-    pub tilt: f64,
-    pub swing: f64,
+    /// On-axis distances of the keyboard definition, with `tilt` and `swing` in degrees.
+    pub focus: Vec<f64>,
+    /// None (0°), one for every `focus`, or one per `focus` in order.
+    pub tilt: Vec<f64>,
+    /// As `tilt`.
+    pub swing: Vec<f64>,
     /// A pixel of the depth map's view.
     pub click: Option<DVec2>,
     /// Three pixels of the depth map's view.
@@ -83,9 +96,9 @@ impl FocusOptions {
     /// The option names that are set, in the CLI's order.
     fn given(&self) -> Vec<&'static str> {
         [
-            ("--disparity", self.disparity.is_some()),
+            ("--disparity", !self.disparity.is_empty()),
             ("--plane", !self.planes.is_empty()),
-            ("--focus", self.focus.is_some()),
+            ("--focus", !self.focus.is_empty()),
             ("--click", self.click.is_some()),
             ("--points", self.points.is_some()),
             ("--points-3d", self.points_3d.is_some()),
@@ -114,17 +127,14 @@ impl FocusOptions {
                 )))
             }
         }
-        if self.focus.is_none() && (self.tilt != 0.0 || self.swing != 0.0) {
-            return Err(Error::Invalid(
-                "--tilt and --swing turn the --focus plane; give --focus with them".into(),
-            ));
-        }
-        if !(self.tilt.is_finite() && self.swing.is_finite()) {
+        if !self.tilt.iter().chain(&self.swing).all(|a| a.is_finite()) {
             return Err(Error::Invalid(format!(
                 "--tilt and --swing must be finite numbers, got {} and {}",
-                self.tilt, self.swing
+                list(&self.tilt),
+                list(&self.swing)
             )));
         }
+        self.specs()?;
         let picked = self.click.is_some() || self.points.is_some() || self.points_3d.is_some();
         if self.nudge.is_some() && !picked {
             return Err(Error::Invalid(
@@ -148,22 +158,70 @@ impl FocusOptions {
             .with_window(self.normal_window.unwrap_or(default_window))
     }
 
-    /// The focus request (of the first plane when several are given), or `None` when no
-    /// focus is given; a click's window defaults to `default_window`.
-    pub fn request(&self, default_window: u32) -> Option<FocusRequest> {
-        let spec = if let Some(d) = self.disparity {
-            Some(FocusSpec::Disparity(d))
-        } else if let Some(p) = self.planes.first() {
-            Some(FocusSpec::Plane(*p))
-        } else {
-            self.focus.map(|z| FocusSpec::FocusTiltSwing {
-                distance: z,
-                tilt_deg: self.tilt,
-                swing_deg: self.swing,
-            })
+    /// Every plane the scene-free options give, in order: each `--disparity`, each `--plane`,
+    /// each `--focus` with its `--tilt` and `--swing` (one value turns every `--focus`
+    /// plane, one per `--focus` pairs by order; none is 0°). Empty for a pick. Refuses any
+    /// other count of `--tilt` or `--swing`, naming the options and the counts, and either
+    /// without `--focus` (the CLI's parser lets `--tilt` pass with another focus option).
+    pub fn specs(&self) -> Result<Vec<FocusSpec>> {
+        if self.focus.is_empty() && !(self.tilt.is_empty() && self.swing.is_empty()) {
+            return Err(Error::Invalid(
+                "--tilt and --swing turn the --focus plane; give --focus with them".into(),
+            ));
+        }
+        let angle = |values: &[f64], name: &str, k: usize| -> Result<f64> {
+            match values.len() {
+                0 => Ok(0.0),
+                1 => Ok(values[0]),
+                n if n == self.focus.len() => Ok(values[k]),
+                n => Err(Error::Invalid(format!(
+                    "{name} is given {n} times and --focus {}: give {name} once (it turns \
+                     every --focus plane) or once per --focus (paired by order)",
+                    times(self.focus.len())
+                ))),
+            }
         };
-        if let Some(spec) = spec {
-            return Some(spec.into());
+        let mut specs: Vec<FocusSpec> = self
+            .disparity
+            .iter()
+            .map(|&d| FocusSpec::Disparity(d))
+            .chain(self.planes.iter().map(|&p| FocusSpec::Plane(p)))
+            .collect();
+        for (k, &distance) in self.focus.iter().enumerate() {
+            specs.push(FocusSpec::FocusTiltSwing {
+                distance,
+                tilt_deg: angle(&self.tilt, "--tilt", k)?,
+                swing_deg: angle(&self.swing, "--swing", k)?,
+            });
+        }
+        Ok(specs)
+    }
+
+    /// The one plane of a command that takes one ([`FocusOptions::specs`] with a single
+    /// plane), or `None` for none or a pick. A plane form given more than once is a focus
+    /// surface, which only `render` and `cloud` take: refused, naming the option.
+    pub fn one_spec(&self) -> Result<Option<FocusSpec>> {
+        for (name, n) in [
+            ("--disparity", self.disparity.len()),
+            ("--plane", self.planes.len()),
+            ("--focus", self.focus.len()),
+        ] {
+            if n > 1 {
+                return Err(Error::Invalid(format!(
+                    "{name} is given {n} times; several planes are a focus surface, which only \
+                     `render` and `cloud` take"
+                )));
+            }
+        }
+        Ok(self.specs()?.first().copied())
+    }
+
+    /// The focus request (of the first plane when several are given), or `None` when no
+    /// focus is given; a click's window defaults to `default_window`. Refuses what
+    /// [`FocusOptions::specs`] refuses.
+    pub fn request(&self, default_window: u32) -> Result<Option<FocusRequest>> {
+        if let Some(spec) = self.specs()?.first() {
+            return Ok(Some((*spec).into()));
         }
         let target = if let Some(pixel) = self.click {
             FocusTarget::Click {
@@ -175,18 +233,41 @@ impl FocusOptions {
         } else if let Some(p) = self.points_3d {
             FocusTarget::ThreePoints(p)
         } else {
-            return None;
+            return Ok(None);
         };
-        Some(FocusRequest {
+        Ok(Some(FocusRequest {
             target,
             nudge: self.nudge,
-        })
+        }))
     }
 
-    /// The focus surface of these planes with a slab or all-in-focus (validated).
-    pub fn surface(&self, slab: Option<f64>, all_in_focus: bool) -> Result<FocusSurface> {
-        FocusSurface::from_request(&self.planes, slab, all_in_focus)
+    /// The focus surface of these options with a slab or all-in-focus, its planes as given
+    /// ([`FocusOptions::specs`]; checked: the counts, the slab's width, the combinations).
+    /// [`FocusSurface::resolve`] places its planes for a render's reference camera.
+    pub fn surface(
+        &self,
+        slab: Option<f64>,
+        all_in_focus: bool,
+    ) -> Result<FocusSurface<FocusSpec>> {
+        FocusSurface::from_request(&self.specs()?, slab, all_in_focus)
     }
+}
+
+/// "once", "2 times", …
+fn times(n: usize) -> String {
+    match n {
+        1 => "once".into(),
+        n => format!("{n} times"),
+    }
+}
+
+/// Numbers as an option's text: `1,2.5`.
+fn list(values: &[f64]) -> String {
+    values
+        .iter()
+        .map(f64::to_string)
+        .collect::<Vec<_>>()
+        .join(",")
 }
 
 #[cfg(test)]
@@ -214,27 +295,176 @@ mod tests {
         let none = FocusOptions::default().validate().unwrap_err().to_string();
         assert!(none.contains("give one of --disparity"), "{none}");
         let two = FocusOptions {
-            disparity: Some(1.0),
-            focus: Some(2.0),
+            disparity: vec![1.0],
+            focus: vec![2.0],
             ..Default::default()
         };
         let e = two.validate().unwrap_err().to_string();
         assert!(e.contains("--disparity and --focus"), "{e}");
         let tilt = FocusOptions {
-            disparity: Some(1.0),
-            tilt: 5.0,
+            disparity: vec![1.0],
+            tilt: vec![5.0],
             ..Default::default()
         };
         assert!(tilt.validate().unwrap_err().to_string().contains("--tilt"));
+        // Given without --focus, even at 0°, the angle is refused, not dropped.
+        let zero = FocusOptions {
+            planes: vec![Plane::new(DVec3::new(0.0, 0.0, 2.0), DVec3::Z).unwrap()],
+            swing: vec![0.0],
+            ..Default::default()
+        };
+        for e in [zero.validate().unwrap_err(), zero.request(9).unwrap_err()] {
+            assert_eq!(
+                e.to_string(),
+                "--tilt and --swing turn the --focus plane; give --focus with them"
+            );
+        }
         let ok = FocusOptions {
-            focus: Some(2.0),
-            tilt: 5.0,
+            focus: vec![2.0],
+            tilt: vec![5.0],
             ..Default::default()
         };
         ok.validate().unwrap();
         assert!(matches!(
-            ok.request(9).unwrap().target,
+            ok.request(9).unwrap().unwrap().target,
             FocusTarget::Spec(FocusSpec::FocusTiltSwing { .. })
         ));
+    }
+
+    fn keyboard(distance: f64, tilt_deg: f64, swing_deg: f64) -> FocusSpec {
+        FocusSpec::FocusTiltSwing {
+            distance,
+            tilt_deg,
+            swing_deg,
+        }
+    }
+
+    #[test]
+    fn tilt_and_swing_are_given_once_or_once_per_focus() {
+        let options = |tilt: Vec<f64>, swing: Vec<f64>| FocusOptions {
+            focus: vec![2.0, 3.0, 4.0],
+            tilt,
+            swing,
+            ..Default::default()
+        };
+        // None: every plane frontoparallel; once: every plane turned alike.
+        assert_eq!(
+            options(vec![], vec![7.0]).specs().unwrap(),
+            vec![
+                keyboard(2.0, 0.0, 7.0),
+                keyboard(3.0, 0.0, 7.0),
+                keyboard(4.0, 0.0, 7.0)
+            ]
+        );
+        // Once per --focus: paired by order.
+        let paired = options(vec![10.0, -5.0, 0.5], vec![1.0]);
+        paired.validate().unwrap();
+        assert_eq!(
+            paired.specs().unwrap(),
+            vec![
+                keyboard(2.0, 10.0, 1.0),
+                keyboard(3.0, -5.0, 1.0),
+                keyboard(4.0, 0.5, 1.0)
+            ]
+        );
+        // The request is the first plane; the surface holds all three in order.
+        assert_eq!(
+            paired.request(9).unwrap().unwrap().target,
+            FocusTarget::Spec(keyboard(2.0, 10.0, 1.0))
+        );
+        assert_eq!(
+            paired.surface(None, false).unwrap(),
+            FocusSurface::Planes(paired.specs().unwrap())
+        );
+        // Any other count is refused by name, with both counts, wherever it is checked.
+        let bad = options(vec![1.0, 2.0], vec![]);
+        for e in [
+            bad.specs().unwrap_err(),
+            bad.validate().unwrap_err(),
+            bad.surface(None, false).unwrap_err(),
+            bad.request(9).unwrap_err(),
+        ] {
+            assert_eq!(
+                e.to_string(),
+                "--tilt is given 2 times and --focus 3 times: give --tilt once (it turns \
+                 every --focus plane) or once per --focus (paired by order)"
+            );
+        }
+        let e = options(vec![], vec![1.0, 2.0, 3.0, 4.0])
+            .specs()
+            .unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("--swing is given 4 times and --focus 3 times"),
+            "{e}"
+        );
+        // One --focus with two tilts: also refused, not the first tilt taken.
+        let one = FocusOptions {
+            focus: vec![2.0],
+            tilt: vec![1.0, 2.0],
+            ..Default::default()
+        };
+        assert!(one
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .starts_with("--tilt is given 2 times and --focus once"));
+    }
+
+    #[test]
+    fn each_plane_form_repeated_is_a_surface_and_one_plane_commands_refuse_it() {
+        let disparities = FocusOptions {
+            disparity: vec![0.5, -0.5],
+            ..Default::default()
+        };
+        assert_eq!(
+            disparities.surface(None, false).unwrap(),
+            FocusSurface::Planes(vec![FocusSpec::Disparity(0.5), FocusSpec::Disparity(-0.5)])
+        );
+        let e = disparities.one_spec().unwrap_err().to_string();
+        assert_eq!(
+            e,
+            "--disparity is given 2 times; several planes are a focus surface, which only \
+             `render` and `cloud` take"
+        );
+        let focus = FocusOptions {
+            focus: vec![2.0, 3.0],
+            ..Default::default()
+        };
+        let e = focus.one_spec().unwrap_err().to_string();
+        assert!(e.starts_with("--focus is given 2 times"), "{e}");
+        assert_eq!(
+            FocusOptions {
+                focus: vec![2.0],
+                tilt: vec![3.0],
+                ..Default::default()
+            }
+            .one_spec()
+            .unwrap(),
+            Some(keyboard(2.0, 3.0, 0.0))
+        );
+        // More than eight planes, of any form: the surface's own refusal.
+        let nine = FocusOptions {
+            focus: (0..9).map(|k| 2.0 + k as f64).collect(),
+            ..Default::default()
+        };
+        let e = nine.surface(None, false).unwrap_err().to_string();
+        assert_eq!(e, "a focus surface takes at most 8 planes, got 9");
+        // Several --focus with a slab or all in focus: refused as several --plane are.
+        let e = focus.surface(Some(0.1), false).unwrap_err().to_string();
+        assert!(e.contains("exactly one plane, got 2 planes"), "{e}");
+        let e = focus.surface(None, true).unwrap_err().to_string();
+        assert!(
+            e.contains("all-in-focus needs no plane set, got 2 planes"),
+            "{e}"
+        );
+        // The forms do not mix.
+        let mixed = FocusOptions {
+            planes: vec![Plane::new(DVec3::new(0.0, 0.0, 2.0), DVec3::Z).unwrap()],
+            focus: vec![3.0, 4.0],
+            ..Default::default()
+        };
+        let e = mixed.validate().unwrap_err().to_string();
+        assert_eq!(e, "give one focus, got --plane and --focus");
     }
 }

@@ -22,8 +22,10 @@
 use glam::{DVec2, DVec3};
 
 use super::antialias::{scene_depth, AntialiasPlan, SceneDepth};
+use super::focus::{focus_plane, FocusSpec};
 use super::plan::RefocusPlan;
 use crate::error::{Error, Result};
+use crate::geometry::camera::Camera;
 use crate::geometry::homography::plane_term;
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
@@ -32,15 +34,18 @@ use crate::lightfield::LightField;
 /// buffer of this many records (`passes::refocus` binding 6).
 pub const MAX_PLANES: usize = 8;
 
-/// What is kept in focus, relative to the plan's plane.
+/// What is kept in focus, relative to the plan's plane. `P` is how a plane of
+/// [`FocusSurface::Planes`] is given: a world [`Plane`] (the default, what a render uses), or
+/// as asked for, a [`FocusSpec`] (the keyboard definition and a disparity are relative to the
+/// reference camera; [`FocusSurface::resolve`] places them in the world).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub enum FocusSurface {
+pub enum FocusSurface<P = Plane> {
     /// The plan's plane alone: the classic tilt-shift refocus (needs no scene depth).
     #[default]
     Plane,
     /// Several planes, the plan's first (the plan is made from `planes[0]`): 2 to
     /// [`MAX_PLANES`] in all.
-    Planes(Vec<Plane>),
+    Planes(Vec<P>),
     /// Everything within `half_width` (world units, along the plan plane's normal) of the
     /// plan's plane.
     Slab { half_width: f64 },
@@ -48,15 +53,15 @@ pub enum FocusSurface {
     AllInFocus,
 }
 
-impl FocusSurface {
+impl<P: Clone> FocusSurface<P> {
     /// The surface a request names: `planes` (the focus planes given, possibly none when the
     /// focus is not a plane), a slab half-width, all in focus. Refuses combinations that do
     /// not name one surface, naming the cause.
     pub fn from_request(
-        planes: &[Plane],
+        planes: &[P],
         slab: Option<f64>,
         all_in_focus: bool,
-    ) -> Result<FocusSurface> {
+    ) -> Result<FocusSurface<P>> {
         if planes.len() > MAX_PLANES {
             return Err(Error::Invalid(format!(
                 "a focus surface takes at most {MAX_PLANES} planes, got {}",
@@ -91,23 +96,6 @@ impl FocusSurface {
         Ok(surface)
     }
 
-    /// The planes that draw this surface around `plane` (the focus plane, the first of
-    /// several): every plane of [`FocusSurface::Planes`]; a slab's middle plane and its two
-    /// boundaries (`n·X = n·p ± W`); otherwise `plane` alone.
-    pub fn planes_to_draw(&self, plane: &Plane) -> Vec<Plane> {
-        match self {
-            FocusSurface::Planes(p) => p.clone(),
-            FocusSurface::Slab { half_width: w } => {
-                let shifted = |d: f64| Plane {
-                    point: plane.point + plane.normal * d,
-                    normal: plane.normal,
-                };
-                vec![*plane, shifted(-w), shifted(*w)]
-            }
-            _ => vec![*plane],
-        }
-    }
-
     /// Whether the surface depends on the scene's depth.
     pub fn needs_depth(&self) -> bool {
         !matches!(self, FocusSurface::Plane)
@@ -139,6 +127,75 @@ impl FocusSurface {
                 )))
             }
             _ => Ok(()),
+        }
+    }
+}
+
+impl FocusSurface<FocusSpec> {
+    /// The surface with every plane placed in the world as seen from `camera` (the reference
+    /// camera of the render), each the plane [`super::resolve_focus`] would give for it alone:
+    /// a `--plane` as given, `--focus/--tilt/--swing` through `camera`'s optical axis, a
+    /// `--disparity` the rig's frontoparallel plane. A disparity without a rig (classic
+    /// shift-and-sum) has no plane and is refused; errors name the plane by its place.
+    pub fn resolve(&self, lf: &LightField, camera: &Camera) -> Result<FocusSurface> {
+        let specs = match self {
+            FocusSurface::Planes(specs) => specs,
+            FocusSurface::Plane => return Ok(FocusSurface::Plane),
+            FocusSurface::Slab { half_width } => {
+                return Ok(FocusSurface::Slab {
+                    half_width: *half_width,
+                })
+            }
+            FocusSurface::AllInFocus => return Ok(FocusSurface::AllInFocus),
+        };
+        let planes = specs
+            .iter()
+            .enumerate()
+            .map(|(k, spec)| match spec {
+                FocusSpec::Plane(p) => Ok(*p),
+                _ => match focus_plane(lf, spec, camera) {
+                    Ok((_, Some(p), _)) => Ok(p),
+                    Ok((_, None, _)) => Err(needs_geometry(self.name())),
+                    Err(e) => Err(in_plane(k, e)),
+                },
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(FocusSurface::Planes(planes))
+    }
+}
+
+/// `e` naming plane `k` (from 0) of a surface.
+fn in_plane(k: usize, e: Error) -> Error {
+    match e {
+        Error::Invalid(m) => Error::Invalid(format!("focus plane {}: {m}", k + 1)),
+        Error::Geometry(m) => Error::Geometry(format!("focus plane {}: {m}", k + 1)),
+        e => e,
+    }
+}
+
+/// The refusal of a surface on classic shift-and-sum, which has no plane geometry.
+fn needs_geometry(name: &str) -> Error {
+    Error::Invalid(format!(
+        "the focus surface '{name}' needs the cameras' geometry, but --disparity on a light \
+         field without a rig is classic shift-and-sum; focus with --plane or --focus"
+    ))
+}
+
+impl FocusSurface {
+    /// The planes that draw this surface around `plane` (the focus plane, the first of
+    /// several): every plane of [`FocusSurface::Planes`]; a slab's middle plane and its two
+    /// boundaries (`n·X = n·p ± W`); otherwise `plane` alone.
+    pub fn planes_to_draw(&self, plane: &Plane) -> Vec<Plane> {
+        match self {
+            FocusSurface::Planes(p) => p.clone(),
+            FocusSurface::Slab { half_width: w } => {
+                let shifted = |d: f64| Plane {
+                    point: plane.point + plane.normal * d,
+                    normal: plane.normal,
+                };
+                vec![*plane, shifted(-w), shifted(*w)]
+            }
+            _ => vec![*plane],
         }
     }
 }
@@ -309,11 +366,7 @@ pub fn surface_terms(
         return Ok((SurfaceRule::Plane, vec![plan.m]));
     }
     let Some(plane) = plan.plane else {
-        return Err(Error::Invalid(format!(
-            "the focus surface '{}' needs the cameras' geometry, but --disparity on a light \
-             field without a rig is classic shift-and-sum; focus with --plane or --focus",
-            surface.name()
-        )));
+        return Err(needs_geometry(surface.name()));
     };
     let rc = &plan.reference_camera;
     let (rule, terms) = match surface {
@@ -472,6 +525,73 @@ mod tests {
             let want = dist.clamp(-w, w);
             assert!((kept - want).abs() < 1e-5, "{dist}: focus at {kept}");
         }
+    }
+
+    #[test]
+    fn planes_as_asked_are_placed_as_the_focus_alone_would_be() {
+        let lf = crate::synth::builtin("planes").unwrap().light_field(1);
+        let reference = DVec2::new(1.0, 2.0);
+        let cam = lf.camera_at(reference).unwrap();
+        let given = Plane::new(DVec3::new(0.1, 0.0, 3.0), DVec3::new(0.0, 0.3, 1.0)).unwrap();
+        let keyboard = FocusSpec::FocusTiltSwing {
+            distance: 2.5,
+            tilt_deg: 12.0,
+            swing_deg: -4.0,
+        };
+        let asked = FocusSurface::Planes(vec![
+            keyboard,
+            FocusSpec::Plane(given),
+            FocusSpec::Disparity(0.5),
+        ]);
+        let FocusSurface::Planes(placed) = asked.resolve(&lf, &cam).unwrap() else {
+            panic!("several planes stay several planes");
+        };
+        // Each plane is the one resolve_focus gives for it alone from the same viewpoint.
+        for (spec, got) in [keyboard, FocusSpec::Plane(given), FocusSpec::Disparity(0.5)]
+            .iter()
+            .zip(&placed)
+        {
+            let alone = crate::refocus::resolve_focus(&lf, &(*spec).into(), reference).unwrap();
+            let want = alone.plane.unwrap();
+            assert!(
+                (want.point - got.point).length() < 1e-12
+                    && (want.normal - got.normal).length() < 1e-12,
+                "{spec:?}: {got:?} vs {want:?}"
+            );
+        }
+        // The keyboard plane follows the reference camera: another viewpoint, another plane.
+        let other = asked
+            .resolve(&lf, &lf.camera_at(DVec2::new(3.0, 2.0)).unwrap())
+            .unwrap();
+        assert_ne!(other, FocusSurface::Planes(placed.clone()));
+        // Surfaces without planes pass through.
+        let slab: FocusSurface<FocusSpec> = FocusSurface::Slab { half_width: 0.2 };
+        assert_eq!(
+            slab.resolve(&lf, &cam).unwrap(),
+            FocusSurface::Slab { half_width: 0.2 }
+        );
+        // A bad later plane is named by its place; a disparity without a rig has no plane.
+        let bad = FocusSurface::Planes(vec![
+            keyboard,
+            FocusSpec::FocusTiltSwing {
+                distance: 2.0,
+                tilt_deg: 95.0,
+                swing_deg: 0.0,
+            },
+        ]);
+        let e = bad.resolve(&lf, &cam).unwrap_err().to_string();
+        assert!(
+            e.contains("focus plane 2: tilt must lie strictly between"),
+            "{e}"
+        );
+        let mut no_rig = lf.clone();
+        no_rig.rig = None;
+        let d = FocusSurface::Planes(vec![FocusSpec::Disparity(0.5), FocusSpec::Disparity(1.0)]);
+        let e = d.resolve(&no_rig, &cam).unwrap_err().to_string();
+        assert!(
+            e.contains("'planes' needs the cameras' geometry") && e.contains("classic"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -32,6 +32,19 @@ BAD_RENDERS = {
         [a for i in range(9) for a in ("--plane", f"0,0,{2 + i * 0.1},0,0,1")],
         dict(plane=[(0, 0, 2 + i * 0.1, 0, 0, 1) for i in range(9)]),
     ),
+    "tilt-count": (
+        ["--focus", "2", "--focus", "3", "--focus", "4", "--tilt", "1", "--tilt", "2"],
+        dict(focus=[2, 3, 4], tilt=[1, 2]),
+    ),
+    "swing-count": (["--focus", "2", "--swing", "1", "--swing", "2"], dict(focus=2, swing=[1, 2])),
+    "nine-focus": (
+        [a for i in range(9) for a in ("--focus", f"{2 + i * 0.1}")],
+        dict(focus=[2 + i * 0.1 for i in range(9)]),
+    ),
+    "focus-planes-slab": (
+        ["--focus", "2", "--focus", "3", "--slab", "0.1"],
+        dict(focus=[2, 3], slab=0.1),
+    ),
     "nan-nudge": (["--click", "20,30", "--nudge-tilt", "inf"], dict(click=(20, 30), nudge_tilt=float("inf"))),
 }
 
@@ -75,6 +88,12 @@ def test_the_focus_must_be_given_once(planes):
         planes.refocus(disparity=0.5, nudge_distance=1)
     with pytest.raises(ValueError, match="--plane: expected 6 numbers"):
         planes.refocus(plane="0,0,3,0,0,1")
+    with pytest.raises(ValueError, match="--focus: expected a number or a sequence of numbers"):
+        planes.refocus(focus="3")
+    with pytest.raises(ValueError, match="--tilt and --swing turn the --focus plane"):
+        planes.refocus(plane=(0, 0, 3, 0, 0, 1), tilt=0)
+    with pytest.raises(ValueError, match="give one focus, got --plane and --focus"):
+        planes.refocus(plane=(0, 0, 3, 0, 0, 1), focus=[2, 3])
 
 
 def test_wrong_array_shapes_and_types_name_the_cause(planes):

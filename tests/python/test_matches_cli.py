@@ -48,6 +48,15 @@ CASES = {
         ["--plane", "0,0,4,0,0,1", "--plane", "0,0,2,0,0,1"],
         dict(plane=[(0, 0, 4, 0, 0, 1), (0, 0, 2, 0, 0, 1)]),
     ),
+    # --focus repeated: a list, --tilt once per plane (paired by order), --swing once (all).
+    "focus-planes": (
+        ["--focus", "4", "--focus", "2", "--tilt", "0", "--tilt", "15", "--swing", "-5"],
+        dict(focus=[4, 2], tilt=[0, 15], swing=-5),
+    ),
+    "disparity-planes": (
+        ["--disparity", "0.5", "--disparity=-0.3"],
+        dict(disparity=(0.5, -0.3)),
+    ),
     "slab": (["--focus", "3", "--slab", "0.5"], dict(focus=3, slab=0.5)),
     "all-in-focus": (["--disparity", "0", "--all-in-focus"], dict(disparity=0, all_in_focus=True)),
     "compute-bicubic": (
@@ -80,6 +89,18 @@ def test_a_render_differs_between_focus_forms(planes):
     a = planes.refocus(disparity=0.5)
     b = planes.refocus(focus=3, tilt=20)
     assert not np.array_equal(a, b)
+
+
+def test_a_list_of_focus_values_is_a_surface_of_their_planes(planes):
+    """focus=[...] is the surface of the planes each value gives alone (as plane=[...] of
+    those planes), and its second plane changes the image."""
+    alone = [planes.plane(focus=z, tilt=t) for z, t in [(4, 0), (2, 15)]]
+    as_planes = [(*p, *n) for p, n in alone]
+    surface = planes.refocus(focus=[4, 2], tilt=[0, 15])
+    assert np.array_equal(surface, planes.refocus(plane=as_planes))
+    assert not np.array_equal(surface, planes.refocus(focus=4))
+    # plane() gives the first plane of several: the render's own focus.
+    assert planes.plane(focus=[4, 2], tilt=[0, 15]) == alone[0]
 
 
 def test_grid_folder_and_arrays_render_alike(cli, planes, grid_folder, tmp_path):
