@@ -73,7 +73,9 @@ pub struct DepthArgs {
     #[arg(long)]
     pub include_dark: bool,
     /// Score the disparity against this ground-truth disparity map (PFM, e.g. HCI's
-    /// gt_disp_lowres.pfm): BadPix 0.07/0.03/0.01 and MSE×100 with a 15-px border.
+    /// gt_disp_lowres.pfm) or another estimate of it (a learned network's, on a real capture):
+    /// BadPix 0.07/0.03/0.01, MSE×100, the share of pixels off by more than 0.1 px and
+    /// Pearson's r, with a 15-px border.
     #[arg(long, value_name = "GT.pfm")]
     pub score: Option<PathBuf>,
     /// Print what was estimated, the timings and any scores as JSON on stdout.
@@ -386,8 +388,8 @@ pub fn run(args: &DepthArgs) -> Result<()> {
                 .map_or("no GPU timer".into(), |ms| format!("GPU {ms:.0} ms")),
             est.device,
             scores.map_or(String::new(), |s| format!(
-                "; BadPix0.07 {:.2} %, MSE×100 {:.3}",
-                s.bad_pix_007, s.mse_x100
+                "; BadPix0.07 {:.2} %, MSE×100 {:.3}, {:.1} % off by > 0.1 px, r {:.3}",
+                s.bad_pix_007, s.mse_x100, s.off_01, s.pearson_r
             ))
         );
     }

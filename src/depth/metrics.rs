@@ -2,7 +2,9 @@
 //! percentage of pixels whose disparity error exceeds τ px (0.07 is the headline threshold),
 //! and MSE × 100, over the image without a border (15 px in the benchmark). A pixel without an
 //! estimate (NaN) counts as bad with an error of 1 px in the MSE; pixels without ground truth
-//! are skipped.
+//! are skipped. Against a reference that is itself an estimate (a learned network's map of a
+//! real capture, where no ground truth exists) the agreement measures are the share of pixels
+//! off by more than 0.1 px and Pearson's r of the two maps.
 
 /// Scores of one disparity map against ground truth.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
@@ -13,6 +15,11 @@ pub struct DisparityScores {
     pub bad_pix_003: f64,
     /// % with |error| > 0.01 px.
     pub bad_pix_001: f64,
+    /// % with |error| > 0.1 px (agreement with a reference estimate).
+    pub off_01: f64,
+    /// Pearson correlation of estimate and truth over the scored pixels with an estimate
+    /// (NaN with fewer than two, or when either is constant).
+    pub pearson_r: f64,
     /// Mean squared error × 100.
     pub mse_x100: f64,
     /// Pixels scored.
@@ -33,7 +40,9 @@ pub fn score(
     mask: Option<&[bool]>,
 ) -> DisparityScores {
     let (mut n, mut se) = (0usize, 0.0f64);
-    let mut bad = [0usize; 3];
+    let mut bad = [0usize; 4];
+    // Sums for Pearson's r over the pixels with an estimate.
+    let (mut m, mut sx, mut sy, mut sxx, mut syy, mut sxy) = (0usize, 0.0, 0.0, 0.0, 0.0, 0.0);
     for y in border..height.saturating_sub(border) {
         for x in border..width.saturating_sub(border) {
             let i = (y * width + x) as usize;
@@ -41,13 +50,17 @@ pub fn score(
                 continue;
             }
             let e = if estimate[i].is_finite() {
-                (estimate[i] as f64 - truth[i] as f64).abs()
+                let (x, y) = (estimate[i] as f64, truth[i] as f64);
+                m += 1;
+                (sx, sy) = (sx + x, sy + y);
+                (sxx, syy, sxy) = (sxx + x * x, syy + y * y, sxy + x * y);
+                (x - y).abs()
             } else {
                 1.0
             };
             n += 1;
             se += e * e;
-            for (b, t) in bad.iter_mut().zip([0.07, 0.03, 0.01]) {
+            for (b, t) in bad.iter_mut().zip([0.07, 0.03, 0.01, 0.1]) {
                 if e > t {
                     *b += 1;
                 }
@@ -55,10 +68,19 @@ pub fn score(
         }
     }
     let pct = |b: usize| 100.0 * b as f64 / n.max(1) as f64;
+    let mf = m as f64;
+    let (vx, vy) = (sxx - sx * sx / mf, syy - sy * sy / mf);
+    let pearson_r = if m >= 2 && vx > 0.0 && vy > 0.0 {
+        (sxy - sx * sy / mf) / (vx * vy).sqrt()
+    } else {
+        f64::NAN
+    };
     DisparityScores {
         bad_pix_007: pct(bad[0]),
         bad_pix_003: pct(bad[1]),
         bad_pix_001: pct(bad[2]),
+        off_01: pct(bad[3]),
+        pearson_r,
         mse_x100: 100.0 * se / n.max(1) as f64,
         pixels: n,
     }
@@ -88,5 +110,26 @@ mod tests {
         t[6] = f32::NAN;
         let s = score(&est, &t, w, h, 1, None);
         assert_eq!((s.pixels, s.bad_pix_001), (1, 100.0));
+    }
+
+    #[test]
+    fn agreement_counts_pixels_off_by_a_tenth_and_correlates_the_maps() {
+        let truth: Vec<f32> = (0..10).map(|i| i as f32 * 0.5).collect();
+        // An affine copy correlates perfectly however far off it is.
+        let scaled: Vec<f32> = truth.iter().map(|t| 2.0 * t - 1.0).collect();
+        let s = score(&scaled, &truth, 10, 1, 0, None);
+        assert!((s.pearson_r - 1.0).abs() < 1e-12, "{}", s.pearson_r);
+        assert_eq!(s.off_01, 90.0); // only 2·1 − 1 = 1 lands on its truth
+                                    // Reversed: r = −1; two pixels 0.05 and 0.15 off: one of ten beyond 0.1 px.
+        let reversed: Vec<f32> = truth.iter().rev().copied().collect();
+        assert!((score(&reversed, &truth, 10, 1, 0, None).pearson_r + 1.0).abs() < 1e-12);
+        let mut near = truth.clone();
+        near[3] += 0.05;
+        near[7] -= 0.15;
+        let s = score(&near, &truth, 10, 1, 0, None);
+        assert_eq!(s.off_01, 10.0);
+        assert!(s.pearson_r > 0.99 && s.pearson_r < 1.0);
+        // A constant map has no correlation to speak of.
+        assert!(score(&[1.0; 10], &truth, 10, 1, 0, None).pearson_r.is_nan());
     }
 }

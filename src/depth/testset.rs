@@ -271,6 +271,8 @@ pub fn mean(rows: &[&SetRow]) -> DisparityScores {
         bad_pix_007: sum(|s| s.bad_pix_007),
         bad_pix_003: sum(|s| s.bad_pix_003),
         bad_pix_001: sum(|s| s.bad_pix_001),
+        off_01: sum(|s| s.off_01),
+        pearson_r: sum(|s| s.pearson_r),
         mse_x100: sum(|s| s.mse_x100),
         pixels: rows.iter().map(|r| r.scores.pixels).sum(),
     }
@@ -279,19 +281,21 @@ pub fn mean(rows: &[&SetRow]) -> DisparityScores {
 /// A Markdown table of `rows`: one line per scene and variant, then each variant's mean.
 pub fn markdown(rows: &[SetRow]) -> String {
     let mut out = String::from(
-        "| scene | tests | variant | BadPix 0.07 | 0.03 | MSE × 100 | confident: share, BadPix 0.07 | GPU ms | total ms |\n\
-         |---|---|---|---|---|---|---|---|---|\n",
+        "| scene | tests | variant | BadPix 0.07 | 0.03 | MSE × 100 | > 0.1 px | r | confident: share, BadPix 0.07 | GPU ms | total ms |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {:.2} | {:.2} | {:.3} | {:.1} %, {:.2} | {} | {:.0} |",
+            "| {} | {} | {} | {:.2} | {:.2} | {:.3} | {:.1} | {:.3} | {:.1} %, {:.2} | {} | {:.0} |",
             r.scene,
             r.failure_mode,
             r.variant,
             r.scores.bad_pix_007,
             r.scores.bad_pix_003,
             r.scores.mse_x100,
+            r.scores.off_01,
+            r.scores.pearson_r,
             r.confident_share,
             r.confident_bad_pix_007,
             r.gpu_ms.map_or("–".into(), |ms| format!("{ms:.0}")),
@@ -308,11 +312,13 @@ pub fn markdown(rows: &[SetRow]) -> String {
         let total: f64 = of.iter().map(|r| r.total_ms).sum();
         let _ = writeln!(
             out,
-            "| **mean of {} scenes** | | {v} | **{:.2}** | {:.2} | **{:.3}** | | {gpu:.0} (sum) | {total:.0} (sum) |",
+            "| **mean of {} scenes** | | {v} | **{:.2}** | {:.2} | **{:.3}** | {:.1} | {:.3} | | {gpu:.0} (sum) | {total:.0} (sum) |",
             of.len(),
             m.bad_pix_007,
             m.bad_pix_003,
             m.mse_x100,
+            m.off_01,
+            m.pearson_r,
         );
     }
     out
@@ -406,6 +412,8 @@ mod tests {
             bad_pix_007: b,
             bad_pix_003: 2.0 * b,
             bad_pix_001: 3.0 * b,
+            off_01: 0.5 * b,
+            pearson_r: 0.9,
             mse_x100: b / 10.0,
             pixels: 100,
         };
