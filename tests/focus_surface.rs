@@ -351,9 +351,10 @@ fn focus_surfaces_match_the_lens_inside_the_surface() {
             surface: FocusSurface::Slab { half_width: 0.3 },
             reference: None,
             inside: Box::new(|l, _| l == 1 || l == 2),
-            // Measured 56.1 dB, exactly the single-plane refocus on each pixel's own layer:
-            // the issue's 60 dB is not met, the limit is the refocus's resampling of the
-            // layers' texture, not the surface. The slab's middle plane alone: 16.2 dB.
+            // Measured 56.1 dB, exactly the single-plane refocus on each pixel's own layer.
+            // The issue's 60 dB lies above the 8-bit ceiling (the lens's image itself stored
+            // in 8 bits scores 59.6 dB on these pixels): views stored in 8 bits cannot reach
+            // it against the lens's float image. The slab's middle plane alone: 16.2 dB.
             min_db: 55.0,
             min_gain: 20.0,
         },
@@ -458,16 +459,29 @@ fn focus_surfaces_match_the_lens_inside_the_surface() {
             }
         }
         let o = psnr_rgb(&own, &truth, &mask);
+        // The ceiling an 8-bit light field allows: the truth itself stored in 8 bits.
+        let stored: Vec<[f64; 3]> = truth
+            .iter()
+            .map(|p| p.map(|v| (v * 255.0).round() / 255.0))
+            .collect();
+        let ceiling = psnr_rgb(&stored, &truth, &mask);
         eprintln!(
             "{}: inside the surface ({} px) surface {p:.1} dB, anti-aliased {a:.1} dB; \
              single plane on each pixel's layer {o:.1} dB; the surface's first plane alone \
-             {s:.1} dB",
+             {s:.1} dB; the truth stored in 8 bits {ceiling:.1} dB",
             c.label,
             mask.iter().filter(|&&m| m).count(),
         );
         assert!(mask.iter().filter(|&&m| m).count() > 300, "{}", c.label);
         assert!(p >= c.min_db && a >= c.min_db, "{}: {p} / {a}", c.label);
         assert!(p >= o - 1.0, "{}: surface {p} vs own planes {o}", c.label);
+        // Nothing made of 8-bit views beats the truth stored in 8 bits (a check of the
+        // comparison itself: 59.1–59.8 dB here, so 60 dB is out of any method's reach).
+        assert!(
+            p <= ceiling + 0.5,
+            "{}: {p} above the 8-bit ceiling {ceiling}",
+            c.label
+        );
         assert!(
             p >= s + c.min_gain,
             "{}: surface {p} vs single {s}",
