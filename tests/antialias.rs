@@ -171,11 +171,13 @@ fn against_the_lens(
     plane: Plane,
     label: &str,
 ) -> (Scores, Scores) {
-    against_the_lens_masked(r, h, lf, lf, plane, label)
+    let (p, a, _) = against_the_lens_masked(r, h, lf, lf, plane, label, false);
+    (p, a)
 }
 
 /// [`against_the_lens`] with the masks (focused, out of focus) from `truth_lf`'s depth, so
-/// a light field with estimated depth is scored on the true layers.
+/// a light field with estimated depth is scored on the true layers; with `bicubic`, also the
+/// anti-aliased refocus with the bicubic filter (against the same lens).
 fn against_the_lens_masked(
     r: &mut Rasterizer,
     h: &mut HeadlessRenderer,
@@ -183,7 +185,8 @@ fn against_the_lens_masked(
     truth_lf: &LightField,
     plane: Plane,
     label: &str,
-) -> (Scores, Scores) {
+    bicubic: bool,
+) -> (Scores, Scores, Option<Scores>) {
     let (plan, aa) = plain_and_aa(lf, plane, None, AntialiasSettings::default());
     let radius = RADIUS * synth_scene("layers").unwrap().baseline;
     let (gt, pinholes) = r
@@ -202,6 +205,12 @@ fn against_the_lens_masked(
     let (plain, t_plain) = h.render(&plan, &settings).unwrap();
     let (anti, t_aa) = h.render_antialiased(&aa, &settings).unwrap();
     let (plain, anti) = (encoded(&float(plain)), encoded(&float(anti)));
+    let cubic = bicubic.then(|| {
+        let (img, t) = h
+            .render_antialiased(&aa, &float_settings(Filter::Bicubic))
+            .unwrap();
+        (encoded(&float(img)), t)
+    });
     let res = residual_px(truth_lf, &plan);
     let masks = (
         mask_where(&res, SIZE, 4, 0, |_| true),
@@ -233,7 +242,18 @@ fn against_the_lens_masked(
         t_plain.map(|t| t.refocus_ms),
         t_aa.map(|t| t.refocus_ms),
     );
-    (p, a)
+    let c = cubic.map(|(img, t)| {
+        let c = scores(&img, &truth, &masks);
+        eprintln!(
+            "{label}, anti-aliased with --filter bicubic: {:.1} / {:.1} / {:.1} dB; GPU {:?} ms",
+            c.overall,
+            c.out_of_focus,
+            c.focused,
+            t.map(|t| t.refocus_ms)
+        );
+        c
+    });
+    (p, a, c)
 }
 
 /// The acceptance numbers: on the sparse layered scene, anti-aliasing approaches the lens off
@@ -271,8 +291,15 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
         None,
     )
     .unwrap();
-    let (pe, ae) =
-        against_the_lens_masked(&mut r, &mut h, &estimated, &lf, front, "estimated depth");
+    let (pe, ae, _) = against_the_lens_masked(
+        &mut r,
+        &mut h,
+        &estimated,
+        &lf,
+        front,
+        "estimated depth",
+        false,
+    );
     // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 33.1 / 38.1 / 34.2 dB (the issue
     // asks 38 overall). Out of focus as good as with the true depth; the focused plane loses
     // 25 dB because the estimate puts a 1–2 px band along the panel's silhouette against the
@@ -286,11 +313,23 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
     let p2 = DVec3::new(0.22 * zn, 0.24 * zn, zn);
     let normal = (p2 - p1).cross(DVec3::Y).normalize();
     let tilted = Plane::new(p1, if normal.z > 0.0 { -normal } else { normal }).unwrap();
-    let (p, a) = against_the_lens(&mut r, &mut h, &lf, tilted, "tilted through two layers");
+    let (p, a, c) = against_the_lens_masked(
+        &mut r,
+        &mut h,
+        &lf,
+        &lf,
+        tilted,
+        "tilted through two layers",
+        true,
+    );
     // Measured: plain 28.7 / 28.5 / 29.5 dB, anti-aliased 32.4 / 35.7 / 29.3 dB (the issue's
-    // 34 / 38 / 36 are not met: the focused plane's resampling limits both sums alike).
+    // 34 / 38 / 36 are not met). On the tilted plane every view's shift is fractional and the
+    // bilinear filter softens the fine texture: the bicubic filter gives 34.9 / 36.2 /
+    // 33.0 dB, at about 5 times the anti-aliased sum's GPU time on lavapipe.
     assert!(a.out_of_focus >= p.out_of_focus + 5.0);
     assert!(a.focused >= p.focused - 0.5);
+    let c = c.unwrap();
+    assert!(c.focused >= a.focused + 2.0 && c.overall >= a.overall + 1.0);
     assert_no_validation_errors(&h);
     assert_raster_clean(&r);
 }
