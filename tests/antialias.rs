@@ -300,13 +300,14 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
         "estimated depth",
         false,
     );
-    // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 33.1 / 38.1 / 34.2 dB (the issue
-    // asks 38 overall). Out of focus as good as with the true depth; the focused plane loses
-    // 25 dB because the estimate puts a 1–2 px band along the panel's silhouette against the
-    // wall at the wall's depth (86 px, 1.5 % of the panel, off by 3 px per grid step), so
-    // their footprints blur what should stay sharp (a documented failure mode).
+    // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 34.3 / 38.8 / 57.7 dB (the issue
+    // asks 38 overall). Out of focus and on the focused panel nearly as good as with the
+    // true depth; overall the estimate's errors at the cards' silhouettes and the wall's
+    // mortar next to them (taken for the panel's grey frame) leave copies the lens blurs.
+    // Before the median's windows held their centre's row, the panel's frame went to the
+    // wall's depth and its footprint blurred it (39.7 dB on the panel).
     assert!(ae.out_of_focus >= pe.out_of_focus + 8.0);
-    assert!(ae.overall >= pe.overall + 2.5 && ae.focused >= 30.0);
+    assert!(ae.overall >= pe.overall + 3.5 && ae.focused >= 50.0);
 
     // Through the 2 m panel (left) and the 1.52 m panel (lower right), turned about y.
     let p1 = DVec3::new(-0.5, 0.0, zm);

@@ -65,8 +65,9 @@ pub struct DepthArgs {
     #[arg(long)]
     pub no_fit: bool,
     /// Window radius of the colour-weighted median of the sweep's winners (0: none; default
-    /// 13, none with --naive): gives pixels of a faint surface back the depth of their own
-    /// colour region where a nearer object was fattened into them.
+    /// 14, none with --naive; above 6 the window is sampled every other pixel and an odd
+    /// radius rounds up): gives pixels of a faint surface back the depth of their own colour
+    /// region where a nearer object was fattened into them.
     #[arg(long, value_name = "R")]
     pub median: Option<u32>,
     /// Match (almost) black views too (vignetted corners are left out by default).

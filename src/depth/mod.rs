@@ -223,7 +223,7 @@ impl Default for SweepParams {
             conf_eps: 2e-3,
             refine: Refine::Parabola,
             fit: true,
-            median_radius: 13,
+            median_radius: 14,
             median_sigma: median_sigma(),
         }
     }
