@@ -20,16 +20,22 @@ fn scores() -> Vec<SetRow> {
 }
 
 fn compute() -> Vec<SetRow> {
+    let set = testset::synthetic(5, 64, None).unwrap();
+    estimate(&set, &["default", "no-median", "sweep", "naive"])
+}
+
+/// Every scene of `set` estimated with every variant, on a validated context that must log no
+/// validation error.
+fn estimate(set: &[testset::SetScene], variants: &[&str]) -> Vec<SetRow> {
     let ctx = GpuContext::new(&common::gpu_options())
         .unwrap_or_else(|e| panic!("cannot create a validated Vulkan context: {e}"));
-    let set = testset::synthetic(5, 64, None).unwrap();
-    let variants: Vec<_> = ["default", "no-median", "sweep", "naive"]
+    let variants: Vec<_> = variants
         .iter()
         .map(|v| (v.to_string(), testset::variant(v).unwrap()))
         .collect();
     let rows = score_set(
         &ctx,
-        &set,
+        set,
         &variants,
         &indicatif::ProgressBar::hidden(),
         |_, _, _| Ok(()),
@@ -45,28 +51,14 @@ fn compute() -> Vec<SetRow> {
 /// rim, and every variant is 40 % off).
 #[test]
 fn the_plenoptic_scene_agrees_with_its_truth_as_the_issue_asks_of_a_real_capture() {
-    let ctx = GpuContext::new(&common::gpu_options())
-        .unwrap_or_else(|e| panic!("cannot create a validated Vulkan context: {e}"));
     let set = testset::synthetic(5, 96, Some(&["plenoptic".to_string()])).unwrap();
-    let variants: Vec<_> = ["default", "sweep"]
-        .iter()
-        .map(|v| (v.to_string(), testset::variant(v).unwrap()))
-        .collect();
-    let rows = score_set(
-        &ctx,
-        &set,
-        &variants,
-        &indicatif::ProgressBar::hidden(),
-        |_, _, _| Ok(()),
-    )
-    .unwrap();
-    assert_eq!(ctx.validation().errors(), 0, "validation errors");
+    let rows = estimate(&set, &["default", "sweep"]);
     let (d, s) = (&rows[0].scores, &rows[1].scores);
     assert_eq!(
         (rows[0].variant.as_str(), rows[1].variant.as_str()),
         ("default", "sweep")
     );
-    // Measured: r 0.989 with 13.0 % off, the sweep alone 33.5 %.
+    // Measured: r 0.989 with 13.2 % off, the sweep alone 33.5 %.
     eprintln!(
         "plenoptic: r {:.3}, {:.1} % off by > 0.1 px (sweep {:.1} %)",
         d.pearson_r, d.off_01, s.off_01
