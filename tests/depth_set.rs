@@ -170,6 +170,24 @@ fn confidence_ranks_errors_over_the_set() {
 fn depth_set_prints_and_writes_the_table_and_refuses_unknown_scenes_and_variants() {
     let dir = tempfile::tempdir().unwrap();
     let md = dir.path().join("set.md");
+    // An HCI-format folder that `tiltfield synth` wrote joins the set (with its ground truth),
+    // named as such: it is no benchmark scene (those name their category in [meta]).
+    let synth = dir.path().join("synth-planes");
+    let made = common::tiltfield(&[
+        "synth",
+        "builtin:planes",
+        "--grid",
+        "3x3",
+        "--size",
+        "48x48",
+        "-o",
+        synth.to_str().unwrap(),
+    ]);
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
     let out = common::tiltfield(&[
         "depth-set",
         "--scenes",
@@ -180,6 +198,8 @@ fn depth_set_prints_and_writes_the_table_and_refuses_unknown_scenes_and_variants
         "3",
         "--variants",
         "default",
+        "--hci",
+        synth.to_str().unwrap(),
         "--markdown",
         md.to_str().unwrap(),
         "--validate",
@@ -201,7 +221,11 @@ fn depth_set_prints_and_writes_the_table_and_refuses_unknown_scenes_and_variants
         "{table}"
     );
     assert!(
-        table.contains("| **mean of 2 scenes** | | default |"),
+        table.contains("| planes | HCI-format folder | default |"),
+        "{table}"
+    );
+    assert!(
+        table.contains("| **mean of 3 scenes** | | default |"),
         "{table}"
     );
     assert!(table.contains("Confidence calibration"), "{table}");

@@ -90,9 +90,19 @@ pub fn hci(folder: &Path) -> Result<SetScene> {
         ));
     }
     lf.depth.clear();
+    // The benchmark's own scenes name their category in `[meta]`; a folder `tiltfield synth`
+    // wrote (or any other HCI-format folder) does not, and is not called a benchmark scene.
+    let cfg_path = folder.join("parameters.cfg");
+    let category = std::fs::read_to_string(&cfg_path)
+        .ok()
+        .and_then(|text| crate::lightfield::hci::parse_config(&text, &cfg_path).ok())
+        .and_then(|cfg| cfg.meta.get("category").cloned());
     Ok(SetScene {
         name: lf.name.clone(),
-        failure_mode: "real renderer output (HCI)".into(),
+        failure_mode: match category {
+            Some(c) => format!("HCI benchmark scene ({c})"),
+            None => "HCI-format folder".into(),
+        },
         light_field: lf,
         truth: truth.values,
         border: HCI_BORDER,
