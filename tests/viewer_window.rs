@@ -38,6 +38,23 @@ fn view_in_xvfb_cached(args: &[&str], cache: &Path) -> Output {
     }
 }
 
+/// Runs `tiltfield view ARGS --script DIR/NAME --json` with `script` written to DIR/NAME (in a
+/// virtual X server, validation on), asserts that it succeeded without a panic or a validation
+/// error, and returns its JSON report and its stderr.
+fn run_script(dir: &Path, name: &str, script: &str, args: &[&str]) -> (serde_json::Value, String) {
+    let path = dir.join(name);
+    std::fs::write(&path, script).unwrap();
+    let mut all = args.to_vec();
+    all.extend(["--script", path.to_str().unwrap(), "--json"]);
+    let o = view_in_xvfb(&all);
+    let err = stderr(&o);
+    assert!(o.status.success(), "viewer failed: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
+    assert_eq!(report["validation_errors"], 0, "{report}\n{err}");
+    (report, err)
+}
+
 fn json_file(path: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     serde_json::from_str(&text).unwrap()
@@ -155,22 +172,13 @@ fn scripted_session_matches_render_and_has_no_validation_errors() {
          quit\n",
         d = d.display()
     );
-    let script_path = d.join("session.txt");
-    std::fs::write(&script_path, script).unwrap();
     let prefix = d.join("key");
-    let o = view_in_xvfb(&[
-        lf,
-        "--script",
-        script_path.to_str().unwrap(),
-        "--screenshot-prefix",
-        prefix.to_str().unwrap(),
-        "--json",
-    ]);
-    let err = stderr(&o);
-    assert!(o.status.success(), "viewer failed: {err}");
-    assert!(!err.contains("panicked"), "{err}");
-    let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
-    assert_eq!(report["validation_errors"], 0, "{report}");
+    let (report, _) = run_script(
+        d,
+        "session.txt",
+        &script,
+        &[lf, "--screenshot-prefix", prefix.to_str().unwrap()],
+    );
     assert!(report["frames"]["count"].as_u64().unwrap() >= 4, "{report}");
     assert!(report["frames"]["full_quality_gpu_ms_median"]
         .as_f64()
@@ -462,13 +470,7 @@ fn focus_surfaces_from_keys_match_render_and_show_in_the_scene() {
          quit\n",
         d = d.display()
     );
-    let script_path = d.join("surfaces.txt");
-    std::fs::write(&script_path, script).unwrap();
-    let o = view_in_xvfb(&[lf, "--script", script_path.to_str().unwrap(), "--json"]);
-    let err = stderr(&o);
-    assert!(o.status.success(), "viewer failed: {err}");
-    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(report["validation_errors"], 0, "{err}");
+    let (report, _) = run_script(d, "surfaces.txt", &script, &[lf]);
     // Every screenshot equals render given the same surface, byte for byte.
     for (shot, kind, planes) in [
         ("p", "plane", 1),
@@ -555,18 +557,7 @@ fn feedback_highlights_the_changed_field_and_shows_refusals_where_clicked() {
          quit\n",
         d = d.display()
     );
-    let script_path = d.join("feedback.txt");
-    std::fs::write(&script_path, script).unwrap();
-    let o = view_in_xvfb(&[
-        "builtin:demo",
-        "--script",
-        script_path.to_str().unwrap(),
-        "--json",
-    ]);
-    let err = stderr(&o);
-    assert!(o.status.success(), "{err}");
-    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(report["validation_errors"], 0, "{err}");
+    run_script(d, "feedback.txt", &script, &["builtin:demo"]);
     let layout = Layout::new(1280, 720, (192, 192));
     let strip = layout.status;
     // The highlight's amber behind the changed field (the tilt), in the strip only while it
@@ -657,14 +648,8 @@ fn the_control_panel_sets_values_by_drag_and_toggles_by_click() {
         ky = keep.1,
         d = d.display()
     );
-    let script_path = d.join("panel.txt");
-    std::fs::write(&script_path, script).unwrap();
     let lf = "builtin:demo";
-    let o = view_in_xvfb(&[lf, "--script", script_path.to_str().unwrap(), "--json"]);
-    let err = stderr(&o);
-    assert!(o.status.success(), "{err}");
-    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(report["validation_errors"], 0, "{err}");
+    run_script(d, "panel.txt", &script, &[lf]);
     let a = json_file(&d.join("a.json"));
     let n = numbers(&a["plane"]["normal"]);
     let tilt_deg = n[1].atan2(n[2]).to_degrees();
@@ -870,20 +855,12 @@ fn the_strip_reads_the_depth_under_the_cursor() {
          quit\n",
         d = d.display()
     );
-    let script_path = d.join("hover.txt");
-    std::fs::write(&script_path, script).unwrap();
-    let o = view_in_xvfb(&[
-        "builtin:demo",
-        "--window",
-        "1120x600",
-        "--script",
-        script_path.to_str().unwrap(),
-        "--json",
-    ]);
-    let err = stderr(&o);
-    assert!(o.status.success(), "{err}");
-    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(report["validation_errors"], 0, "{err}");
+    run_script(
+        d,
+        "hover.txt",
+        &script,
+        &["builtin:demo", "--window", "1120x600"],
+    );
     let over = json_file(&d.join("over.json"));
     let reading = over["cursor_depth"]
         .as_str()

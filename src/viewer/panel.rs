@@ -291,20 +291,11 @@ pub fn set_action(s: Slider, value: f64, state: &ViewerState, lf: &LightField) -
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::aperture::Aperture;
-    use crate::refocus::{Averaging, FocusSpec};
+    use crate::refocus::FocusSpec;
 
     fn setup() -> (LightField, ViewerState) {
         let lf = crate::synth::builtin("planes").unwrap().light_field(1);
-        let s = ViewerState::new(
-            &lf,
-            FocusSpec::Disparity(0.0).into(),
-            Aperture::default(),
-            None,
-            Averaging::Linear,
-            Vec::new(),
-        )
-        .unwrap();
+        let s = crate::viewer::state::test_state(&lf, FocusSpec::Disparity(0.0));
         (lf, s)
     }
 

@@ -902,6 +902,21 @@ fn modify(
     }
 }
 
+/// The viewer's state on `lf` focused by `focus`, with the default aperture and linear
+/// averaging: the fixture of the viewer's unit tests.
+#[cfg(test)]
+pub(crate) fn test_state(lf: &LightField, focus: FocusSpec) -> ViewerState {
+    ViewerState::new(
+        lf,
+        focus.into(),
+        Aperture::default(),
+        None,
+        Averaging::Linear,
+        Vec::new(),
+    )
+    .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -912,17 +927,7 @@ mod tests {
         crate::synth::builtin(name).unwrap().light_field(1)
     }
 
-    fn state(lf: &LightField, focus: FocusSpec) -> ViewerState {
-        ViewerState::new(
-            lf,
-            focus.into(),
-            Aperture::default(),
-            None,
-            Averaging::Linear,
-            Vec::new(),
-        )
-        .unwrap()
-    }
+    use super::test_state as state;
 
     #[test]
     fn keys_tilt_swing_and_move_the_plane_as_the_nudge_options_do() {

@@ -466,8 +466,6 @@ impl Hud {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::aperture::Aperture;
-    use crate::refocus::Averaging;
     use crate::viewer::refine::Refiner;
     use crate::viewer::state::Action;
 
@@ -508,15 +506,7 @@ mod tests {
     #[test]
     fn the_strip_is_composited_and_redraws_do_not_grow_the_parts() {
         let lf = crate::synth::builtin("planes").unwrap().light_field(1);
-        let mut state = ViewerState::new(
-            &lf,
-            FocusSpec::Disparity(0.0).into(),
-            Aperture::default(),
-            None,
-            Averaging::Linear,
-            Vec::new(),
-        )
-        .unwrap();
+        let mut state = crate::viewer::state::test_state(&lf, FocusSpec::Disparity(0.0));
         let refinement = Refinement::new(Refiner::new(33.0, 1 << 20), &state.plan);
         let layout = Layout::new(800, 600, (lf.width, lf.height));
         let mut hud = Hud::new(layout.window);
