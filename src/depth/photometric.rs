@@ -36,9 +36,9 @@ pub struct Equaliser {
     radius: usize,
     /// Box means of the reference's RGB, interleaved, row-major.
     means: Vec<f64>,
-    /// The same at a [`CHECK_FACTOR`]th of the size, for the check whether a view needs
-    /// equalising at all.
-    small: Option<Vec<f64>>,
+    /// The same at a [`CHECK_FACTOR`]th of the size, with that size and blur radius
+    /// ([`Equaliser::small_size`]), for the check whether a view needs equalising at all.
+    small: Option<(Vec<f64>, (usize, usize, usize))>,
 }
 
 /// The check whether a view needs equalising runs on images downscaled by this factor (box
@@ -56,7 +56,7 @@ impl Equaliser {
         let radius = (w.max(h) / 12).max(2);
         let small = Self::small_size(reference).map(|(sw, sh, sr)| {
             let img = super::downscale(reference, CHECK_FACTOR);
-            box_mean(&channels(&img), 3, sw, sh, sr)
+            (box_mean(&channels(&img), 3, sw, sh, sr), (sw, sh, sr))
         });
         Some(Equaliser {
             width: reference.width(),
@@ -102,9 +102,9 @@ impl Equaliser {
         if view.dimensions() != (self.width, self.height) {
             return None;
         }
-        if let (Some(small), Some((sw, sh, sr))) = (&self.small, Self::small_size(view)) {
+        if let Some((small, (sw, sh, sr))) = &self.small {
             let img = super::downscale(view, CHECK_FACTOR);
-            if !Self::gains(small, &box_mean(&channels(&img), 3, sw, sh, sr)).1 {
+            if !Self::gains(small, &box_mean(&channels(&img), 3, *sw, *sh, *sr)).1 {
                 return None;
             }
         }

@@ -409,10 +409,10 @@ pub fn refine(
                         keep.fill(false);
                         return f64::INFINITY;
                     }
-                    let mid = (scratch.len() as f64 * OCCLUSION_QUANTILE) as usize;
+                    let at = (scratch.len() as f64 * OCCLUSION_QUANTILE) as usize;
                     let cut = OCCLUDED_RATIO
                         * scratch
-                            .select_nth_unstable_by(mid, f64::total_cmp)
+                            .select_nth_unstable_by(at, f64::total_cmp)
                             .1
                             .max(1e-12);
                     let mut sum = 0.0;

@@ -92,8 +92,8 @@ pub fn hci(folder: &Path) -> Result<SetScene> {
     lf.depth.clear();
     // The benchmark's own scenes name their category in `[meta]`; a folder `tiltfield synth`
     // wrote (or any other HCI-format folder) does not, and is not called a benchmark scene.
-    let cfg_path = folder.join("parameters.cfg");
-    let category = std::fs::read_to_string(&cfg_path)
+    let cfg_path = folder.join(crate::lightfield::hci::CONFIG_NAME);
+    let category = crate::io::read_text(&cfg_path, "the HCI parameters file")
         .ok()
         .and_then(|text| crate::lightfield::hci::parse_config(&text, &cfg_path).ok())
         .and_then(|cfg| cfg.meta.get("category").cloned());
