@@ -16,11 +16,13 @@ struct ViewWarp {
 // Anti-aliasing (docs/conventions.md §11): view i's aperture cell as homogeneous offsets per
 // unit of residual inverse depth s - sigma; the sub-sample at (u, v) in [0, 1]^2 lies at
 // origin + u span_s + v span_t (xyz). The three w components hold the parallax vector
-// g_i = K_r R_r (C_r - C_i) of the occlusion test. Mirrored by `GpuFootprint`.
+// g_i = K_r R_r (C_r - C_i) of the occlusion test; vis.x is 1 when the view's visibility map
+// is bound (binding 8), 0 without one, and vis.y that map's index. Mirrored by `GpuFootprint`.
 struct ViewFootprint {
     vec4 origin;
     vec4 span_s;
     vec4 span_t;
+    vec4 vis;
 };
 
 layout(push_constant) uniform RefocusPush {

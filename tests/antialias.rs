@@ -271,12 +271,12 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
 
     let front = Plane::new(DVec3::new(0.0, 0.0, zm), DVec3::new(0.0, 0.0, -1.0)).unwrap();
     let (p, a) = against_the_lens(&mut r, &mut h, &lf, front, "frontoparallel at 0 px");
-    // Measured on lavapipe: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 40.3 / 38.8 / 59.1 dB.
-    // The issue's targets (42 / 40 / 55) are met on the focused plane and inside the layers
-    // (back wall 46.5 dB, the +2 panel 51 dB away from edges) but not overall: the rest is at
-    // occlusion edges (docs/conventions.md §11).
-    assert!(a.overall >= 39.5 && a.out_of_focus >= 38.0 && a.focused >= 55.0);
-    assert!(a.out_of_focus >= p.out_of_focus + 8.0);
+    // Measured on lavapipe: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 41.8 / 41.2 / 59.1 dB
+    // (the issue asks 42 / 40 / 55). With the occlusion decided per view (its plain sample's
+    // ray alone, no visibility maps) it was 40.3 / 38.8: the focused panel's edges were
+    // smeared into the wall's blur behind them (docs/conventions.md §11).
+    assert!(a.overall >= 41.5 && a.out_of_focus >= 40.0 && a.focused >= 55.0);
+    assert!(a.out_of_focus >= p.out_of_focus + 10.0);
     assert!(a.focused >= p.focused - 0.5);
 
     // The same with the depth estimated from the views (plane sweep, `tiltfield depth`)
@@ -300,14 +300,15 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
         "estimated depth",
         false,
     );
-    // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 34.3 / 38.8 / 57.7 dB (the issue
-    // asks 38 overall). Out of focus and on the focused panel nearly as good as with the
-    // true depth; overall the estimate's errors at the cards' silhouettes and the wall's
-    // mortar next to them (taken for the panel's grey frame) leave copies the lens blurs.
-    // Before the median's windows held their centre's row, the panel's frame went to the
-    // wall's depth and its footprint blurred it (39.7 dB on the panel).
-    assert!(ae.out_of_focus >= pe.out_of_focus + 8.0);
-    assert!(ae.overall >= pe.overall + 3.5 && ae.focused >= 50.0);
+    // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 37.1 / 39.9 / 57.4 dB (the issue
+    // asks 38 overall; 34.3 before the per-sub-sample occlusion). Out of focus and on the
+    // focused panel nearly as good as with the true depth; overall the estimate's errors at
+    // the cards' silhouettes and the wall's mortar next to them (taken for the panel's grey
+    // frame) leave copies the lens blurs. Before the median's windows held their centre's
+    // row, the panel's frame went to the wall's depth and its footprint blurred it (39.7 dB
+    // on the panel).
+    assert!(ae.out_of_focus >= pe.out_of_focus + 10.0);
+    assert!(ae.overall >= pe.overall + 6.5 && ae.focused >= 50.0);
 
     // Through the 2 m panel (left) and the 1.52 m panel (lower right), turned about y.
     let p1 = DVec3::new(-0.5, 0.0, zm);
@@ -323,14 +324,16 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
         "tilted through two layers",
         true,
     );
-    // Measured: plain 28.7 / 28.5 / 29.5 dB, anti-aliased 32.4 / 35.7 / 29.3 dB (the issue's
-    // 34 / 38 / 36 are not met). On the tilted plane every view's shift is fractional and the
-    // bilinear filter softens the fine texture: the bicubic filter gives 34.9 / 36.2 /
-    // 33.0 dB, at about 5 times the anti-aliased sum's GPU time on lavapipe.
-    assert!(a.out_of_focus >= p.out_of_focus + 5.0);
+    // Measured: plain 28.7 / 28.5 / 29.5 dB, anti-aliased 32.9 / 37.6 / 29.1 dB (the issue
+    // asks 34 / 38 / 36). On the tilted plane every view's shift is fractional and the
+    // bilinear filter softens the fine texture: the bicubic filter gives 35.8 / 38.4 /
+    // 32.9 dB (34 and 38 met, not 36 on the plane), at about 3 times the anti-aliased sum's
+    // GPU time on lavapipe.
+    assert!(a.out_of_focus >= p.out_of_focus + 8.0);
     assert!(a.focused >= p.focused - 0.5);
     let c = c.unwrap();
-    assert!(c.focused >= a.focused + 2.0 && c.overall >= a.overall + 1.0);
+    assert!(c.focused >= a.focused + 2.0 && c.overall >= a.overall + 2.0);
+    assert!(c.overall >= 34.0 && c.out_of_focus >= 37.5, "bicubic");
     assert_no_validation_errors(&h);
     assert_raster_clean(&r);
 }
@@ -403,6 +406,12 @@ fn gpu_antialiasing_matches_the_f64_model() {
     };
     let (_, aa2) = plain_and_aa(&lf, front, Some(DVec2::new(1.5, 2.25)), sharp);
     gpu_matches_model(&lf, &aa2, "virtual view, sharp 2 x 2");
+    // Past MAX_VISIBILITY_BYTES a plan has no visibility maps: the pass then skips the view
+    // test, as the model does.
+    let (_, mut blind) = plain_and_aa(&lf, front, None, settings);
+    assert!(blind.visibility.is_some());
+    blind.visibility = None;
+    gpu_matches_model(&lf, &blind, "grid centre without visibility maps");
     let (_, aa) = plain_and_aa(&lf, front, Some(DVec2::new(1.5, 2.25)), settings);
     assert!(
         aa.depth.unknown < 64,
@@ -438,10 +447,10 @@ fn antialiasing_on_a_rotated_rig_approaches_the_lens() {
     let [_, zm, _, _] = tiltfield::synth::scenes::LAYER_DEPTHS;
     let front = Plane::new(DVec3::new(0.0, 0.0, zm), DVec3::new(0.0, 0.0, -1.0)).unwrap();
     let (p, a) = against_the_lens(&mut r, &mut h, &lf, front, "converging rig");
-    // Measured: plain 25.9 / 29.1 / 23.0 dB, anti-aliased 27.4 / 39.3 / 23.1 dB. (The
+    // Measured: plain 25.9 / 29.1 / 23.0 dB, anti-aliased 27.5 / 41.5 / 23.1 dB. (The
     // focused plane scores low for both against this truth on the converging rig; the plain
     // sum's resampling of the rotated views, not anti-aliasing, which leaves it unchanged.)
-    assert!(a.out_of_focus >= p.out_of_focus + 6.0);
+    assert!(a.out_of_focus >= p.out_of_focus + 10.0);
     assert!(a.overall >= p.overall + 1.0);
     assert!(a.focused >= p.focused - 0.5);
     assert_no_validation_errors(&h);
@@ -449,10 +458,11 @@ fn antialiasing_on_a_rotated_rig_approaches_the_lens() {
 }
 
 /// An occlusion edge: focused on the back wall, the pixels of the wall next to the nearer
-/// layers come closer to the lens than the plain sum's (measured 32.7 vs 27.1 dB): the views
-/// that see an occluder there blur it with the occluder's footprint, while those that see the
-/// wall keep it sharp (no footprint: it is in focus), so the occluder is not smeared over the
-/// focused wall. Out of focus, anti-aliasing wins by far (37.4 vs 25.8 dB).
+/// layers come closer to the lens than the plain sum's (measured 33.9 vs 27.1 dB; 32.7 with
+/// the occlusion decided per view): the sub-samples whose rays meet an occluder blur it
+/// with the occluder's footprint, those that pass it keep the wall sharp (no footprint: it is
+/// in focus), so the occluder is not smeared over the focused wall. Out of focus,
+/// anti-aliasing wins by far (37.5 vs 25.8 dB).
 #[test]
 fn occlusion_edges_keep_the_focused_background() {
     let mut r = rasterizer();
@@ -497,7 +507,7 @@ fn occlusion_edges_keep_the_focused_background() {
          {ae:.1} dB; out of focus plain {po:.1} dB, anti-aliased {ao:.1} dB",
         edge.iter().filter(|&&e| e).count()
     );
-    assert!(ae >= pe + 3.0, "{ae} vs {pe}");
+    assert!(ae >= pe + 6.0, "{ae} vs {pe}");
     assert!(ao >= po + 6.0, "{ao} vs {po}");
     assert_no_validation_errors(&h);
     assert_raster_clean(&r);

@@ -301,7 +301,7 @@ impl HeadlessRenderer {
         }
         pass.set_warp_memory(settings.warps)?;
         match aa {
-            Some(aa) => pass.set_antialias(aa)?,
+            Some(aa) => pass.set_antialias(&ctx, aa)?,
             None => pass.set_views(plan)?,
         };
         // After anti-aliasing's upload: both bind the same scene depth, so this rewrites nothing

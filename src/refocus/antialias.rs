@@ -21,9 +21,12 @@
 //! Views weigh by the area of their cell inside the aperture (a partial rim view by the part
 //! inside), so an aperture of radius R integrates exactly the disk of radius R.
 //!
-//! Occlusion: next to a nearer surface, a view that sees that surface at its plain sample
-//! takes the occluder's residual instead of the pixel's ([`view_residual`]), so the
-//! occluder's copies blur while a focused background stays sharp.
+//! Occlusion, per sub-sample ([`sub_sample_residual`]): each sub-sample's aperture point has
+//! its own ray through the focus surface; next to a nearer surface it takes that surface's
+//! residual where the ray meets it, so the occluder's copies blur while a focused background
+//! stays sharp; and a sub-sample whose view sees a nearer surface where the ray's point should
+//! be (from each view's visibility map, [`ViewVisibility`]: the depth forward-warped into the
+//! view) is dropped, so a focused edge is not smeared into the blur behind it.
 //!
 //! Pixels without a valid scene depth (NaN, ≤ 0, unreachable by the reprojection) get no
 //! footprint: they are the plain sum there, with the area weights.
@@ -109,8 +112,11 @@ pub struct Footprint {
     pub span_t: DVec3,
     /// `K_r R_r (C_r − C_i)`: where the reference sees a point that view i sees at its plain
     /// sample, per unit of inverse depth off the focus surface (the occlusion test of
-    /// [`view_residual`]).
+    /// [`sub_sample_residual`]).
     pub parallax: DVec3,
+    /// Which of [`ViewVisibility`]'s maps is this view's (its place in the plan as made; a
+    /// reordering of the views, as the viewer's refinement does, keeps it).
+    pub map: usize,
 }
 
 impl Footprint {
@@ -228,25 +234,7 @@ pub fn scene_depth(
                 sigma[k] = (1.0 / zbuf[k]) as f32;
             }
         }
-        let holes: Vec<usize> = (0..w * h).filter(|&k| sigma[k] < 0.0).collect();
-        let mut filled = sigma.clone();
-        for k in holes {
-            let (x, y) = ((k % w) as i64, (k / w) as i64);
-            let mut far: Option<f32> = None;
-            for (dx, dy) in [(-1, 0), (1, 0), (0, -1), (0, 1)] {
-                let (nx, ny) = (x + dx, y + dy);
-                if nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 {
-                    let v = sigma[ny as usize * w + nx as usize];
-                    if v >= 0.0 {
-                        far = Some(far.map_or(v, |f| f.min(v)));
-                    }
-                }
-            }
-            if let Some(v) = far {
-                filled[k] = v;
-            }
-        }
-        sigma = filled;
+        fill_cracks(&mut sigma, w, h);
     }
     let unknown = sigma.iter().filter(|&&v| v < 0.0).count();
     Ok(SceneDepth {
@@ -258,6 +246,239 @@ pub fn scene_depth(
         unknown,
         source: depth.source.clone(),
     })
+}
+
+/// Fills one-pixel cracks of a splatted σ map (−1 = empty) from the farthest valid 4-neighbour:
+/// a crack between splats of one surface takes that surface, and at a disocclusion the
+/// background shows.
+fn fill_cracks(sigma: &mut [f32], w: usize, h: usize) {
+    let holes: Vec<usize> = (0..w * h).filter(|&k| sigma[k] < 0.0).collect();
+    let source = sigma.to_vec();
+    for k in holes {
+        let (x, y) = ((k % w) as i64, (k / w) as i64);
+        let mut far: Option<f32> = None;
+        for (dx, dy) in [(-1, 0), (1, 0), (0, -1), (0, 1)] {
+            let (nx, ny) = (x + dx, y + dy);
+            if nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 {
+                let v = source[ny as usize * w + nx as usize];
+                if v >= 0.0 {
+                    far = Some(far.map_or(v, |f| f.min(v)));
+                }
+            }
+        }
+        if let Some(v) = far {
+            sigma[k] = v;
+        }
+    }
+}
+
+/// Most bytes the views' visibility maps may take (f32 per pixel per view in the aperture);
+/// beyond it anti-aliasing goes without the visibility test (81 views of 512² take 85 MB).
+pub const MAX_VISIBILITY_BYTES: usize = 256 << 20;
+
+/// What each view of the aperture sees: the reference's σ forward-warped into every planned
+/// view (each reference pixel splatted at `A_i x + b_i σ`, its own depth's warp, to the
+/// nearest pixel; a z-buffer keeps the nearest surface; one-pixel cracks filled as in
+/// [`scene_depth`]; −1 where no surface lands). The sub-samples' visibility test reads it
+/// ([`sub_sample_residual`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ViewVisibility {
+    pub width: u32,
+    pub height: u32,
+    /// σ per pixel, view after view in the order of the plan's views.
+    pub sigma: Vec<f32>,
+    /// A hash of `sigma`, so a pass can tell an unchanged upload without comparing it.
+    pub fingerprint: u64,
+}
+
+impl ViewVisibility {
+    /// Warps `depth` into each of `views` (their warps from the reference).
+    pub fn new(depth: &SceneDepth, views: &[PlannedView]) -> Self {
+        use rayon::prelude::*;
+        let (w, h) = (depth.width as usize, depth.height as usize);
+        let maps: Vec<Vec<f32>> = views
+            .par_iter()
+            .map(|v| {
+                let mut map = vec![-1f32; w * h];
+                for y in 0..h {
+                    for x in 0..w {
+                        let sigma = depth.inverse_depth[y * w + x];
+                        if sigma < 0.0 {
+                            continue;
+                        }
+                        let q = v.warp.a * DVec3::new(x as f64, y as f64, 1.0)
+                            + v.warp.b * sigma as f64;
+                        if q.z.is_nan() || q.z <= 0.0 {
+                            continue;
+                        }
+                        let (i, j) = ((q.x / q.z + 0.5).floor(), (q.y / q.z + 0.5).floor());
+                        if i < 0.0 || j < 0.0 || i >= w as f64 || j >= h as f64 {
+                            continue;
+                        }
+                        let k = j as usize * w + i as usize;
+                        map[k] = map[k].max(sigma);
+                    }
+                }
+                fill_cracks(&mut map, w, h);
+                map
+            })
+            .collect();
+        let sigma: Vec<f32> = maps.concat();
+        let fingerprint = {
+            use std::hash::{Hash, Hasher};
+            let mut hasher = std::collections::hash_map::DefaultHasher::new();
+            (depth.width, depth.height, sigma.len()).hash(&mut hasher);
+            for v in &sigma {
+                v.to_bits().hash(&mut hasher);
+            }
+            hasher.finish()
+        };
+        ViewVisibility {
+            width: depth.width,
+            height: depth.height,
+            sigma,
+            fingerprint,
+        }
+    }
+
+    /// σ that planned view `k` sees at image position `p` (nearest pixel, as the shader's
+    /// `depth_index`); `None` outside the image or where nothing landed.
+    pub fn at(&self, k: usize, p: DVec2) -> Option<f64> {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let (i, j) = ((p.x + 0.5).floor(), (p.y + 0.5).floor());
+        if !(i >= 0.0 && j >= 0.0 && i < w as f64 && j < h as f64) {
+            return None;
+        }
+        let v = self.sigma[k * (w * h) as usize + j as usize * w as usize + i as usize];
+        (v >= 0.0).then_some(v as f64)
+    }
+}
+
+/// Records rounding ties of the sub-sample decisions (`eps` > 0), where f32 may decide the
+/// other way ([`super::cpu::ambiguous_antialiased`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Ties {
+    pub eps: f64,
+    pub found: bool,
+}
+
+impl Ties {
+    /// No tie detection.
+    pub fn none() -> Ties {
+        Ties {
+            eps: -1.0,
+            found: false,
+        }
+    }
+
+    fn position(&mut self, p: DVec2) {
+        let tie = |v: f64| ((v + 0.5) - (v + 0.5).round()).abs() <= self.eps;
+        if tie(p.x) || tie(p.y) {
+            self.found = true;
+        }
+    }
+
+    fn compare(&mut self, a: f64, b: f64) {
+        if (a - b).abs() <= self.eps * a.abs().max(b.abs()).max(1.0) {
+            self.found = true;
+        }
+    }
+}
+
+/// The residual `s − σ_hit` that sub-sample `(u, v)` of planned view `k`'s cell takes at
+/// output pixel `x` (plain sample `y0`, focus-surface inverse depth `s`), or `None` when view
+/// k cannot see what that sub-aperture ray hits (the sub-sample is dropped). §11:
+///
+/// 1. The ray from the sub-sample's aperture point through the focus surface at x meets a
+///    surface of inverse depth c where the reference sees c at that point,
+///    `x + (g_i + offset(u, v))·(s − c)` (`g_i` the view's parallax). It hits the nearer
+///    surface around x ([`SceneDepth::front`]) if the reference sees it there, else the pixel's
+///    own surface σ(x).
+/// 2. View k samples the hit at `y0 + offset(u, v)·(s − c)`. If view k sees a nearer surface
+///    σ_v there ([`ViewVisibility`]), the sub-sample would read that surface's colour: if the
+///    ray hits σ_v too (step 1's test), it takes σ_v's residual; else the view cannot see the
+///    ray's point and the sub-sample is dropped, so a focused edge is not smeared into the
+///    blur behind it. A sub-sample within half a pixel of the plain sample is not tested: it
+///    reads what the view's own ray sees (with a noisy estimated depth, the test would drop
+///    in-focus views).
+///
+/// The tolerance is half a pixel of residual disparity per grid step, at most 5 % of c.
+/// Without depth at x: 0 (the plain sample); without a nearer surface around x
+/// ([`SceneDepth::front`]) nothing can occlude, and every sub-sample takes σ(x).
+#[allow(clippy::too_many_arguments)]
+pub fn sub_sample_residual(
+    aa: &AntialiasPlan,
+    k: usize,
+    x: DVec2,
+    y0: DVec3,
+    s: f64,
+    (u, v): (f64, f64),
+    ties: &mut Ties,
+) -> Option<f64> {
+    let depth = &aa.depth;
+    let fp = &aa.footprints[k];
+    let Some(sigma) = depth.at(x) else {
+        return Some(0.0);
+    };
+    let reach = 0.5 / fp.parallax.truncate().length().max(1e-9);
+    let tol = |c: f64| reach.min(0.05 * c);
+    let ray = fp.parallax + fp.offset(u, v, 1.0);
+    let hits = |c: f64, ties: &mut Ties| {
+        let q = x.extend(1.0) + ray * (s - c);
+        if q.z <= 0.0 {
+            return false;
+        }
+        let p = DVec2::new(q.x / q.z, q.y / q.z);
+        ties.position(p);
+        depth.at(p).is_some_and(|r| {
+            ties.compare((r - c).abs(), tol(c));
+            (r - c).abs() <= tol(c)
+        })
+    };
+    // Without a nearer surface around, nothing can occlude the ray or the view.
+    let Some(front) = depth.front_at(x).filter(|&f| f > sigma + 1e-6) else {
+        return Some(s - sigma);
+    };
+    let mut c = sigma;
+    if hits(front, ties) {
+        c = front;
+    }
+    if let Some(vis) = &aa.visibility {
+        let q = y0 + fp.offset(u, v, s - c);
+        // Within half a pixel of the plain sample the sub-sample reads what the view's own
+        // ray sees: no test (noise in an estimated depth would otherwise drop in-focus views).
+        let moved = (q.truncate() / q.z - y0.truncate() / y0.z).length();
+        ties.compare(moved, 0.5);
+        if q.z > 0.0 && y0.z > 0.0 && moved >= 0.5 {
+            let p = DVec2::new(q.x / q.z, q.y / q.z);
+            ties.position(p);
+            if let Some(seen) = vis.at(fp.map, p) {
+                ties.compare(seen, c + tol(c));
+                if seen > c + tol(c) {
+                    if !hits(seen, ties) {
+                        return None;
+                    }
+                    c = seen;
+                }
+            }
+        }
+    }
+    Some(s - c)
+}
+
+/// The largest residual any sub-sample of a cell at `x` takes by step 1 of
+/// [`sub_sample_residual`] (the pixel's own or the nearer surface's around it): the count of
+/// sub-samples follows it, so a cell that an occluder's edge crosses is sampled finely enough
+/// to split. 0 without depth.
+pub fn cell_reach(depth: &SceneDepth, x: DVec2, s: f64) -> f64 {
+    let Some(sigma) = depth.at(x) else {
+        return 0.0;
+    };
+    let own = (s - sigma).abs();
+    match depth.front_at(x) {
+        Some(front) if front > sigma + 1e-6 => own.max((s - front).abs()),
+        _ => own,
+    }
 }
 
 /// Most pixels the front search reaches (the window is (2r + 1)² px).
@@ -284,29 +505,6 @@ fn max_filter(v: &[f32], w: usize, h: usize, r: usize) -> Vec<f32> {
     out
 }
 
-/// The residual `s − σ` view i's footprint uses at pixel `x` (plane term `s`): the scene's at
-/// the pixel, unless a nearer surface lies within the front radius and view i sees it at its
-/// plain sample — the reference pixel where view i's sample would lie on that surface,
-/// `x + parallax·(s − σ_front)`, holds it (within half a pixel of residual disparity per grid
-/// step, or 5 %) — then the occluder's, so its copies blur like the lens blurs it. `None`:
-/// no depth at the pixel (no footprint).
-pub fn view_residual(depth: &SceneDepth, fp: &Footprint, x: DVec2, s: f64) -> Option<f64> {
-    let sigma = depth.at(x)?;
-    if let Some(front) = depth.front_at(x) {
-        if front > sigma + 1e-6 {
-            let q = x.extend(1.0) + fp.parallax * (s - front);
-            if q.z > 0.0 {
-                let seen = depth.at(DVec2::new(q.x / q.z, q.y / q.z));
-                let tol = (0.5 / fp.parallax.truncate().length().max(1e-9)).min(0.05 * front);
-                if seen.is_some_and(|v| (v - front).abs() <= tol) {
-                    return Some(s - front);
-                }
-            }
-        }
-    }
-    Some(s - sigma)
-}
-
 /// A refocus plan whose views are the aperture cells: every view whose cell overlaps the
 /// aperture, weighted by the overlap's area, with its footprint; and the scene depth.
 #[derive(Debug, Clone, PartialEq)]
@@ -316,6 +514,9 @@ pub struct AntialiasPlan {
     /// Parallel to `plan.views`.
     pub footprints: Vec<Footprint>,
     pub depth: SceneDepth,
+    /// What each view sees (the sub-samples' visibility test); `None` past
+    /// [`MAX_VISIBILITY_BYTES`].
+    pub visibility: Option<std::sync::Arc<ViewVisibility>>,
     pub settings: AntialiasSettings,
 }
 
@@ -382,6 +583,21 @@ pub fn plan_antialias(
     depth: &ViewDepth,
     settings: AntialiasSettings,
 ) -> Result<AntialiasPlan> {
+    plan_antialias_reusing(lf, base, aperture, excluded, depth, settings, None)
+}
+
+/// [`plan_antialias`], taking the views' visibility maps from `previous` when they are the
+/// same (same scene depth and view warps: moving the focus plane changes neither), as the
+/// viewer does on every change of the plane.
+pub fn plan_antialias_reusing(
+    lf: &LightField,
+    base: &RefocusPlan,
+    aperture: Aperture,
+    excluded: &[bool],
+    depth: &ViewDepth,
+    settings: AntialiasSettings,
+    previous: Option<&AntialiasPlan>,
+) -> Result<AntialiasPlan> {
     settings.validate()?;
     aperture.validate()?;
     if base.method == FocusMethod::ClassicShift {
@@ -438,6 +654,7 @@ pub fn plan_antialias(
             span_s: (u1 - u0) * es,
             span_t: (v1 - v0) * et,
             parallax: rc.k * (rc.r * (rc.centre() - v.camera.centre())),
+            map: views.len(),
         };
         if !(warp.a.is_finite() && warp.b.is_finite() && fp.origin.is_finite()) {
             return Err(Error::Geometry(format!(
@@ -481,6 +698,21 @@ pub fn plan_antialias(
             views.len()
         )));
     }
+    let visibility = match previous {
+        Some(p)
+            if p.depth.inverse_depth == scene.inverse_depth
+                && p.plan.views.len() == views.len()
+                && p.plan
+                    .views
+                    .iter()
+                    .zip(&views)
+                    .all(|(a, b)| a.index == b.index && a.warp == b.warp) =>
+        {
+            p.visibility.clone()
+        }
+        _ => (views.len() * scene.inverse_depth.len() * 4 <= MAX_VISIBILITY_BYTES)
+            .then(|| std::sync::Arc::new(ViewVisibility::new(&scene, &views))),
+    };
     Ok(AntialiasPlan {
         plan: RefocusPlan {
             views,
@@ -488,6 +720,7 @@ pub fn plan_antialias(
         },
         footprints,
         depth: scene,
+        visibility,
         settings,
     })
 }
@@ -701,9 +934,9 @@ mod tests {
         assert_eq!(samples(span, 100.0, -1.0, 4), 1);
     }
 
-    #[test]
-    fn views_that_see_a_nearer_surface_take_its_residual() {
-        // A 20×1 map: background σ = 0.25 on the left, a nearer surface σ = 0.5 from x = 12.
+    /// A 20×1 scene: background σ = 0.25 on the left, a nearer surface σ = 0.5 from x = 12;
+    /// one view at parallax `g` (per unit of s − σ) whose cell spans `span` per unit.
+    fn edge_plan(g: f64, span: f64, visibility: bool) -> AntialiasPlan {
         let (w, h) = (20u32, 1u32);
         let sigma: Vec<f32> = (0..w).map(|x| if x >= 12 { 0.5 } else { 0.25 }).collect();
         let depth = SceneDepth {
@@ -715,27 +948,94 @@ mod tests {
             unknown: 0,
             source: "test".into(),
         };
-        assert_eq!(depth.front_at(DVec2::new(6.0, 0.0)), Some(0.5));
-        assert_eq!(depth.front_at(DVec2::new(5.0, 0.0)), Some(0.25));
-        let fp = |gx: f64| Footprint {
-            origin: DVec3::ZERO,
-            span_s: DVec3::ZERO,
-            span_t: DVec3::ZERO,
-            parallax: DVec3::new(gx, 0.0, 0.0),
+        // The view's warp: a parallel camera that sees reference pixel x at x + g·σ (so a
+        // point it sees at its plain sample x + g·s lies at x + g·(s − c) in the reference).
+        let warp = ViewWarp {
+            a: glam::DMat3::IDENTITY,
+            b: DVec3::new(g, 0.0, 0.0),
         };
-        // Focus on the background (s = σ = 0.25) at x = 8: a view whose parallax carries the
-        // sample 5 px right lands on the nearer surface and blurs it; the opposite view and the
-        // centre view see the background (in focus: residual 0).
-        let (x, s) = (DVec2::new(8.0, 0.0), 0.25);
+        let views = vec![PlannedView {
+            index: 0,
+            s: 0,
+            t: 0,
+            weight: 1.0,
+            warp,
+        }];
+        let visibility =
+            visibility.then(|| std::sync::Arc::new(ViewVisibility::new(&depth, &views)));
+        let lf = grid();
+        let base = aa_plan(&lf, Aperture::default(), None).plan;
+        AntialiasPlan {
+            plan: RefocusPlan { views, ..base },
+            footprints: vec![Footprint {
+                origin: DVec3::new(-0.5 * span, 0.0, 0.0),
+                span_s: DVec3::new(span, 0.0, 0.0),
+                span_t: DVec3::ZERO,
+                parallax: DVec3::new(g, 0.0, 0.0),
+                map: 0,
+            }],
+            depth,
+            visibility,
+            settings: AntialiasSettings::default(),
+        }
+    }
+
+    #[test]
+    fn sub_samples_take_what_their_ray_hits() {
+        let s = 0.25;
         let g = 5.0 / (s - 0.5);
-        assert_eq!(view_residual(&depth, &fp(g), x, s), Some(s - 0.5));
-        assert_eq!(view_residual(&depth, &fp(-g), x, s), Some(0.0));
-        assert_eq!(view_residual(&depth, &fp(0.0), x, s), Some(0.0));
+        let aa = edge_plan(g, 0.0, false);
+        assert_eq!(aa.depth.front_at(DVec2::new(6.0, 0.0)), Some(0.5));
+        assert_eq!(aa.depth.front_at(DVec2::new(5.0, 0.0)), Some(0.25));
+        let x = DVec2::new(8.0, 0.0);
+        let hit = |aa: &AntialiasPlan, x: DVec2, u: f64| {
+            let y0 = aa.plan.views[0].warp.a * x.extend(1.0) + aa.plan.views[0].warp.b * s;
+            sub_sample_residual(aa, 0, x, y0, s, (u, 0.5), &mut Ties::none())
+        };
+        // Focus on the background (s = σ = 0.25) at x = 8: the view's ray meets the nearer
+        // surface 5 px right of x, and blurs it.
+        assert_eq!(hit(&aa, x, 0.5), Some(s - 0.5));
+        // The opposite view sees the background: in focus, residual 0.
+        assert_eq!(hit(&edge_plan(-g, 0.0, false), x, 0.5), Some(0.0));
         // On the nearer surface itself: its own residual.
-        assert_eq!(
-            view_residual(&depth, &fp(g), DVec2::new(14.0, 0.0), s),
-            Some(s - 0.5)
-        );
+        assert_eq!(hit(&aa, DVec2::new(14.0, 0.0), 0.5), Some(s - 0.5));
+        // A cell that spans 4 px of parallax per unit: its sub-samples split at the edge. The
+        // ray of u meets σ = 0.5 at x + (g + 4(u − ½))(s − 0.5) = 13 − (u − ½): on the surface
+        // (≥ 11.5) for every u, so all take its residual; with the view 3 px farther left
+        // (x = 5) they land at 10 − (u − ½): none does.
+        let wide = edge_plan(g, 4.0, false);
+        for u in [0.1, 0.5, 0.9] {
+            assert_eq!(hit(&wide, x, u), Some(s - 0.5), "u = {u}");
+            assert_eq!(hit(&wide, DVec2::new(5.0, 0.0), u), Some(0.0), "u = {u}");
+        }
+    }
+
+    #[test]
+    fn a_sub_sample_the_view_cannot_see_is_dropped() {
+        // Focus on the nearer surface (s = 0.5); the background pixel x = 11, next to its
+        // edge, blurs with residual 0.25 over a cell 8 px per unit wide (2 px).
+        let s = 0.5;
+        let x = DVec2::new(11.0, 0.0);
+        let g = -8.0;
+        let aa = edge_plan(g, 8.0, true);
+        let vis = aa.visibility.as_ref().unwrap();
+        // The view sees the nearer surface from 12 − 8·0.5 = 8 on (hiding the background's
+        // 10 and 11, which land on 8 and 9), the background left of it.
+        assert_eq!(vis.at(0, DVec2::new(8.0, 0.0)), Some(0.5));
+        assert_eq!(vis.at(0, DVec2::new(5.0, 0.0)), Some(0.25));
+        let y0 = aa.plan.views[0].warp.a * x.extend(1.0) + aa.plan.views[0].warp.b * s;
+        let hit = |aa: &AntialiasPlan, u: f64| {
+            sub_sample_residual(aa, 0, x, y0, s, (u, 0.5), &mut Ties::none())
+        };
+        // The plain sample is 11 − 4 = 7; sub-sample u lands at 7 + 2(u − ½). Those on the
+        // background in the view keep its residual; those the nearer (focused) surface hides
+        // in the view (u = 0.9: 7.8, pixel 8) are dropped, where without the visibility test
+        // they would read the focused edge's colour into the blur.
+        assert_eq!(hit(&aa, 0.1), Some(s - 0.25));
+        assert_eq!(hit(&aa, 0.9), None);
+        let blind = edge_plan(g, 8.0, false);
+        assert_eq!(hit(&blind, 0.9), Some(s - 0.25));
+        assert_eq!(cell_reach(&aa.depth, x, s), 0.25);
     }
 
     #[test]

@@ -10,7 +10,9 @@
 use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
-use super::antialias::{footprint_lod, samples, view_residual, AntialiasPlan};
+use super::antialias::{
+    cell_reach, footprint_lod, samples, sub_sample_residual, AntialiasPlan, Ties,
+};
 use super::prefilter::Pyramid;
 use super::surface::SurfacePlan;
 use super::{Averaging, RefocusImage, RefocusPlan};
@@ -177,8 +179,9 @@ fn normalised(sum: [f64; 3], wsum: f64) -> [f32; 4] {
 
 /// The f64 model of the anti-aliased sum (docs/conventions.md §11, [`super::antialias`]):
 /// per view, `n_s × n_t` stratified sub-samples of its aperture cell at
-/// `A_i x + b_i s + footprint(u, v)·(s − σ)`, each masked like a plain sample and weighing
-/// `weight / (n_s n_t)`; bilinear, as the GPU's default filter.
+/// `A_i x + b_i s + footprint(u, v)·(s − c)`, c what the sub-sample's ray hits
+/// ([`sub_sample_residual`]; dropped where the view cannot see it), each masked like a plain
+/// sample and weighing `weight / (n_s n_t)`; bilinear, as the GPU's default filter.
 pub fn render_antialiased(
     lf: &LightField,
     aa: &AntialiasPlan,
@@ -268,21 +271,26 @@ fn antialiased_with(
         let s = s_of(px);
         let mut sum = [0f64; 3];
         let mut wsum = 0f64;
-        for ((v, fp), pyramid) in plan.views.iter().zip(&aa.footprints).zip(&pyramids) {
-            let d = view_residual(&aa.depth, fp, px, s).unwrap_or(0.0);
+        let reach = cell_reach(&aa.depth, px, s);
+        let views = plan.views.iter().zip(&aa.footprints).zip(&pyramids);
+        for (k, ((v, fp), pyramid)) in views.enumerate() {
             let y0 = v.warp.a * px.extend(1.0) + v.warp.b * s;
-            let ns = samples(fp.span_s, d, y0.z, max);
-            let nt = samples(fp.span_t, d, y0.z, max);
-            let lod = footprint_lod((fp.span_s, fp.span_t), d, y0.z, (ns, nt), prefilter);
+            let ns = samples(fp.span_s, reach, y0.z, max);
+            let nt = samples(fp.span_t, reach, y0.z, max);
             let wk = v.weight / (ns * nt) as f64;
             let img = &lf.views[v.index].image;
             for b in 0..nt {
                 let vv = (b as f64 + 0.5) / nt as f64;
                 for a in 0..ns {
                     let u = (a as f64 + 0.5) / ns as f64;
+                    let Some(d) = sub_sample_residual(aa, k, px, y0, s, (u, vv), &mut Ties::none())
+                    else {
+                        continue;
+                    };
                     let Some(p) = inside(lf, y0 + fp.offset(u, vv, d)) else {
                         continue;
                     };
+                    let lod = footprint_lod((fp.span_s, fp.span_t), d, y0.z, (ns, nt), prefilter);
                     let c = match pyramid {
                         Some(pyr) if lod > 0.0 => pyr.trilinear(p, lod),
                         _ => bilinear(img, table, p),
@@ -319,35 +327,35 @@ pub fn ambiguous_antialiased(
             let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
             let px = (DVec2::new(x, y) + 0.5) * scale - 0.5;
             let s = plan.m.dot(px.extend(1.0)).max(0.0);
-            plan.views.iter().zip(&aa.footprints).any(|(v, fp)| {
-                let d = view_residual(&aa.depth, fp, px, s).unwrap_or(0.0);
-                // The occlusion test's lookup rounds a position: near a rounding tie, f32 may
-                // read the neighbouring pixel.
-                if let (Some(sigma), Some(front)) = (aa.depth.at(px), aa.depth.front_at(px)) {
-                    if front > sigma + 1e-6 {
-                        let q = px.extend(1.0) + fp.parallax * (s - front);
-                        let tie = |v: f64| near(v + 0.5, (v + 0.5).round());
-                        if q.z <= eps || tie(q.x / q.z) || tie(q.y / q.z) {
-                            return true;
-                        }
-                    }
-                }
+            let reach = cell_reach(&aa.depth, px, s);
+            let views = plan.views.iter().zip(&aa.footprints).enumerate();
+            views.into_iter().any(|(k, (v, fp))| {
                 let y0 = v.warp.apply(plan.m, px);
                 if y0.z <= eps {
                     return true;
                 }
-                let len = |span: glam::DVec3| (span.truncate() * d).length() / y0.z;
+                let len = |span: glam::DVec3| (span.truncate() * reach).length() / y0.z;
                 let (ls, lt) = (len(fp.span_s), len(fp.span_t));
                 let step = |l: f64| l > 0.5 && l < max as f64 + 0.5 && near(l, l.round());
                 if step(ls) || step(lt) {
                     return true;
                 }
-                let ns = samples(fp.span_s, d, y0.z, max);
-                let nt = samples(fp.span_t, d, y0.z, max);
+                let ns = samples(fp.span_s, reach, y0.z, max);
+                let nt = samples(fp.span_t, reach, y0.z, max);
                 (0..nt).any(|b| {
                     (0..ns).any(|a| {
                         let u = (a as f64 + 0.5) / ns as f64;
                         let vv = (b as f64 + 0.5) / nt as f64;
+                        // The sub-sample's decisions round positions and compare depths:
+                        // near a tie, f32 may decide the other way.
+                        let mut ties = Ties { eps, found: false };
+                        let d = sub_sample_residual(aa, k, px, y0, s, (u, vv), &mut ties);
+                        if ties.found {
+                            return true;
+                        }
+                        let Some(d) = d else {
+                            return false;
+                        };
                         let q = y0 + fp.offset(u, vv, d);
                         let p = DVec2::new(q.x / q.z, q.y / q.z);
                         q.z <= eps

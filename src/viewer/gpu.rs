@@ -425,7 +425,7 @@ impl ViewerGpu {
                 if self.pass.as_ref().is_some_and(|p| p.antialias_differs(aa)) {
                     self.wait_idle()?;
                     if let Some(p) = self.pass.as_mut() {
-                        p.set_antialias(aa)?;
+                        p.set_antialias(&self.ctx, aa)?;
                     }
                     // Anti-aliasing rewrote the scene depth the surface reads.
                     self.surface = None;
@@ -599,7 +599,7 @@ impl ViewerGpu {
         };
         let plan = match aa {
             Some(aa) => {
-                pass.set_antialias(aa)?;
+                pass.set_antialias(&ctx, aa)?;
                 &aa.plan
             }
             None => {

@@ -39,24 +39,27 @@ impl GpuViewWarp {
 
 /// One view's aperture-cell footprint as the shaders read it (`ViewFootprint` in GLSL; see
 /// [`crate::refocus::antialias::Footprint`]): homogeneous offsets in xyz; the three `w`s hold
-/// the parallax vector (x, y, z).
+/// the parallax vector (x, y, z); `vis[0]` is 1 when the view's visibility map is bound,
+/// `vis[1]` its index.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct GpuFootprint {
     pub origin: [f32; 4],
     pub span_s: [f32; 4],
     pub span_t: [f32; 4],
+    pub vis: [f32; 4],
 }
 
 impl GpuFootprint {
-    /// The record of `f` (rounded to f32).
-    pub fn new(f: &Footprint) -> Self {
+    /// The record of `f` (rounded to f32), `visible` when its visibility map is bound.
+    pub fn new(f: &Footprint, visible: bool) -> Self {
         let v = |d: glam::DVec3, w: f64| [d.x as f32, d.y as f32, d.z as f32, w as f32];
         let g = f.parallax;
         GpuFootprint {
             origin: v(f.origin, g.x),
             span_s: v(f.span_s, g.y),
             span_t: v(f.span_t, g.z),
+            vis: [if visible { 1.0 } else { 0.0 }, f.map as f32, 0.0, 0.0],
         }
     }
 }
@@ -140,14 +143,15 @@ mod tests {
             ("origin", offset_of!(GpuFootprint, origin), 16),
             ("span_s", offset_of!(GpuFootprint, span_s), 16),
             ("span_t", offset_of!(GpuFootprint, span_t), 16),
+            ("vis", offset_of!(GpuFootprint, vis), 16),
         ];
         let rust: Vec<_> = rust
             .iter()
             .map(|(n, o, s)| (n.to_string(), *o, *s))
             .collect();
         assert_eq!(glsl, rust);
-        // std140 arrays of this struct have a 48-byte stride: no padding between records.
-        assert_eq!(size_of::<GpuFootprint>(), 48);
+        // std140 arrays of this struct have a 64-byte stride: no padding between records.
+        assert_eq!(size_of::<GpuFootprint>(), 64);
     }
 
     #[test]

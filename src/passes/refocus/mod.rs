@@ -59,7 +59,7 @@ use crate::gpu::pipeline::{compute_pipeline, graphics_pipeline, Blend, PipelineD
 use crate::gpu::resources::Buffer;
 use crate::gpu::shaders;
 use crate::gpu::GpuContext;
-use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::antialias::{AntialiasPlan, MAX_VISIBILITY_BYTES};
 use crate::refocus::surface::{SurfacePlan, SurfaceRule, MAX_PLANES};
 use crate::refocus::{Averaging, RefocusPlan};
 
@@ -378,6 +378,11 @@ pub struct RefocusPass {
     /// an unchanged anti-aliasing plan is not rewritten.
     uploaded_footprints: Vec<GpuFootprint>,
     uploaded_depth: Vec<f32>,
+    /// The views' visibility maps (storage buffer, binding 8): a placeholder until a plan
+    /// with maps is uploaded, then grown to hold them.
+    visibility: Buffer,
+    /// The fingerprint of the uploaded maps (`ViewVisibility::fingerprint`).
+    uploaded_visibility: Option<u64>,
     /// The uploaded plan's `AntialiasSettings::prefilter`.
     uploaded_prefilter: bool,
     /// The focus surface's plane terms (uniform buffer, binding 6).
@@ -492,7 +497,28 @@ impl RefocusPass {
             vk::BufferUsageFlags::UNIFORM_BUFFER,
             true,
             "focus surface planes",
-        ) {
+        )
+        .and_then(|surface| {
+            // Room for every layer's map up front where that fits the budget, so the binding
+            // is written once; a larger light field grows it on first use.
+            let full = texture.layers.min(UBO_WARPS as u32) as u64
+                * texture.width as u64
+                * texture.height as u64
+                * 4;
+            let bytes = if full as usize <= MAX_VISIBILITY_BYTES {
+                full.max(16)
+            } else {
+                16
+            };
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            match Buffer::new(ctx, bytes, usage, true, VISIBILITY) {
+                Ok(v) => Ok((surface, v)),
+                Err(e) => {
+                    surface.destroy(ctx);
+                    Err(e)
+                }
+            }
+        }) {
             Ok(b) => b,
             Err(e) => {
                 footprints.destroy(ctx);
@@ -503,6 +529,11 @@ impl RefocusPass {
                 return Err(e);
             }
         };
+        let (surface, visibility) = surface;
+        let visibility_info = [vk::DescriptorBufferInfo::default()
+            .buffer(visibility.buffer)
+            .offset(0)
+            .range(vk::WHOLE_SIZE)];
         let surface_info = [vk::DescriptorBufferInfo::default()
             .buffer(surface.buffer)
             .offset(0)
@@ -601,6 +632,7 @@ impl RefocusPass {
                     .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
                     .image_info(mip_info),
             );
+            writes.push(visibility_write(*set, &visibility_info));
         }
         // SAFETY: new, unused sets; the infos reference live objects.
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
@@ -620,6 +652,8 @@ impl RefocusPass {
             uploaded_footprints: Vec::new(),
             uploaded_prefilter: false,
             uploaded_depth: Vec::new(),
+            visibility,
+            uploaded_visibility: None,
             surface,
             uploaded_surface: None,
             accum_pipelines: Vec::new(),
@@ -748,7 +782,7 @@ impl RefocusPass {
     /// Uploads the views of `aa.plan` ([`RefocusPass::set_views`]) and anti-aliasing's
     /// footprints and scene depth, for accumulations with `antialias > 0`. Same rules as
     /// `set_views`: the GPU must not be reading the buffers. Returns whether the warps changed.
-    pub fn set_antialias(&mut self, aa: &AntialiasPlan) -> Result<bool> {
+    pub fn set_antialias(&mut self, ctx: &GpuContext, aa: &AntialiasPlan) -> Result<bool> {
         if aa.plan.views.len() > UBO_WARPS {
             return Err(Error::Invalid(format!(
                 "anti-aliasing handles at most {UBO_WARPS} views in the aperture, this one has {}; \
@@ -772,7 +806,13 @@ impl RefocusPass {
             )));
         }
         let changed = self.set_views(&aa.plan)?;
-        let records: Vec<GpuFootprint> = aa.footprints.iter().map(GpuFootprint::new).collect();
+        self.set_visibility(ctx, aa)?;
+        let visible = aa.visibility.is_some();
+        let records: Vec<GpuFootprint> = aa
+            .footprints
+            .iter()
+            .map(|f| GpuFootprint::new(f, visible))
+            .collect();
         if records != self.uploaded_footprints {
             let bytes = as_bytes(&records);
             self.footprints.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
@@ -786,6 +826,39 @@ impl RefocusPass {
             self.uploaded_depth = interleaved;
         }
         Ok(changed)
+    }
+
+    /// Uploads `aa`'s visibility maps (binding 8), growing the buffer (and rewriting the
+    /// binding) when they do not fit. Same rules as `set_views`.
+    fn set_visibility(&mut self, ctx: &GpuContext, aa: &AntialiasPlan) -> Result<()> {
+        let Some(vis) = &aa.visibility else {
+            return Ok(());
+        };
+        if self.uploaded_visibility == Some(vis.fingerprint) {
+            return Ok(());
+        }
+        let bytes = as_bytes(&vis.sigma);
+        if bytes.len() as u64 > self.visibility.size {
+            let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            let grown = Buffer::new(ctx, bytes.len() as u64, usage, true, VISIBILITY)?;
+            let old = std::mem::replace(&mut self.visibility, grown);
+            old.destroy(ctx);
+            let info = [vk::DescriptorBufferInfo::default()
+                .buffer(self.visibility.buffer)
+                .offset(0)
+                .range(vk::WHOLE_SIZE)];
+            let writes: Vec<_> = self
+                .input_sets
+                .iter()
+                .map(|&set| visibility_write(set, &info))
+                .collect();
+            // SAFETY: the caller guarantees the GPU is not using the sets (as for the
+            // buffers); the info references the live new buffer.
+            unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+        }
+        self.visibility.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
+        self.uploaded_visibility = Some(vis.fingerprint);
+        Ok(())
     }
 
     /// Uploads a focus surface's plane terms and its scene depth (the depth anti-aliasing
@@ -835,7 +908,8 @@ impl RefocusPass {
                 .footprints
                 .iter()
                 .zip(&self.uploaded_footprints)
-                .any(|(f, u)| GpuFootprint::new(f) != *u)
+                .any(|(f, u)| GpuFootprint::new(f, aa.visibility.is_some()) != *u)
+            || aa.visibility.as_ref().map(|v| v.fingerprint) != self.uploaded_visibility
             || aa.depth.interleaved() != self.uploaded_depth
             || aa.settings.prefilter != self.uploaded_prefilter
     }
@@ -1200,8 +1274,24 @@ impl RefocusPass {
         self.decode.destroy(ctx);
         self.footprints.destroy(ctx);
         self.scene_depth.destroy(ctx);
+        self.visibility.destroy(ctx);
         self.surface.destroy(ctx);
     }
+}
+
+/// Debug name of the visibility buffer.
+const VISIBILITY: &str = "anti-aliasing view visibility";
+
+/// The descriptor write binding `info` (the visibility buffer) to binding 8 of `set`.
+fn visibility_write<'a>(
+    set: vk::DescriptorSet,
+    info: &'a [vk::DescriptorBufferInfo; 1],
+) -> vk::WriteDescriptorSet<'a> {
+    vk::WriteDescriptorSet::default()
+        .dst_set(set)
+        .dst_binding(8)
+        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+        .buffer_info(info)
 }
 
 /// Creates a fullscreen pipeline of `desc` with `fullscreen.vert` and the fragment shader
@@ -1323,6 +1413,7 @@ impl PassObjects {
             binding(5, T::STORAGE_BUFFER, shading),
             binding(6, T::UNIFORM_BUFFER, shading),
             binding(7, T::COMBINED_IMAGE_SAMPLER, shading),
+            binding(8, T::STORAGE_BUFFER, shading),
         ])?;
         self.resolve_set_layout = set_layout(&[binding(
             0,
@@ -1347,7 +1438,7 @@ impl PassObjects {
             },
             vk::DescriptorPoolSize {
                 ty: T::STORAGE_BUFFER,
-                descriptor_count: 2 * n,
+                descriptor_count: 3 * n,
             },
             vk::DescriptorPoolSize {
                 ty: T::UNIFORM_BUFFER,

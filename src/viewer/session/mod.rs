@@ -595,13 +595,16 @@ impl Session {
             return None;
         }
         let s = &self.state;
-        crate::refocus::antialias::plan_antialias(
+        // The views' visibility maps depend on the depth and the view set, not on the plane:
+        // moving the plane reuses them.
+        crate::refocus::antialias::plan_antialias_reusing(
             &self.lf,
             &s.plan,
             s.aperture(),
             s.excluded(),
             depth,
             settings,
+            self.aa.as_ref(),
         )
         .map_err(|e| log::warn!("anti-aliasing is off for this view: {e}"))
         .ok()
