@@ -287,19 +287,26 @@ pub struct ViewVisibility {
     pub height: u32,
     /// σ per pixel, view after view in the order of the plan's views.
     pub sigma: Vec<f32>,
-    /// A hash of `sigma`, so a pass can tell an unchanged upload without comparing it.
-    pub fingerprint: u64,
+    /// Which computation of the maps this is (unique per process), so a pass can tell an
+    /// unchanged upload without comparing or hashing them; a plan that reuses the maps
+    /// ([`plan_antialias_reusing`]) shares them and their id.
+    pub id: u64,
 }
+
+/// The next [`ViewVisibility::id`].
+static NEXT_VISIBILITY_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 impl ViewVisibility {
     /// Warps `depth` into each of `views` (their warps from the reference).
     pub fn new(depth: &SceneDepth, views: &[PlannedView]) -> Self {
         use rayon::prelude::*;
         let (w, h) = (depth.width as usize, depth.height as usize);
-        let maps: Vec<Vec<f32>> = views
-            .par_iter()
-            .map(|v| {
-                let mut map = vec![-1f32; w * h];
+        // One buffer, each view's map written in place (no per-view maps to concatenate).
+        let mut sigma = vec![-1f32; views.len() * w * h];
+        sigma
+            .par_chunks_mut((w * h).max(1))
+            .zip(views)
+            .for_each(|(map, v)| {
                 for y in 0..h {
                     for x in 0..w {
                         let sigma = depth.inverse_depth[y * w + x];
@@ -319,25 +326,13 @@ impl ViewVisibility {
                         map[k] = map[k].max(sigma);
                     }
                 }
-                fill_cracks(&mut map, w, h);
-                map
-            })
-            .collect();
-        let sigma: Vec<f32> = maps.concat();
-        let fingerprint = {
-            use std::hash::{Hash, Hasher};
-            let mut hasher = std::collections::hash_map::DefaultHasher::new();
-            (depth.width, depth.height, sigma.len()).hash(&mut hasher);
-            for v in &sigma {
-                v.to_bits().hash(&mut hasher);
-            }
-            hasher.finish()
-        };
+                fill_cracks(map, w, h);
+            });
         ViewVisibility {
             width: depth.width,
             height: depth.height,
             sigma,
-            fingerprint,
+            id: NEXT_VISIBILITY_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         }
     }
 

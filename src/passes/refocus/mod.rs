@@ -381,7 +381,7 @@ pub struct RefocusPass {
     /// The views' visibility maps (storage buffer, binding 8): a placeholder until a plan
     /// with maps is uploaded, then grown to hold them.
     visibility: Buffer,
-    /// The fingerprint of the uploaded maps (`ViewVisibility::fingerprint`).
+    /// The id of the uploaded maps (`ViewVisibility::id`).
     uploaded_visibility: Option<u64>,
     /// The uploaded plan's `AntialiasSettings::prefilter`.
     uploaded_prefilter: bool,
@@ -834,7 +834,7 @@ impl RefocusPass {
         let Some(vis) = &aa.visibility else {
             return Ok(());
         };
-        if self.uploaded_visibility == Some(vis.fingerprint) {
+        if self.uploaded_visibility == Some(vis.id) {
             return Ok(());
         }
         let bytes = as_bytes(&vis.sigma);
@@ -857,7 +857,7 @@ impl RefocusPass {
             unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
         }
         self.visibility.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
-        self.uploaded_visibility = Some(vis.fingerprint);
+        self.uploaded_visibility = Some(vis.id);
         Ok(())
     }
 
@@ -909,7 +909,7 @@ impl RefocusPass {
                 .iter()
                 .zip(&self.uploaded_footprints)
                 .any(|(f, u)| GpuFootprint::new(f, aa.visibility.is_some()) != *u)
-            || aa.visibility.as_ref().map(|v| v.fingerprint) != self.uploaded_visibility
+            || aa.visibility.as_ref().map(|v| v.id) != self.uploaded_visibility
             || aa.depth.interleaved() != self.uploaded_depth
             || aa.settings.prefilter != self.uploaded_prefilter
     }
