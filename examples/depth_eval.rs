@@ -196,6 +196,7 @@ fn main() {
                 kind: DepthKind::Disparity,
                 values: truth.clone(),
                 source: "truth".into(),
+                estimated: false,
             };
             let t = ViewDepth::new(cam, &truth_map, Some(rig), None, est.reference).unwrap();
             let e = ViewDepth::new(

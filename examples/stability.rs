@@ -540,6 +540,7 @@ fn refusal_section(out: &mut String) {
         kind: DepthKind::Disparity,
         values,
         source: "disp.pfm".into(),
+        estimated: false,
     };
     let depth = ViewDepth::new(small, &map, Some(rig), Some((-1.0, 1.0)), 0).unwrap();
     let p = NormalParams::default();
@@ -575,6 +576,7 @@ fn refusal_section(out: &mut String) {
         kind: DepthKind::Depth,
         values: vec![-1.0; 64 * 64],
         source: "depth.exr".into(),
+        estimated: false,
         ..map.clone()
     };
     let neg = ViewDepth::new(small, &neg, None, None, 0).unwrap();
@@ -592,6 +594,7 @@ fn refusal_section(out: &mut String) {
             kind: DepthKind::Depth,
             values: lone,
             source: "sparse.pfm".into(),
+            estimated: false,
             ..map.clone()
         },
         None,

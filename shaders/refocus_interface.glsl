@@ -17,7 +17,8 @@ struct ViewWarp {
 // unit of residual inverse depth s - sigma; the sub-sample at (u, v) in [0, 1]^2 lies at
 // origin + u span_s + v span_t (xyz). The three w components hold the parallax vector
 // g_i = K_r R_r (C_r - C_i) of the occlusion test; vis.x is 1 when the view's visibility map
-// is bound (binding 8), 0 without one, and vis.y that map's index. Mirrored by `GpuFootprint`.
+// is bound (binding 8), 0 without one, vis.y that map's index and vis.z the guard: sub-samples
+// closer than that (pixels) to the plain sample skip the map. Mirrored by `GpuFootprint`.
 struct ViewFootprint {
     vec4 origin;
     vec4 span_s;

@@ -271,11 +271,12 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
 
     let front = Plane::new(DVec3::new(0.0, 0.0, zm), DVec3::new(0.0, 0.0, -1.0)).unwrap();
     let (p, a) = against_the_lens(&mut r, &mut h, &lf, front, "frontoparallel at 0 px");
-    // Measured on lavapipe: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 41.8 / 41.2 / 59.1 dB
+    // Measured on lavapipe: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 42.7 / 41.0 / 59.1 dB
     // (the issue asks 42 / 40 / 55). With the occlusion decided per view (its plain sample's
     // ray alone, no visibility maps) it was 40.3 / 38.8: the focused panel's edges were
-    // smeared into the wall's blur behind them (docs/conventions.md §11).
-    assert!(a.overall >= 41.5 && a.out_of_focus >= 40.0 && a.focused >= 55.0);
+    // smeared into the wall's blur behind them (docs/conventions.md §11); with the half-pixel
+    // guard of an estimated depth on this exact map, 41.8 / 41.2.
+    assert!(a.overall >= 42.0 && a.out_of_focus >= 40.0 && a.focused >= 55.0);
     assert!(a.out_of_focus >= p.out_of_focus + 10.0);
     assert!(a.focused >= p.focused - 0.5);
 
@@ -300,15 +301,14 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
         "estimated depth",
         false,
     );
-    // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 37.1 / 39.9 / 57.4 dB (the issue
-    // asks 38 overall; 34.3 before the per-sub-sample occlusion). Out of focus and on the
-    // focused panel nearly as good as with the true depth; overall the estimate's errors at
-    // the cards' silhouettes and the wall's mortar next to them (taken for the panel's grey
-    // frame) leave copies the lens blurs. Before the median's windows held their centre's
-    // row, the panel's frame went to the wall's depth and its footprint blurred it (39.7 dB
-    // on the panel).
+    // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 40.9 / 40.3 / 57.4 dB (the issue
+    // asks 38 overall). 37.1 before the estimator placed its depth edges to the pixel
+    // (depth::edges): a card's edge column taken for the wall behind it was blurred into the
+    // wall's blur (30 levels of error), a wall column taken for the card left sharp; 34.3
+    // before the per-sub-sample occlusion. What remains: the wall's mortar next to the
+    // focused panel's grey frame, which colour cannot tell apart.
     assert!(ae.out_of_focus >= pe.out_of_focus + 10.0);
-    assert!(ae.overall >= pe.overall + 6.5 && ae.focused >= 50.0);
+    assert!(ae.overall >= 38.0 && ae.focused >= 50.0);
 
     // Through the 2 m panel (left) and the 1.52 m panel (lower right), turned about y.
     let p1 = DVec3::new(-0.5, 0.0, zm);
@@ -328,7 +328,12 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
     // asks 34 / 38 / 36). On the tilted plane every view's shift is fractional and the
     // bilinear filter softens the fine texture: the bicubic filter gives 35.8 / 38.4 /
     // 32.9 dB (34 and 38 met, not 36 on the plane), at about 3 times the anti-aliased sum's
-    // GPU time on lavapipe.
+    // GPU time on lavapipe. On the plane the views themselves are the limit: the plain sum
+    // scored on CPU with better interpolators reached 32.8 (Catmull-Rom), 33.4 (Lanczos-3)
+    // and 33.3 dB (prefiltered cubic B-spline) there, and on the pixels within 0.1 px of
+    // the plane every interpolator and the centre view itself score 35.3-35.4 dB against
+    // the lens: the panels' fine grain, foreshortened on the slanted plane, lies near the
+    // views' Nyquist limit and is aliased in them.
     assert!(a.out_of_focus >= p.out_of_focus + 8.0);
     assert!(a.focused >= p.focused - 0.5);
     let c = c.unwrap();
@@ -412,6 +417,10 @@ fn gpu_antialiasing_matches_the_f64_model() {
     assert!(blind.visibility.is_some());
     blind.visibility = None;
     gpu_matches_model(&lf, &blind, "grid centre without visibility maps");
+    // On an estimated depth sub-samples within the guard of the plain sample skip the test.
+    let (_, mut guarded) = plain_and_aa(&lf, front, None, settings);
+    guarded.guard_px = tiltfield::refocus::antialias::ESTIMATED_DEPTH_GUARD_PX;
+    gpu_matches_model(&lf, &guarded, "grid centre, an estimated depth's guard");
     let (_, aa) = plain_and_aa(&lf, front, Some(DVec2::new(1.5, 2.25)), settings);
     assert!(
         aa.depth.unknown < 64,
@@ -458,11 +467,12 @@ fn antialiasing_on_a_rotated_rig_approaches_the_lens() {
 }
 
 /// An occlusion edge: focused on the back wall, the pixels of the wall next to the nearer
-/// layers come closer to the lens than the plain sum's (measured 33.9 vs 27.1 dB; 32.7 with
+/// layers come closer to the lens than the plain sum's (measured 40.4 vs 27.1 dB; 32.7 with
 /// the occlusion decided per view): the sub-samples whose rays meet an occluder blur it
 /// with the occluder's footprint, those that pass it keep the wall sharp (no footprint: it is
 /// in focus), so the occluder is not smeared over the focused wall. Out of focus,
-/// anti-aliasing wins by far (37.5 vs 25.8 dB).
+/// anti-aliasing wins by far (37.5 vs 25.8 dB). With the half-pixel guard an estimated depth
+/// gets, the edges score 33.9 dB: the given map is trusted to the pixel for that.
 #[test]
 fn occlusion_edges_keep_the_focused_background() {
     let mut r = rasterizer();
@@ -488,6 +498,13 @@ fn occlusion_edges_keep_the_focused_background() {
     let settings = float_settings(Filter::Hardware);
     let plain = encoded(&float(h.render(&plan, &settings).unwrap().0));
     let anti = encoded(&float(h.render_antialiased(&aa, &settings).unwrap().0));
+    assert_eq!(
+        aa.guard_px, 0.0,
+        "the rendered map is the light field's own"
+    );
+    let mut guarded = aa.clone();
+    guarded.guard_px = tiltfield::refocus::antialias::ESTIMATED_DEPTH_GUARD_PX;
+    let guarded = encoded(&float(h.render_antialiased(&guarded, &settings).unwrap().0));
     let res = residual_px(&lf, &plan);
     // Focused wall pixels within 6 px of a nearer layer (an occlusion edge), and the rest.
     let focused = mask_where(&res, SIZE, 4, 0, |d| d.abs() <= 0.5);
@@ -498,16 +515,19 @@ fn occlusion_edges_keep_the_focused_background() {
         psnr_rgb(&plain, &truth, &edge),
         psnr_rgb(&anti, &truth, &edge),
     );
+    let ge = psnr_rgb(&guarded, &truth, &edge);
     let (po, ao) = (
         psnr_rgb(&plain, &truth, &out),
         psnr_rgb(&anti, &truth, &out),
     );
     eprintln!(
         "focused on the wall: at occlusion edges ({} px) plain {pe:.1} dB, anti-aliased \
-         {ae:.1} dB; out of focus plain {po:.1} dB, anti-aliased {ao:.1} dB",
+         {ae:.1} dB ({ge:.1} dB with an estimate's guard); out of focus plain {po:.1} dB, \
+         anti-aliased {ao:.1} dB",
         edge.iter().filter(|&&e| e).count()
     );
-    assert!(ae >= pe + 6.0, "{ae} vs {pe}");
+    assert!(ae >= pe + 10.0, "{ae} vs {pe}");
+    assert!(ge >= pe + 5.0 && ae >= ge + 4.0, "{ae} and {ge} vs {pe}");
     assert!(ao >= po + 6.0, "{ao} vs {po}");
     assert_no_validation_errors(&h);
     assert_raster_clean(&r);

@@ -474,6 +474,7 @@ fn clicks_anywhere_never_give_nan_or_panic() {
             kind: DepthKind::Depth,
             values,
             source: "odd".into(),
+            estimated: false,
         },
         None,
         None,

@@ -583,14 +583,15 @@ impl LightField {
     /// ``range=(min, max)`` (in ``kind`` units), ``views`` ("all", "cross", "cross:N",
     /// "square:N"), ``view=(s, t)`` (whole grid positions; default the middle view),
     /// ``cost`` ("robust", "mean"), ``aggregation`` ("guided", "box", "none"), ``radius``,
-    /// ``naive``, ``no_fit``, ``median`` (radius of the colour-weighted median; 0: none),
+    /// ``naive``, ``no_fit``, ``no_snap`` (depth edges left where the windows put them),
+    /// ``median`` (radius of the colour-weighted median; 0: none),
     /// ``include_dark``.
     ///
     /// Returns a ``float32`` array (H, W), NaN where there is no value. Does not install the
     /// estimate in the light field (renders that need depth estimate and cache their own).
     #[pyo3(signature = (
         *, kind=None, planes=None, range=None, views="cross", view=None, cost=None,
-        aggregation=None, radius=None, naive=false, no_fit=false, median=None,
+        aggregation=None, radius=None, naive=false, no_fit=false, no_snap=false, median=None,
         include_dark=false
     ))]
     #[allow(clippy::too_many_arguments)] // one keyword per `tiltfield depth` option
@@ -607,6 +608,7 @@ impl LightField {
         radius: Option<u32>,
         naive: bool,
         no_fit: bool,
+        no_snap: bool,
         median: Option<u32>,
         include_dark: bool,
     ) -> PyResult<Bound<'py, PyArray2<f32>>> {
@@ -621,6 +623,7 @@ impl LightField {
             radius,
             naive,
             no_fit,
+            no_snap,
             median,
             include_dark,
         };

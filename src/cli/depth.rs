@@ -64,6 +64,10 @@ pub struct DepthArgs {
     /// Skip the continuous fit after the sweep (the sweep's sub-plane winner; faster).
     #[arg(long)]
     pub no_fit: bool,
+    /// Leave depth edges where the windows put them: no per-pixel choice between the two
+    /// sides of each depth jump (docs/depth.md, step 8)
+    #[arg(long)]
+    pub no_snap: bool,
     /// Window radius of the colour-weighted median of the sweep's winners (0: none; default
     /// 14, none with --naive; above 6 the window is sampled every other pixel and an odd
     /// radius rounds up): gives pixels of a faint surface back the depth of their own colour
@@ -224,6 +228,7 @@ pub fn options(args: &DepthArgs) -> Result<DepthOptions> {
         radius: args.radius,
         naive: args.naive,
         no_fit: args.no_fit,
+        no_snap: args.no_snap,
         median: args.median,
         include_dark: args.include_dark,
     }

@@ -29,7 +29,7 @@ use crate::lightfield::pfm::{decode_pfm, encode_pfm};
 use crate::lightfield::LightField;
 
 /// Bumped whenever the estimator's output for the same input changes.
-const ALGORITHM_VERSION: &str = "tiltfield-depth-6";
+const ALGORITHM_VERSION: &str = "tiltfield-depth-7";
 
 /// Pixels whose confidence is below this are left out of the map installed by
 /// [`ensure_depth`] (NaN: a click there is refused naming the cause; the cloud skips them).
@@ -410,6 +410,7 @@ pub fn install_classic_disparity(
         kind: crate::lightfield::DepthKind::Depth,
         values: depth,
         source: format!("{} disparity map", lf.name),
+        estimated: false,
     };
     lf.depth.push((reference, map));
     lf.validate()

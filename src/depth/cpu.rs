@@ -9,7 +9,7 @@ use super::sweep::SweepPlan;
 use super::{Aggregation, CostKind, Refine, SweepOutput, SweepParams};
 
 /// A sample of `img` at pixel position (x, y), bilinear, clamp to edge, encoded [0, 1].
-fn bilinear(img: &RgbaImage, x: f64, y: f64) -> [f64; 3] {
+pub(crate) fn bilinear(img: &RgbaImage, x: f64, y: f64) -> [f64; 3] {
     let (w, h) = (img.width() as i64, img.height() as i64);
     let texel = |i: i64, j: i64| {
         let p = img

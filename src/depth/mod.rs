@@ -34,6 +34,7 @@
 
 pub mod cache;
 pub mod cpu;
+pub mod edges;
 pub mod guide;
 pub mod median;
 pub mod metrics;
@@ -202,6 +203,9 @@ pub struct SweepParams {
     /// Colour σ of the median's weights, 8-bit levels (RGB distance).
     #[serde(default = "median_sigma")]
     pub median_sigma: f64,
+    /// Depth edges placed to the pixel after the other steps ([`edges`]).
+    #[serde(default = "yes")]
+    pub edge_snap: bool,
 }
 
 fn median_sigma() -> f64 {
@@ -225,6 +229,7 @@ impl Default for SweepParams {
             fit: true,
             median_radius: 14,
             median_sigma: median_sigma(),
+            edge_snap: true,
         }
     }
 }
@@ -238,6 +243,7 @@ impl SweepParams {
             aggregation: Aggregation::Box,
             fit: false,
             median_radius: 0,
+            edge_snap: false,
             ..SweepParams::default()
         }
     }
@@ -484,6 +490,7 @@ impl DepthEstimate {
                  {min_confidence}, where the views show too little texture, have no value)",
                 self.reference_st.0, self.reference_st.1
             ),
+            estimated: true,
         }
     }
 }

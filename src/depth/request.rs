@@ -33,6 +33,8 @@ pub struct DepthRequest {
     pub naive: bool,
     /// Skip the continuous fit after the sweep.
     pub no_fit: bool,
+    /// Leave depth edges where the windows put them (no [`crate::depth::edges`] step).
+    pub no_snap: bool,
     /// Radius of the colour-weighted median (0: none; default: the params').
     pub median: Option<u32>,
     pub include_dark: bool,
@@ -51,6 +53,7 @@ impl Default for DepthRequest {
             radius: None,
             naive: false,
             no_fit: false,
+            no_snap: false,
             median: None,
             include_dark: false,
         }
@@ -92,6 +95,7 @@ impl DepthRequest {
             aggregation: self.aggregation.unwrap_or(base.aggregation),
             radius: self.radius.unwrap_or(base.radius),
             fit: base.fit && !self.no_fit,
+            edge_snap: base.edge_snap && !self.no_snap,
             median_radius: self.median.unwrap_or(base.median_radius),
             ..base
         };
@@ -138,5 +142,12 @@ mod tests {
             ..DepthRequest::default()
         };
         assert!(!no_fit.options().unwrap().params.fit);
+        assert!(no_fit.options().unwrap().params.edge_snap);
+        let no_snap = DepthRequest {
+            no_snap: true,
+            ..DepthRequest::default()
+        };
+        assert!(!no_snap.options().unwrap().params.edge_snap);
+        assert!(DepthRequest::default().options().unwrap().params.edge_snap);
     }
 }

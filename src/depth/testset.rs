@@ -111,8 +111,16 @@ pub fn hci(folder: &Path) -> Result<SetScene> {
 
 /// The estimator variants the set compares, by name: `default` (today's defaults), `naive`
 /// (SAD over the same views with box aggregation), `sweep` (the sweep alone: no median, no
-/// continuous fit), `no-fit` and `no-median` (the default without either step).
-pub const VARIANTS: [&str; 5] = ["default", "no-fit", "no-median", "sweep", "naive"];
+/// continuous fit, no edge snapping), `no-fit`, `no-median` and `no-snap` (the default without
+/// that step).
+pub const VARIANTS: [&str; 6] = [
+    "default",
+    "no-fit",
+    "no-median",
+    "no-snap",
+    "sweep",
+    "naive",
+];
 
 /// The options of variant `name` ([`VARIANTS`]).
 pub fn variant(name: &str) -> Result<DepthOptions> {
@@ -123,6 +131,7 @@ pub fn variant(name: &str) -> Result<DepthOptions> {
             params: SweepParams {
                 fit: false,
                 median_radius: 0,
+                edge_snap: false,
                 ..SweepParams::default()
             },
             ..base
@@ -136,6 +145,13 @@ pub fn variant(name: &str) -> Result<DepthOptions> {
         }),
         "naive" => Ok(DepthOptions {
             params: SweepParams::baseline(),
+            ..base
+        }),
+        "no-snap" => Ok(DepthOptions {
+            params: SweepParams {
+                edge_snap: false,
+                ..SweepParams::default()
+            },
             ..base
         }),
         "no-median" => Ok(DepthOptions {

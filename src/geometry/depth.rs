@@ -53,6 +53,10 @@ pub struct DepthMap {
     pub values: Vec<f32>,
     /// Where it came from (file path or "generated"), for messages.
     pub source: String,
+    /// Made from the views by the depth estimator (`tiltfield depth`), not handed over with
+    /// the light field: noisy at silhouettes, so anti-aliasing does not trust it to the last
+    /// pixel (refocus::antialias::AntialiasPlan::guard_px).
+    pub estimated: bool,
 }
 
 impl DepthMap {
@@ -79,6 +83,7 @@ impl DepthMap {
                 })
                 .collect(),
             source,
+            estimated: self.estimated,
         }
     }
 }
@@ -133,6 +138,8 @@ pub struct ViewDepth {
     pub kind: DepthKind,
     /// Where the map came from, for messages.
     pub source: String,
+    /// The map is the depth estimator's ([`DepthMap::estimated`]).
+    pub estimated: bool,
     /// The dataset's valid disparity range (min, max), when known.
     pub disparity_range: Option<(f64, f64)>,
     rig: Option<ParallelRig>,
@@ -187,6 +194,7 @@ impl ViewDepth {
             height: map.height,
             kind: map.kind,
             source: map.source.clone(),
+            estimated: map.estimated,
             disparity_range,
             rig,
             raw: map.values.clone(),
@@ -330,6 +338,7 @@ mod tests {
             kind,
             values,
             source: "test map".into(),
+            estimated: false,
         }
     }
 

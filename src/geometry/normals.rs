@@ -686,6 +686,7 @@ mod tests {
             kind: DepthKind::Depth,
             values,
             source: "plane".into(),
+            estimated: false,
         };
         ViewDepth::new(cam, &map, None, None, 0).unwrap()
     }
@@ -749,6 +750,7 @@ mod tests {
             kind: DepthKind::Depth,
             values,
             source: "outlier".into(),
+            estimated: false,
         };
         let depth = ViewDepth::new(camera(), &map, None, None, 0).unwrap();
         let e = reliable_normal(&depth, 16, 16, &NormalParams::default()).unwrap();
@@ -780,6 +782,7 @@ mod tests {
             kind: DepthKind::Depth,
             values,
             source: "edge".into(),
+            estimated: false,
         };
         let depth = ViewDepth::new(camera(), &map, None, None, 0).unwrap();
         let params = NormalParams::default();
@@ -829,6 +832,7 @@ mod tests {
             kind: DepthKind::Depth,
             values,
             source: "line".into(),
+            estimated: false,
         };
         depth = ViewDepth::new(camera(), &map, None, None, 0).unwrap();
         assert!(matches!(

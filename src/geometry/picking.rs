@@ -339,6 +339,7 @@ mod tests {
             kind: DepthKind::Depth,
             values,
             source: "plane map".into(),
+            estimated: false,
         };
         ViewDepth::new(cam, &map, None, None, 0).unwrap()
     }

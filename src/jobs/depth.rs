@@ -96,12 +96,12 @@ pub fn estimate(
             t.elapsed().as_secs_f64() * 1e3
         );
     }
+    let fit_plan = crate::depth::sweep::SweepPlan {
+        views: fit_matched,
+        ..plan.clone()
+    };
     if options.params.fit {
         let t = Instant::now();
-        let fit_plan = crate::depth::sweep::SweepPlan {
-            views: fit_matched,
-            ..plan.clone()
-        };
         param = fit(
             &fit_plan,
             reference,
@@ -111,6 +111,15 @@ pub fn estimate(
             &param,
         );
         log::info!("continuous fit: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
+    }
+    if options.params.edge_snap {
+        let t = Instant::now();
+        // The fit's views, equalised (every view where the grid is small).
+        let images: Vec<&RgbaImage> = std::iter::once(reference)
+            .chain(fit_plan.views.iter().map(|v| image_of(v.index)))
+            .collect();
+        param = crate::depth::edges::snap_edges(&fit_plan, &images, &param);
+        log::info!("edge snapping: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
     }
     Ok(DepthEstimate {
         width: plan.width,

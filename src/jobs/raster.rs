@@ -173,6 +173,7 @@ impl Rasterizer {
                     .map(|p| if hit(p) { p[3] } else { f32::NAN })
                     .collect(),
                 source: "generated".into(),
+                estimated: false,
             });
             out.normals = Some(
                 g.iter()

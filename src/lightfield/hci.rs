@@ -761,6 +761,7 @@ depth_map_scale = 10.0
                 })
                 .collect(),
             source: "generated".into(),
+            estimated: false,
         };
         let depth = DepthMap {
             kind: DepthKind::Depth,

@@ -608,6 +608,7 @@ pub fn read_exr_depth(path: &Path, kind: DepthKind) -> Result<DepthMap> {
         kind,
         values,
         source: super::path_string(path),
+        estimated: false,
     })
 }
 

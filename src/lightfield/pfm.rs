@@ -56,6 +56,7 @@ pub fn read_pfm_depth(path: &Path, kind: DepthKind) -> Result<DepthMap> {
         kind,
         values,
         source: super::path_string(path),
+        estimated: false,
     })
 }
 

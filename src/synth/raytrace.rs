@@ -125,6 +125,7 @@ pub fn render_view(
         kind: DepthKind::Depth,
         values: depth,
         source: "generated".into(),
+        estimated: false,
     };
     (image, depth)
 }

@@ -136,6 +136,7 @@ impl AnalyticView {
                 kind: DepthKind::Depth,
                 values,
                 source: "analytic".into(),
+                estimated: false,
             },
             normals,
             surface,

@@ -51,15 +51,21 @@ pub struct GpuFootprint {
 }
 
 impl GpuFootprint {
-    /// The record of `f` (rounded to f32), `visible` when its visibility map is bound.
-    pub fn new(f: &Footprint, visible: bool) -> Self {
+    /// The record of `f` (rounded to f32), `visible` when its visibility map is bound, with
+    /// the plan's visibility guard in pixels ([`crate::refocus::antialias::AntialiasPlan::guard_px`]).
+    pub fn new(f: &Footprint, visible: bool, guard_px: f64) -> Self {
         let v = |d: glam::DVec3, w: f64| [d.x as f32, d.y as f32, d.z as f32, w as f32];
         let g = f.parallax;
         GpuFootprint {
             origin: v(f.origin, g.x),
             span_s: v(f.span_s, g.y),
             span_t: v(f.span_t, g.z),
-            vis: [if visible { 1.0 } else { 0.0 }, f.map as f32, 0.0, 0.0],
+            vis: [
+                if visible { 1.0 } else { 0.0 },
+                f.map as f32,
+                guard_px as f32,
+                0.0,
+            ],
         }
     }
 }

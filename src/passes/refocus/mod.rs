@@ -811,7 +811,7 @@ impl RefocusPass {
         let records: Vec<GpuFootprint> = aa
             .footprints
             .iter()
-            .map(|f| GpuFootprint::new(f, visible))
+            .map(|f| GpuFootprint::new(f, visible, aa.guard_px))
             .collect();
         if records != self.uploaded_footprints {
             let bytes = as_bytes(&records);
@@ -908,7 +908,7 @@ impl RefocusPass {
                 .footprints
                 .iter()
                 .zip(&self.uploaded_footprints)
-                .any(|(f, u)| GpuFootprint::new(f, aa.visibility.is_some()) != *u)
+                .any(|(f, u)| GpuFootprint::new(f, aa.visibility.is_some(), aa.guard_px) != *u)
             || aa.visibility.as_ref().map(|v| v.id) != self.uploaded_visibility
             || aa.depth.interleaved() != self.uploaded_depth
             || aa.settings.prefilter != self.uploaded_prefilter
