@@ -100,25 +100,19 @@ pub fn estimate(
         views: fit_matched,
         ..plan.clone()
     };
+    // The fit's and the edge snapping's images: the reference, then the fit's views equalised
+    // like the sweep's (every view where the grid is small).
+    let fit_images: Vec<&RgbaImage> = std::iter::once(reference)
+        .chain(fit_plan.views.iter().map(|v| image_of(v.index)))
+        .collect();
     if options.params.fit {
         let t = Instant::now();
-        param = fit(
-            &fit_plan,
-            reference,
-            &equalised,
-            image_of,
-            &out.best_cost,
-            &param,
-        );
+        param = fit(&fit_plan, &fit_images, &equalised, &out.best_cost, &param);
         log::info!("continuous fit: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
     }
     if options.params.edge_snap {
         let t = Instant::now();
-        // The fit's views, equalised (every view where the grid is small).
-        let images: Vec<&RgbaImage> = std::iter::once(reference)
-            .chain(fit_plan.views.iter().map(|v| image_of(v.index)))
-            .collect();
-        param = crate::depth::edges::snap_edges(&fit_plan, &images, &param);
+        param = crate::depth::edges::snap_edges(&fit_plan, &fit_images, &param);
         log::info!("edge snapping: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
     }
     Ok(DepthEstimate {
@@ -157,14 +151,13 @@ fn fit_views(lf: &LightField, options: &DepthOptions) -> crate::depth::ViewSet {
     }
 }
 
-/// The continuous fit of [`crate::depth::refine`] on `fit_plan`'s views as `image_of` gives
-/// them (equalised like the sweep's), each weighted by 1/gain² of its equalisation; on noisy
-/// views ([`photometric::is_noisy`]) all images are smoothed once first.
-fn fit<'a>(
+/// The continuous fit of [`crate::depth::refine`] on `fit_plan`'s views (`images`: the
+/// reference, then one per view, equalised like the sweep's), each weighted by 1/gain² of its
+/// equalisation; on noisy views ([`photometric::is_noisy`]) all images are smoothed once first.
+fn fit(
     fit_plan: &crate::depth::sweep::SweepPlan,
-    reference: &'a RgbaImage,
+    images: &[&RgbaImage],
     equalised: &HashMap<usize, photometric::Equalised>,
-    image_of: impl Fn(usize) -> &'a RgbaImage,
     best_cost: &[f32],
     param: &[f32],
 ) -> Vec<f32> {
@@ -177,9 +170,6 @@ fn fit<'a>(
                 .map_or(1.0, |e| 1.0 / (e.gain * e.gain).max(1e-6))
         })
         .collect();
-    let images: Vec<&RgbaImage> = std::iter::once(reference)
-        .chain(fit_plan.views.iter().map(|v| image_of(v.index)))
-        .collect();
     let passes = u32::from(photometric::is_noisy(best_cost));
     log::info!(
         "continuous fit on {} views{}",
@@ -191,16 +181,18 @@ fn fit<'a>(
         }
     );
     let smoothed: Vec<RgbaImage>;
+    let smoothed_refs: Vec<&RgbaImage>;
     let images = if passes > 0 {
         smoothed = images
             .iter()
             .map(|i| photometric::smooth(i, passes))
             .collect();
-        smoothed.iter().collect()
+        smoothed_refs = smoothed.iter().collect();
+        &smoothed_refs
     } else {
         images
     };
-    refine(fit_plan, &images, &weights, param, &RefineParams::default())
+    refine(fit_plan, images, &weights, param, &RefineParams::default())
 }
 
 /// Light fields of at most this many views are fitted on all of them (more views, more
