@@ -271,8 +271,9 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
 
     let front = Plane::new(DVec3::new(0.0, 0.0, zm), DVec3::new(0.0, 0.0, -1.0)).unwrap();
     let (p, a) = against_the_lens(&mut r, &mut h, &lf, front, "frontoparallel at 0 px");
-    // Measured on lavapipe: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 42.7 / 41.0 / 59.1 dB
-    // (the issue asks 42 / 40 / 55). With the occlusion decided per view (its plain sample's
+    // Measured on lavapipe: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 42.8 / 41.2 / 59.1 dB
+    // (the issue asks 42 / 40 / 55; 42.7 / 41.0 before rim cells were centred on their
+    // part's centroid). With the occlusion decided per view (its plain sample's
     // ray alone, no visibility maps) it was 40.3 / 38.8: the focused panel's edges were
     // smeared into the wall's blur behind them (docs/conventions.md §11); with the half-pixel
     // guard of an estimated depth on this exact map, 41.8 / 41.2.
@@ -301,7 +302,7 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
         "estimated depth",
         false,
     );
-    // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 40.9 / 40.3 / 57.4 dB (the issue
+    // Measured: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 40.9 / 40.4 / 56.9 dB (the issue
     // asks 38 overall). 37.1 before the estimator placed its depth edges to the pixel
     // (depth::edges): a card's edge column taken for the wall behind it was blurred into the
     // wall's blur (30 levels of error), a wall column taken for the card left sharp; 34.3
@@ -324,10 +325,10 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
         "tilted through two layers",
         true,
     );
-    // Measured: plain 28.7 / 28.5 / 29.5 dB, anti-aliased 32.9 / 37.6 / 29.1 dB (the issue
+    // Measured: plain 28.7 / 28.5 / 29.8 dB, anti-aliased 33.0 / 37.7 / 29.6 dB (the issue
     // asks 34 / 38 / 36). On the tilted plane every view's shift is fractional and the
-    // bilinear filter softens the fine texture: the bicubic filter gives 35.8 / 38.4 /
-    // 32.9 dB (34 and 38 met, not 36 on the plane), at about 3 times the anti-aliased sum's
+    // bilinear filter softens the fine texture: the bicubic filter gives 35.9 / 38.5 /
+    // 33.2 dB (34 and 38 met, not 36 on the plane), at about 3 times the anti-aliased sum's
     // GPU time on lavapipe. On the plane the views themselves are the limit: the plain sum
     // scored on CPU with better interpolators reached 32.8 (Catmull-Rom), 33.4 (Lanczos-3)
     // and 33.3 dB (prefiltered cubic B-spline) there, and on the pixels within 0.1 px of

@@ -82,14 +82,15 @@ pub struct AntialiasReport {
     pub points: Vec<AntialiasPoint>,
 }
 
-fn float(img: GpuImage) -> Result<RefocusImage> {
+pub(super) fn float(img: GpuImage) -> Result<RefocusImage> {
     match img {
         GpuImage::Float(f) => Ok(f),
         GpuImage::Srgb8(_) => Err(Error::Vulkan("asked for float output".into())),
     }
 }
 
-fn encoded(px: &[[f32; 4]]) -> Vec<[f64; 3]> {
+/// Linear RGBA to the sRGB-encoded values the scores compare (0–1).
+pub(super) fn encoded(px: &[[f32; 4]]) -> Vec<[f64; 3]> {
     px.iter()
         .map(|p| {
             std::array::from_fn(|k| crate::color::linear_to_srgb((p[k] as f64).clamp(0.0, 1.0)))
@@ -97,7 +98,8 @@ fn encoded(px: &[[f32; 4]]) -> Vec<[f64; 3]> {
         .collect()
 }
 
-fn psnr(a: &[[f64; 3]], b: &[[f64; 3]], mask: &[bool]) -> f64 {
+/// PSNR (dB, peak 1) of `a` against `b` over the pixels of `mask`.
+pub(super) fn psnr(a: &[[f64; 3]], b: &[[f64; 3]], mask: &[bool]) -> f64 {
     let (mut se, mut n) = (0.0, 0usize);
     for i in 0..a.len() {
         if mask[i] {
@@ -111,8 +113,14 @@ fn psnr(a: &[[f64; 3]], b: &[[f64; 3]], mask: &[bool]) -> f64 {
 }
 
 /// Masks (all, out of focus, focused clear of nearer layers' blur) from the true residual
-/// disparity against the plane, 4 px from the border.
-fn masks(lf: &LightField, plan: &RefocusPlan, bf: f64) -> Result<[Vec<bool>; 3]> {
+/// disparity against the plane (`bf` px per grid step per unit of inverse depth), 4 px from
+/// the border, for an aperture of `radius` grid steps.
+pub(super) fn masks(
+    lf: &LightField,
+    plan: &RefocusPlan,
+    bf: f64,
+    radius: f64,
+) -> Result<[Vec<bool>; 3]> {
     let depth = lf.view_depth()?;
     let (w, h) = (lf.width as i64, lf.height as i64);
     let res: Vec<f64> = (0..w * h)
@@ -123,7 +131,7 @@ fn masks(lf: &LightField, plan: &RefocusPlan, bf: f64) -> Result<[Vec<bool>; 3]>
         })
         .collect();
     // The largest blur reach of a nearer layer: |residual| × radius, plus a pixel.
-    let reach = (res.iter().fold(0f64, |m, r| m.max(*r)) * 2.0).ceil() as i64 + 1;
+    let reach = (res.iter().fold(0f64, |m, r| m.max(*r)) * radius).ceil() as i64 + 1;
     let inner = |x: i64, y: i64| x >= 4 && y >= 4 && x < w - 4 && y < h - 4;
     let mut all = vec![false; (w * h) as usize];
     let mut out = all.clone();
@@ -191,7 +199,7 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
     )?;
     drop(r);
     let truth = encoded(&gt);
-    let [all, out, focused] = masks(&lf, &plan, rig.baseline * rig.focal_px)?;
+    let [all, out, focused] = masks(&lf, &plan, rig.baseline * rig.focal_px, 2.0)?;
     let aa: Vec<AntialiasPlan> = VARIANTS
         .iter()
         .map(|&s| plan_for(&lf, &plan, aperture, &[], s))

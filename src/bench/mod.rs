@@ -21,6 +21,7 @@
 //! Benchmarks measure; they never assert speed.
 
 pub mod antialias;
+pub mod antialias_set;
 pub mod chart;
 pub mod output;
 pub mod roof;

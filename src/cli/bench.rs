@@ -270,3 +270,95 @@ pub fn run(args: &BenchArgs) -> Result<()> {
     }
     Ok(())
 }
+
+#[derive(Debug, Args)]
+pub struct AntialiasSetArgs {
+    /// View size of the cases, px (48 to 512).
+    #[arg(long, default_value_t = 128)]
+    pub size: u32,
+    /// Pinholes per side of the lens's aperture grid (about 0.8 × its square inside the disk;
+    /// fewer leave the truth itself noisy on fine texture).
+    #[arg(long, value_name = "N", default_value_t = 129)]
+    pub truth_grid: u32,
+    /// Only these cases (comma-separated); default: the whole set.
+    #[arg(long, value_name = "A,B,…", value_delimiter = ',')]
+    pub cases: Option<Vec<String>>,
+    /// Timed frames of each of the plain and the anti-aliased sum per case.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    pub frames: usize,
+    /// Skip anti-aliasing on estimated depth (the depth estimate takes most of the time).
+    #[arg(long)]
+    pub no_estimate: bool,
+    /// How every image samples the views (as for `render`): hardware (bilinear), shader,
+    /// bicubic or nearest.
+    #[arg(long, value_name = "FILTER", default_value = "hardware")]
+    pub filter: crate::passes::refocus::Filter,
+    /// Also write the table to this Markdown file.
+    #[arg(long, value_name = "FILE.md")]
+    pub markdown: Option<PathBuf>,
+    /// Write CASE.png per case into DIR: the lens, the plain sum, anti-aliased on the given
+    /// depth and on the estimate, side by side.
+    #[arg(long, value_name = "DIR")]
+    pub images: Option<PathBuf>,
+    /// Print the rows as JSON on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: GpuArgs,
+}
+
+/// `tiltfield antialias-set`: every case, one table.
+pub fn run_antialias_set(args: &AntialiasSetArgs) -> Result<()> {
+    use crate::bench::antialias_set::{self as set, SetOptions};
+    let cases = set::select(args.cases.as_deref())?;
+    if let Some(md) = &args.markdown {
+        crate::io::check_writable(md)?;
+    }
+    let images = args
+        .images
+        .as_deref()
+        .map(crate::io::OutputFolder::create)
+        .transpose()?;
+    let ctx = Arc::new(GpuContext::new(&args.gpu.options())?);
+    let bar = indicatif::ProgressBar::new(0).with_style(
+        indicatif::ProgressStyle::with_template("anti-aliasing set {bar:30} {pos}/{len} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let options = SetOptions {
+        size: args.size,
+        truth_grid: args.truth_grid,
+        frames: args.frames,
+        estimate: !args.no_estimate,
+        filter: args.filter,
+    };
+    let rows = set::run(&ctx, &cases, &options, &bar)?;
+    bar.finish_and_clear();
+    if let Some(dir) = images {
+        for r in &rows {
+            let path = dir.path().join(format!("{}.png", r.name));
+            dir.track(&path, |p| crate::io::save_png(&set::figure(r), p))?;
+        }
+        dir.finish();
+    }
+    let table = set::markdown(&rows);
+    if let Some(md) = &args.markdown {
+        crate::io::write_with(md, "Markdown table", |w| {
+            std::io::Write::write_all(w, table.as_bytes()).map_err(|e| e.to_string())
+        })?;
+    }
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "device": ctx.info.name,
+                "size": args.size,
+                "rows": rows,
+            }))
+            .map_err(|e| Error::Invalid(e.to_string()))?
+        );
+    } else {
+        println!("{table}");
+        eprintln!("device: {}", ctx.info.name);
+    }
+    Ok(())
+}

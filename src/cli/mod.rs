@@ -58,6 +58,9 @@ pub enum Command {
     /// Score depth estimation over the depth test set (synthetic scenes, one per failure
     /// mode, plus HCI folders given with --hci) and print a Markdown table.
     DepthSet(Box<depth::DepthSetArgs>),
+    /// Score anti-aliased refocus against the lens over the anti-aliasing test set (synthetic
+    /// cases, one per failure mode) and print a Markdown table.
+    AntialiasSet(Box<bench::AntialiasSetArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
     /// List the Vulkan devices and whether tiltfield can use them.
@@ -242,6 +245,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::View(a) => view::run(&a),
         Command::Depth(a) => depth::run(&a),
         Command::DepthSet(a) => depth::run_set(&a),
+        Command::AntialiasSet(a) => bench::run_antialias_set(&a),
         Command::Demo(a) => demo::run(&a),
         Command::Devices => info::devices(),
     }
