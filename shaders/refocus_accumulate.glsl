@@ -340,6 +340,41 @@ void footprint(vec3 x, vec3 y0, uint k, float s, float sigma, float front, float
     }
 }
 
+// The focus test (refocus::antialias::focus_agrees): whether the plain samples at the focus
+// surface of every view of the plan (not only this draw's, so that batches decide alike)
+// agree, their weighted standard deviation in square-root units (close to sRGB levels) at most
+// `threshold` in every channel: then the pixel is in focus whatever the depth map says.
+bool views_agree(vec3 x, float s, vec2 lo, vec2 hi, float threshold) {
+    vec3 lin = vec3(0.0);
+    vec3 root = vec3(0.0);
+    float wsum = 0.0;
+    for (uint k = 0u; k < pc.total_views; ++k) {
+        vec4 b = UNIFORM_WARPS != 0u ? warps_u[k].b_weight : warps[k].b_weight;
+        mat3 a = UNIFORM_WARPS != 0u
+            ? mat3(warps_u[k].a0.xyz, warps_u[k].a1.xyz, warps_u[k].a2.xyz)
+            : mat3(warps[k].a0.xyz, warps[k].a1.xyz, warps[k].a2.xyz);
+        float layer = UNIFORM_WARPS != 0u ? warps_u[k].a0.w : warps[k].a0.w;
+        vec3 y = a * x + b.xyz * s;
+        if (y.z <= 0.0) {
+            continue;
+        }
+        vec2 p = y.xy / y.z;
+        if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
+            continue;
+        }
+        vec3 c = max(fetch(p, layer), vec3(0.0));
+        lin += b.w * c;
+        root += b.w * sqrt(c);
+        wsum += b.w;
+    }
+    if (wsum <= 0.0) {
+        return false;
+    }
+    vec3 mean = root / wsum;
+    vec3 spread = max(lin / wsum - mean * mean, vec3(0.0));
+    return max(spread.r, max(spread.g, spread.b)) <= threshold * threshold;
+}
+
 // frag: the output pixel's centre in output pixels (gl_FragCoord.xy, or id + 0.5).
 vec4 accumulate(vec2 frag) {
     // Pixel-index coordinates of the reference view: pixel (i, j)'s centre is at (i, j).
@@ -366,6 +401,14 @@ vec4 accumulate(vec2 frag) {
             if (front > sigma + 1e-6) {
                 reach = max(reach, abs(s - front));
             }
+        }
+        // Views that agree at the focus surface see it in focus: the plain sum with the cells'
+        // weights (sigma < 0 gives every sub-sample the plain sample's residual 0).
+        float threshold = footprints[0].vis.w;
+        if (threshold > 0.0 && sigma >= 0.0 && views_agree(x, s, lo, hi, threshold)) {
+            sigma = -1.0;
+            front = -1.0;
+            reach = 0.0;
         }
     }
     for (uint k = pc.first_view; k < pc.first_view + pc.view_count; ++k) {

@@ -18,7 +18,8 @@ struct ViewWarp {
 // origin + u span_s + v span_t (xyz). The three w components hold the parallax vector
 // g_i = K_r R_r (C_r - C_i) of the occlusion test; vis.x is 1 when the view's visibility map
 // is bound (binding 8), 0 without one, vis.y that map's index and vis.z the guard: sub-samples
-// closer than that (pixels) to the plain sample skip the map. Mirrored by `GpuFootprint`.
+// closer than that (pixels) to the plain sample skip the map; vis.w the focus test's threshold
+// (0: no test; the same in every record). Mirrored by `GpuFootprint`.
 struct ViewFootprint {
     vec4 origin;
     vec4 span_s;
@@ -34,4 +35,5 @@ layout(push_constant) uniform RefocusPush {
     uint view_count; // number of warps of this draw or dispatch
     uint accumulate; // compute: 1 adds to the accumulation image, 0 replaces its contents
     uint plane_count; // planes of a focus surface (SURFACE 1), the plane's included
+    uint total_views; // warps of the whole plan (anti-aliasing's focus test reads them all)
 } pc;

@@ -355,7 +355,8 @@ fn gpu_matches_model(lf: &LightField, aa: &AntialiasPlan, label: &str) {
     let gpu = float(img);
     assert!(gpu.is_finite(), "{label}: non-finite pixels");
     let model = cpu::render_antialiased(lf, aa, Averaging::Linear, lf.width, lf.height);
-    let ambiguous = cpu::ambiguous_antialiased(lf, aa, (lf.width, lf.height), 1e-4);
+    let ambiguous =
+        cpu::ambiguous_antialiased(lf, aa, Averaging::Linear, (lf.width, lf.height), 1e-4);
     let keep: Vec<bool> = ambiguous.iter().map(|a| !a).collect();
     let d = diff(&gpu, &model, Some(&keep));
     let left_out = ambiguous.iter().filter(|&&a| a).count();
@@ -388,27 +389,60 @@ fn gpu_antialiasing_matches_the_f64_model() {
     let settings = AntialiasSettings {
         max_samples: 4,
         prefilter: true,
+        focus_test: true,
     };
     let (_, aa) = plain_and_aa(&lf, front, None, settings);
     gpu_matches_model(&lf, &aa, "grid centre");
+    // Focused a hair behind the 0-px panel (its views shift by at most 0.01 px and agree): the
+    // focus test takes its pixels to the plain sum (the shader reads every view of the plan
+    // for the test). Exactly on it, sub-samples of the other layers land on half pixels.
+    let panel = Plane::new(DVec3::new(0.0, 0.0, 2.003), DVec3::new(0.0, 0.0, -1.0)).unwrap();
+    let (_, tested) = plain_and_aa(&lf, panel, None, settings);
+    gpu_matches_model(
+        &lf,
+        &tested,
+        "focused on the panel, the focus test deciding",
+    );
+    let untested = AntialiasSettings {
+        focus_test: false,
+        ..settings
+    };
+    let (_, untested) = plain_and_aa(&lf, panel, None, untested);
+    gpu_matches_model(
+        &lf,
+        &untested,
+        "focused on the panel, without the focus test",
+    );
+    // The test decided somewhere: the two models differ there.
+    let model = |aa: &AntialiasPlan| {
+        cpu::render_antialiased(&lf, aa, Averaging::Linear, lf.width, lf.height).pixels
+    };
+    let (a, b) = (model(&tested), model(&untested));
+    let changed = a
+        .iter()
+        .zip(&b)
+        .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 1e-6))
+        .count();
+    assert!(changed > 100, "the focus test changed {changed} pixels");
     // One sub-sample per view: footprints up to 3 px read the prefilter pyramid's levels
     // (refocus::prefilter), the shader's trilinear from texel fetches against the model's.
     let one = AntialiasSettings {
         max_samples: 1,
-        prefilter: true,
+        ..settings
     };
     let (_, aa1) = plain_and_aa(&lf, front, None, one);
     gpu_matches_model(&lf, &aa1, "grid centre, prefiltered single sub-sample");
     // Caps 1 and 2 have their own unrolled paths in the shader.
     let two = AntialiasSettings {
         max_samples: 2,
-        prefilter: true,
+        ..settings
     };
     let (_, aa2) = plain_and_aa(&lf, front, None, two);
     gpu_matches_model(&lf, &aa2, "grid centre, prefiltered 2 x 2");
     let sharp = AntialiasSettings {
         max_samples: 2,
         prefilter: false,
+        focus_test: false,
     };
     let (_, aa2) = plain_and_aa(&lf, front, Some(DVec2::new(1.5, 2.25)), sharp);
     gpu_matches_model(&lf, &aa2, "virtual view, sharp 2 x 2");

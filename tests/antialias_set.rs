@@ -25,6 +25,7 @@ fn antialiasing_beats_the_plain_sum_on_every_case_of_the_set() {
         frames: 1,
         estimate: true,
         filter: Filter::Hardware,
+        supersamples: 3,
     };
     let cases = antialias_set::cases();
     let rows = antialias_set::run(&ctx, &cases, &options, &indicatif::ProgressBar::hidden())

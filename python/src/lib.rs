@@ -401,7 +401,9 @@ impl LightField {
     /// centre), ``size=(w, h)`` (output size), ``average`` ("linear" or "encoded"),
     /// ``include_dark``, ``antialias`` (True/False; default: on when the light field has
     /// depth), ``antialias_samples``, ``antialias_prefilter`` (True/False: long footprints
-    /// read the views' box-filtered pyramid; default True), ``strategy`` ("fragment", "batched:N", "compute"),
+    /// read the views' box-filtered pyramid; default True), ``antialias_focus_test``
+    /// (True/False: pixels whose views agree at the focus surface stay the plain sum whatever
+    /// the depth says; default True), ``strategy`` ("fragment", "batched:N", "compute"),
     /// ``views_per_draw``, ``filter`` ("hardware", "shader", "bicubic", "nearest"),
     /// ``accumulation`` ("rgba32f", "rgba16f"), ``warps`` ("ubo", "ssbo"), ``storage``
     /// ("srgb8", "linear16").
@@ -419,7 +421,7 @@ impl LightField {
         normal_window=None, normal_method="inverse-depth", slab=None, all_in_focus=false,
         aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
         include_dark=false, antialias=None, antialias_samples=4, antialias_prefilter=true,
-        strategy=None,
+        antialias_focus_test=true, strategy=None,
         views_per_draw=0, filter=None, accumulation=None, warps=None, storage=None,
         linear=false
     ))]
@@ -451,6 +453,7 @@ impl LightField {
         antialias: Option<bool>,
         antialias_samples: u32,
         antialias_prefilter: bool,
+        antialias_focus_test: bool,
         strategy: Option<&str>,
         views_per_draw: usize,
         filter: Option<&str>,
@@ -483,6 +486,7 @@ impl LightField {
             antialias,
             antialias_samples,
             antialias_prefilter,
+            antialias_focus_test,
             strategy: choice(strategy)?,
             views_per_draw,
             filter: choice(filter)?,

@@ -27,8 +27,9 @@ use crate::synth::scenes::LAYER_DEPTHS;
 use crate::synth::{synth_scene, RigKind, SynthRig};
 
 /// The settings the study measures: sub-sample caps per axis with the prefiltered lookup
-/// (`aaN`), and without it (`aaN-sharp`: every sub-sample a full-resolution fetch).
-pub const VARIANTS: [AntialiasSettings; 7] = [
+/// (`aaN`), without it (`aaN-sharp`: every sub-sample a full-resolution fetch), and the
+/// default without the focus test (`aa4-untested`: the depth alone decides every pixel).
+pub const VARIANTS: [AntialiasSettings; 8] = [
     aa(1, true),
     aa(2, true),
     aa(4, true),
@@ -36,21 +37,31 @@ pub const VARIANTS: [AntialiasSettings; 7] = [
     aa(2, false),
     aa(4, false),
     aa(8, false),
+    AntialiasSettings {
+        focus_test: false,
+        ..aa(4, true)
+    },
 ];
 
 const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
     AntialiasSettings {
         max_samples,
         prefilter,
+        focus_test: true,
     }
 }
 
 /// The study's name for `s`.
 fn variant_name(s: &AntialiasSettings) -> String {
-    if s.prefilter {
+    let base = if s.prefilter {
         format!("aa{}", s.max_samples)
     } else {
         format!("aa{}-sharp", s.max_samples)
+    };
+    if s.focus_test {
+        base
+    } else {
+        format!("{base}-untested")
     }
 }
 
@@ -63,6 +74,8 @@ pub struct AntialiasPoint {
     pub max_samples: Option<u32>,
     /// Whether the sub-samples read the prefilter pyramid.
     pub prefilter: bool,
+    /// Whether the focus test ran (views that agree at the focus plane: the plain sum).
+    pub focus_test: bool,
     pub views: usize,
     pub gpu_ms_median: f64,
     /// GPU time over the plain sum's, same run.
@@ -254,6 +267,7 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
             },
             max_samples: (k > 0).then(|| VARIANTS[k - 1].max_samples),
             prefilter: k > 0 && VARIANTS[k - 1].prefilter,
+            focus_test: k > 0 && VARIANTS[k - 1].focus_test,
             views: if k == 0 {
                 plan.views.len()
             } else {

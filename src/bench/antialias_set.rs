@@ -196,6 +196,9 @@ pub struct SetOptions {
     pub estimate: bool,
     /// How every image of the set samples its views (the plain sum's too).
     pub filter: Filter,
+    /// Jittered samples per pixel and axis of the rendered views, and of the lens (each
+    /// pinhole takes one of the same jitters).
+    pub supersamples: u32,
 }
 
 impl SetOptions {
@@ -293,7 +296,7 @@ pub fn run_case(
     };
     progress.set_message(format!("{}: rendering the views", case.name));
     let mut r = Rasterizer::with_context(Arc::clone(ctx), &scene.mesh())?;
-    let lf = render_light_field(&mut r, &rig, 3, false)?.light_field;
+    let lf = render_light_field(&mut r, &rig, options.supersamples, false)?.light_field;
     let plane = focus_plane(case.focus)?;
     let aperture = Aperture {
         shape: ApertureShape::Disk,
@@ -315,7 +318,7 @@ pub fn run_case(
         case.radius * rig.baseline,
         options.truth_grid,
         (size, size),
-        3,
+        options.supersamples,
     )?;
     let raster_errors = r.context().validation().errors();
     drop(r);
@@ -529,6 +532,7 @@ mod tests {
             frames: 1,
             estimate: false,
             filter: Filter::Hardware,
+            supersamples: 3,
         };
         assert!(o.validate().unwrap_err().to_string().contains("48 to 512"));
         let o = SetOptions {

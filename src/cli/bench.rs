@@ -293,6 +293,9 @@ pub struct AntialiasSetArgs {
     /// bicubic or nearest.
     #[arg(long, value_name = "FILTER", default_value = "hardware")]
     pub filter: crate::passes::refocus::Filter,
+    /// Jittered samples per pixel and axis of the rendered views (and of the lens).
+    #[arg(long, value_name = "N", default_value_t = 3)]
+    pub supersamples: u32,
     /// Also write the table to this Markdown file.
     #[arg(long, value_name = "FILE.md")]
     pub markdown: Option<PathBuf>,
@@ -330,6 +333,7 @@ pub fn run_antialias_set(args: &AntialiasSetArgs) -> Result<()> {
         frames: args.frames,
         estimate: !args.no_estimate,
         filter: args.filter,
+        supersamples: args.supersamples,
     };
     let rows = set::run(&ctx, &cases, &options, &bar)?;
     bar.finish_and_clear();

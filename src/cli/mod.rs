@@ -174,6 +174,11 @@ pub struct AntialiasArgs {
     /// fetches only: a long footprint then needs more sub-samples to look smooth).
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub antialias_prefilter: Switch,
+    /// Anti-aliasing: a pixel whose views agree at the focus surface (within 2 levels) is
+    /// taken as in focus, the plain sum, whatever the depth says: on (default) or off (the
+    /// depth map alone decides).
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub antialias_focus_test: Switch,
 }
 
 impl AntialiasArgs {
@@ -187,6 +192,7 @@ impl AntialiasArgs {
         crate::refocus::antialias::AntialiasSettings::checked(
             self.antialias_samples,
             self.antialias_prefilter == Switch::On,
+            self.antialias_focus_test == Switch::On,
         )
     }
 }

@@ -111,6 +111,7 @@ pub fn options(args: &RenderArgs, kind: OutputKind) -> Result<RenderOptions> {
         antialias: args.antialias.requested(),
         antialias_samples: args.antialias.antialias_samples,
         antialias_prefilter: args.antialias.antialias_prefilter == super::Switch::On,
+        antialias_focus_test: args.antialias.antialias_focus_test == super::Switch::On,
         strategy: args.strategy,
         views_per_draw: args.views_per_draw,
         filter: args.filter,

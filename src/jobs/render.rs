@@ -147,6 +147,8 @@ pub struct RenderOptions {
     pub antialias_samples: u32,
     /// Long footprints read the views' prefilter pyramid (`refocus::prefilter`).
     pub antialias_prefilter: bool,
+    /// Pixels whose views agree at the focus surface are in focus (`AntialiasSettings::focus_test`).
+    pub antialias_focus_test: bool,
     pub strategy: Option<Strategy>,
     /// `batched:N` when no strategy is given (0: one draw).
     pub views_per_draw: usize,
@@ -174,6 +176,7 @@ impl Default for RenderOptions {
             antialias: None,
             antialias_samples: AntialiasSettings::default().max_samples,
             antialias_prefilter: AntialiasSettings::default().prefilter,
+            antialias_focus_test: AntialiasSettings::default().focus_test,
             strategy: None,
             views_per_draw: 0,
             filter: None,
@@ -216,7 +219,11 @@ impl RenderOptions {
 
     /// The anti-aliasing sample settings (validated).
     pub fn antialias_settings(&self) -> Result<AntialiasSettings> {
-        AntialiasSettings::checked(self.antialias_samples, self.antialias_prefilter)
+        AntialiasSettings::checked(
+            self.antialias_samples,
+            self.antialias_prefilter,
+            self.antialias_focus_test,
+        )
     }
 
     /// The focus surface as asked for (validated; the plane alone unless several planes, a

@@ -62,6 +62,10 @@ pub struct AntialiasSettings {
     /// level of their spacing (`refocus::prefilter`), so each stands for its share of the
     /// footprint; off: every sub-sample is one bilinear fetch at full resolution.
     pub prefilter: bool,
+    /// A pixel whose views agree at the focus surface ([`focus_spread`] at most
+    /// [`FOCUS_TEST_LEVELS`]) is in focus whatever the depth map says: the plain sum with the
+    /// cells' weights, no footprint. Off: the depth map alone decides.
+    pub focus_test: bool,
 }
 
 impl Default for AntialiasSettings {
@@ -69,16 +73,27 @@ impl Default for AntialiasSettings {
         AntialiasSettings {
             max_samples: 4,
             prefilter: true,
+            focus_test: true,
         }
     }
 }
 
+/// The focus test's threshold in 8-bit levels: the views' plain samples at the focus surface
+/// agree when their weighted standard deviation, in square-root units (which follow the sRGB
+/// curve's levels closely, dark and bright alike), is at most this many levels in every
+/// channel. Measured over the anti-aliasing test set (README): 2 levels take every focused
+/// textureless stripe an estimate got wrong back to its sharp plain sum while leaving every
+/// out-of-focus score unchanged.
+pub const FOCUS_TEST_LEVELS: f64 = 2.0;
+
 impl AntialiasSettings {
-    /// The settings of a request (`--antialias-samples`, `--antialias-prefilter`), checked.
-    pub fn checked(max_samples: u32, prefilter: bool) -> Result<Self> {
+    /// The settings of a request (`--antialias-samples`, `--antialias-prefilter`,
+    /// `--antialias-focus-test`), checked.
+    pub fn checked(max_samples: u32, prefilter: bool, focus_test: bool) -> Result<Self> {
         let s = AntialiasSettings {
             max_samples,
             prefilter,
+            focus_test,
         };
         s.validate()?;
         Ok(s)
@@ -522,6 +537,42 @@ pub struct AntialiasPlan {
     pub settings: AntialiasSettings,
 }
 
+impl AntialiasPlan {
+    /// The focus test's threshold in the views' values (square-root units of 0–1), 0 when
+    /// [`AntialiasSettings::focus_test`] is off.
+    pub fn focus_threshold(&self) -> f64 {
+        if self.settings.focus_test {
+            FOCUS_TEST_LEVELS / 255.0
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The spread of plain samples `(weight, colour)` (colour in the averaging space, 0–1): the
+/// largest over the channels of their weighted standard deviation in square-root units,
+/// `√(E[c] − E[√c]²)`; `None` without samples. The focus test compares it with
+/// [`AntialiasPlan::focus_threshold`]; the shader computes the same in f32 (`views_agree`).
+pub fn focus_spread(samples: impl Iterator<Item = (f64, [f64; 3])>) -> Option<f64> {
+    let (mut lin, mut root, mut wsum) = ([0f64; 3], [0f64; 3], 0f64);
+    for (w, c) in samples {
+        for k in 0..3 {
+            let c = c[k].max(0.0);
+            lin[k] += w * c;
+            root[k] += w * c.sqrt();
+        }
+        wsum += w;
+    }
+    (wsum > 0.0).then(|| {
+        (0..3)
+            .map(|k| {
+                let mean = root[k] / wsum;
+                (lin[k] / wsum - mean * mean).max(0.0).sqrt()
+            })
+            .fold(0.0, f64::max)
+    })
+}
+
 /// The visibility test's guard on an estimated depth map: sub-samples within half a pixel of
 /// their view's plain sample read what the view's own ray sees. The estimate's errors at
 /// silhouettes (a pixel or two of a wrong, nearer depth) would otherwise hide in-focus
@@ -872,6 +923,75 @@ mod tests {
         };
         let base = super::super::plan(lf, &req, &[]).unwrap();
         plan_for(lf, &base, aperture, &[], AntialiasSettings::default()).unwrap()
+    }
+
+    #[test]
+    fn the_spread_is_the_standard_deviation_of_square_roots() {
+        assert_eq!(focus_spread(std::iter::empty()), None);
+        // Identical samples: zero up to the cancellation in E[c] − E[√c]².
+        let same = focus_spread([(1.0, [0.3; 3]), (2.0, [0.3; 3])].into_iter()).unwrap();
+        assert!(same.abs() < 1e-6, "{same}");
+        // √(E[c] − E[√c]²) of 0 and 1, equal weights: √(½ − ¼).
+        let v = focus_spread([(1.0, [0.0, 0.5, 0.5]), (1.0, [1.0, 0.5, 0.5])].into_iter());
+        assert!((v.unwrap() - 0.5).abs() < 1e-12);
+        // The largest channel counts; weights weigh.
+        let v = focus_spread([(3.0, [0.2, 0.0, 0.0]), (1.0, [0.2, 0.0, 0.8])].into_iter());
+        let (r0, r1) = (0.0f64, 0.8f64.sqrt());
+        let m = (3.0 * r0 + r1) / 4.0;
+        assert!((v.unwrap() - (0.8 / 4.0 - m * m).sqrt()).abs() < 1e-12);
+    }
+
+    /// A white stripe on the focus plane whose depth map says it is far away (an estimate's
+    /// error on a textureless stripe): its views agree at the plane, so the focus test keeps it
+    /// exactly the plain sum; without the test the wrong depth's footprint blurs its edges.
+    #[test]
+    fn views_that_agree_at_the_focus_plane_keep_a_wrongly_deep_stripe_sharp() {
+        let mut lf = grid();
+        // The map puts everything 1 km away: 2 px per grid step from the plane.
+        lf.depth[0].1.values.fill(1000.0);
+        // Zero disparity at the rig's focus distance: every view sees the stripe at the same
+        // columns.
+        for v in &mut lf.views {
+            for (x, _, p) in v.image.enumerate_pixels_mut() {
+                let c = if (6..10).contains(&x) { 255 } else { 0 };
+                *p = image::Rgba([c, c, c, 255]);
+            }
+        }
+        let req = super::super::RefocusRequest {
+            focus: super::super::FocusSpec::Disparity(0.0),
+            aperture: Aperture::default(),
+            reference: None,
+        };
+        let base = super::super::plan(&lf, &req, &[]).unwrap();
+        let render = |focus_test: bool| {
+            let settings = AntialiasSettings {
+                focus_test,
+                ..AntialiasSettings::default()
+            };
+            let aa = plan_for(&lf, &base, Aperture::default(), &[], settings).unwrap();
+            assert_eq!(aa.focus_threshold() > 0.0, focus_test);
+            let img = crate::refocus::cpu::render_antialiased(
+                &lf,
+                &aa,
+                crate::refocus::Averaging::Linear,
+                16,
+                12,
+            );
+            img.pixels
+        };
+        let (tested, untested) = (render(true), render(false));
+        let row = 6 * 16;
+        for x in 0..16 {
+            let want = if (6..10).contains(&x) { 1.0 } else { 0.0 };
+            assert!(
+                (tested[row + x][0] - want).abs() < 1e-6,
+                "x {x}: {}",
+                tested[row + x][0]
+            );
+        }
+        // Without the test the wrong depth's footprint (2 px per grid step) blurs the stripe's
+        // edge columns.
+        assert!((untested[row + 6][0] - 1.0).abs() > 0.05 && untested[row + 5][0] > 0.05);
     }
 
     #[test]

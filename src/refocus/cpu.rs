@@ -11,7 +11,7 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::antialias::{
-    cell_reach, footprint_lod, samples, sub_sample_residual, AntialiasPlan, Ties,
+    cell_reach, focus_spread, footprint_lod, samples, sub_sample_residual, AntialiasPlan, Ties,
 };
 use super::prefilter::Pyramid;
 use super::surface::SurfacePlan;
@@ -267,11 +267,26 @@ fn antialiased_with(
         .par_iter()
         .map(|v| prefilter.then(|| view_pyramid(&lf.views[v.index].image, &table)))
         .collect();
+    let threshold = aa.focus_threshold();
     per_pixel(lf, averaging, (w, h), |px, table| {
         let s = s_of(px);
         let mut sum = [0f64; 3];
         let mut wsum = 0f64;
         let reach = cell_reach(&aa.depth, px, s);
+        // The focus test: views that agree at the surface see it in focus (the plain sum with
+        // the cells' weights).
+        if threshold > 0.0
+            && aa.depth.at(px).is_some()
+            && focus_spread(plain_samples(lf, plan, table, px, s)).is_some_and(|v| v <= threshold)
+        {
+            for (wk, c) in plain_samples(lf, plan, table, px, s) {
+                for k in 0..3 {
+                    sum[k] += wk * c[k];
+                }
+                wsum += wk;
+            }
+            return (sum, wsum);
+        }
         let views = plan.views.iter().zip(&aa.footprints).zip(&pyramids);
         for (k, ((v, fp), pyramid)) in views.enumerate() {
             let y0 = v.warp.a * px.extend(1.0) + v.warp.b * s;
@@ -306,6 +321,25 @@ fn antialiased_with(
     })
 }
 
+/// Every view's plain sample at the focus surface's inverse depth `s` (weight, colour),
+/// masked as §4 masks them (bilinear, the averaging space of `table`).
+fn plain_samples<'a>(
+    lf: &'a LightField,
+    plan: &'a RefocusPlan,
+    table: &'a [f64; 256],
+    px: DVec2,
+    s: f64,
+) -> impl Iterator<Item = (f64, [f64; 3])> + 'a {
+    plan.views.iter().filter_map(move |v| {
+        let p = inside(lf, v.warp.a * px.extend(1.0) + v.warp.b * s)?;
+        Some((v.weight, bilinear(&lf.views[v.index].image, table, p)))
+    })
+}
+
+/// How close (square-root units) to the focus test's threshold a spread must be for f32 to
+/// decide it the other way.
+const FOCUS_TIE: f64 = 1e-4;
+
 /// Output pixels where the anti-aliased model is ambiguous in f32: a view's sub-sample count
 /// sits within `eps` (relative) of a step of its rounding, or a sub-sample lies within `eps`
 /// pixels of a view's border. There the GPU may take one sub-sample more or fewer, a
@@ -313,6 +347,7 @@ fn antialiased_with(
 pub fn ambiguous_antialiased(
     lf: &LightField,
     aa: &AntialiasPlan,
+    averaging: Averaging,
     (w, h): (u32, u32),
     eps: f64,
 ) -> Vec<bool> {
@@ -320,6 +355,7 @@ pub fn ambiguous_antialiased(
     let scale = DVec2::new(lf.width as f64 / w as f64, lf.height as f64 / h as f64);
     let (wf, hf) = (lf.width as f64, lf.height as f64);
     let max = aa.settings.max_samples;
+    let table = averaging_table(averaging);
     let near = |v: f64, edge: f64| (v - edge).abs() <= eps * edge.abs().max(1.0);
     (0..w as usize * h as usize)
         .into_par_iter()
@@ -327,6 +363,14 @@ pub fn ambiguous_antialiased(
             let (x, y) = ((i % w as usize) as f64, (i / w as usize) as f64);
             let px = (DVec2::new(x, y) + 0.5) * scale - 0.5;
             let s = plan.m.dot(px.extend(1.0)).max(0.0);
+            // The focus test decided within f32's reach of its threshold.
+            let threshold = aa.focus_threshold();
+            if threshold > 0.0 && aa.depth.at(px).is_some() {
+                let spread = focus_spread(plain_samples(lf, plan, &table, px, s));
+                if spread.is_some_and(|v| (v - threshold).abs() <= FOCUS_TIE) {
+                    return true;
+                }
+            }
             let reach = cell_reach(&aa.depth, px, s);
             let views = plan.views.iter().zip(&aa.footprints).enumerate();
             views.into_iter().any(|(k, (v, fp))| {

@@ -40,6 +40,10 @@ CASES = {
         ["--disparity", "0.5", "--antialias", "off"],
         dict(disparity=0.5, antialias=False),
     ),
+    "antialias-untested": (
+        ["--disparity", "0.5", "--antialias-focus-test", "off"],
+        dict(disparity=0.5, antialias_focus_test=False),
+    ),
     "encoded": (
         ["--disparity", "0.5", "--average", "encoded"],
         dict(disparity=0.5, average="encoded"),

@@ -40,7 +40,8 @@ impl GpuViewWarp {
 /// One view's aperture-cell footprint as the shaders read it (`ViewFootprint` in GLSL; see
 /// [`crate::refocus::antialias::Footprint`]): homogeneous offsets in xyz; the three `w`s hold
 /// the parallax vector (x, y, z); `vis[0]` is 1 when the view's visibility map is bound,
-/// `vis[1]` its index.
+/// `vis[1]` its index, `vis[2]` the guard and `vis[3]` the focus test's threshold (0: no
+/// test).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct GpuFootprint {
@@ -52,8 +53,10 @@ pub struct GpuFootprint {
 
 impl GpuFootprint {
     /// The record of `f` (rounded to f32), `visible` when its visibility map is bound, with
-    /// the plan's visibility guard in pixels ([`crate::refocus::antialias::AntialiasPlan::guard_px`]).
-    pub fn new(f: &Footprint, visible: bool, guard_px: f64) -> Self {
+    /// the plan's visibility guard in pixels ([`crate::refocus::antialias::AntialiasPlan::guard_px`])
+    /// and focus test threshold ([`crate::refocus::antialias::AntialiasPlan::focus_threshold`],
+    /// 0: no test).
+    pub fn new(f: &Footprint, visible: bool, guard_px: f64, focus_threshold: f64) -> Self {
         let v = |d: glam::DVec3, w: f64| [d.x as f32, d.y as f32, d.z as f32, w as f32];
         let g = f.parallax;
         GpuFootprint {
@@ -64,7 +67,7 @@ impl GpuFootprint {
                 if visible { 1.0 } else { 0.0 },
                 f.map as f32,
                 guard_px as f32,
-                0.0,
+                focus_threshold as f32,
             ],
         }
     }
@@ -86,13 +89,16 @@ pub struct RefocusPush {
     pub accumulate: u32,
     /// Planes of a focus surface with the nearest-plane rule (the plane included).
     pub plane_count: u32,
+    /// Warps of the whole uploaded plan (anti-aliasing's focus test reads every view whatever
+    /// the draw's range).
+    pub total_views: u32,
 }
 
 // SAFETY: repr(C), only f32 arrays: no padding.
 unsafe impl Pod for GpuViewWarp {}
 // SAFETY: repr(C), only f32 arrays: no padding.
 unsafe impl Pod for GpuFootprint {}
-// SAFETY: repr(C), f32 arrays then u32s, 48 bytes: no padding.
+// SAFETY: repr(C), f32 arrays then u32s, 52 bytes: no padding.
 unsafe impl Pod for RefocusPush {}
 
 /// The focus surface's plane terms as the shaders read them (`Surface` in
@@ -171,6 +177,7 @@ mod tests {
             ("view_count", offset_of!(RefocusPush, view_count), 4),
             ("accumulate", offset_of!(RefocusPush, accumulate), 4),
             ("plane_count", offset_of!(RefocusPush, plane_count), 4),
+            ("total_views", offset_of!(RefocusPush, total_views), 4),
         ];
         let rust: Vec<_> = rust
             .iter()

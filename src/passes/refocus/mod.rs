@@ -811,7 +811,7 @@ impl RefocusPass {
         let records: Vec<GpuFootprint> = aa
             .footprints
             .iter()
-            .map(|f| GpuFootprint::new(f, visible, aa.guard_px))
+            .map(|f| GpuFootprint::new(f, visible, aa.guard_px, aa.focus_threshold()))
             .collect();
         if records != self.uploaded_footprints {
             let bytes = as_bytes(&records);
@@ -908,7 +908,14 @@ impl RefocusPass {
                 .footprints
                 .iter()
                 .zip(&self.uploaded_footprints)
-                .any(|(f, u)| GpuFootprint::new(f, aa.visibility.is_some(), aa.guard_px) != *u)
+                .any(|(f, u)| {
+                    GpuFootprint::new(
+                        f,
+                        aa.visibility.is_some(),
+                        aa.guard_px,
+                        aa.focus_threshold(),
+                    ) != *u
+                })
             || aa.visibility.as_ref().map(|v| v.id) != self.uploaded_visibility
             || aa.depth.interleaved() != self.uploaded_depth
             || aa.settings.prefilter != self.uploaded_prefilter
@@ -995,6 +1002,7 @@ impl RefocusPass {
             view_count: 0,
             accumulate: 0,
             plane_count,
+            total_views: self.uploaded.len() as u32,
         };
         // Whatever touched the accumulation image before (a previous accumulation, a resolve,
         // possibly in an earlier submission) finishes first.
