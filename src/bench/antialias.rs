@@ -10,21 +10,17 @@
 
 use std::sync::Arc;
 
-use glam::{DVec2, DVec3};
+use glam::DVec3;
+use indicatif::ProgressBar;
 
-use super::stats;
+use super::{antialias_set, stats};
 use crate::error::{Error, Result};
-use crate::geometry::aperture::{Aperture, ApertureShape};
-use crate::geometry::plane::Plane;
 use crate::gpu::GpuContext;
-use crate::jobs::raster::{render_light_field, Rasterizer};
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, PassTimings, RenderSettings};
-use crate::lightfield::{GridSize, LightField};
+use crate::lightfield::LightField;
 use crate::passes::refocus::OutputFormat;
 use crate::refocus::antialias::{plan_for, AntialiasPlan, AntialiasSettings};
-use crate::refocus::{self, FocusSpec, RefocusImage, RefocusPlan, RefocusRequest};
-use crate::synth::scenes::LAYER_DEPTHS;
-use crate::synth::{synth_scene, RigKind, SynthRig};
+use crate::refocus::{RefocusImage, RefocusPlan};
 
 /// The settings the study measures: sub-sample caps per axis with the prefiltered lookup
 /// (`aaN`), without it (`aaN-sharp`: every sub-sample a full-resolution fetch), and the
@@ -172,47 +168,20 @@ pub(super) fn masks(
 /// Runs the study on `ctx` with `frames` timed frames per point (after one warm-up frame),
 /// the points timed round-robin so that load changes affect all alike.
 pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<AntialiasReport> {
-    let scene = synth_scene("layers").ok_or_else(|| Error::Invalid("no layers scene".into()))?;
     let (size, gt_grid) = if quick { (64, 65) } else { (128, 129) };
-    let rig = SynthRig {
-        grid: GridSize { cols: 5, rows: 5 },
-        width: size,
-        height: size,
-        focal_px: scene.focal_per_width * size as f64,
-        baseline: scene.baseline,
-        focus_distance: scene.focus_distance,
-        kind: RigKind::Parallel,
-    };
-    let mut r = Rasterizer::with_context(Arc::clone(&ctx), &scene.mesh())?;
-    let lf = render_light_field(&mut r, &rig, 3, false)?.light_field;
-    let plane = Plane::new(
-        DVec3::new(0.0, 0.0, LAYER_DEPTHS[1]),
-        DVec3::new(0.0, 0.0, -1.0),
-    )?;
-    let aperture = Aperture {
-        shape: ApertureShape::Disk,
-        radius: Some(2.0),
-    };
-    let plan = refocus::plan(
-        &lf,
-        &RefocusRequest {
-            focus: FocusSpec::Plane(plane),
-            aperture,
-            reference: None::<DVec2>,
-        },
-        &[],
-    )?;
-    let (gt, pinholes) = r.optical_ground_truth(
-        &plan.reference_camera,
-        &plane,
-        2.0 * rig.baseline,
-        gt_grid,
-        (size, size),
-        3,
-    )?;
-    drop(r);
-    let truth = encoded(&gt);
-    let [all, out, focused] = masks(&lf, &plan, rig.baseline * rig.focal_px, 2.0)?;
+    // The anti-aliasing set's first case: `layers` focused on its 0-px panel, a disk of 2.
+    let case = antialias_set::cases()
+        .into_iter()
+        .next()
+        .ok_or_else(|| Error::Invalid("no anti-aliasing case".into()))?;
+    let antialias_set::Prepared {
+        lf,
+        plan,
+        aperture,
+        truth,
+        pinholes,
+        masks: [all, out, focused],
+    } = antialias_set::prepare(&ctx, &case, (size, gt_grid, 3), &ProgressBar::hidden())?;
     let aa: Vec<AntialiasPlan> = VARIANTS
         .iter()
         .map(|&s| plan_for(&lf, &plan, aperture, &[], s))

@@ -34,10 +34,10 @@ use crate::geometry::plane::Plane;
 use crate::gpu::GpuContext;
 use crate::jobs::raster::{render_light_field, Rasterizer};
 use crate::jobs::refocus::{HeadlessRenderer, PassTimings, RenderSettings};
-use crate::lightfield::GridSize;
+use crate::lightfield::{GridSize, LightField};
 use crate::passes::refocus::{Filter, OutputFormat};
 use crate::refocus::antialias::{plan_for, AntialiasSettings};
-use crate::refocus::{self, FocusSpec, RefocusRequest};
+use crate::refocus::{self, FocusSpec, RefocusPlan, RefocusRequest};
 use crate::synth::scenes::LAYER_DEPTHS;
 use crate::synth::{synth_scene, RigKind, SynthRig};
 
@@ -271,17 +271,28 @@ fn focus_plane(focus: CaseFocus) -> Result<Plane> {
     }
 }
 
-/// Runs one case on `ctx`; `progress` gets its steps as messages.
-pub fn run_case(
+/// A case ready to score: its light field, the plain plan, the disk, the lens's image and
+/// the masks (all, out of focus, focused).
+pub(super) struct Prepared {
+    pub lf: LightField,
+    pub plan: RefocusPlan,
+    pub aperture: Aperture,
+    /// The lens's image, sRGB-encoded (0–1), row-major.
+    pub truth: Vec<[f64; 3]>,
+    pub pinholes: usize,
+    pub masks: [Vec<bool>; 3],
+}
+
+/// Renders `case`'s light field (`size²` views, `supersamples` jitters a pixel and axis) and
+/// its lens (`truth_grid` pinholes a side) on `ctx`; `progress` gets the steps as messages.
+pub(super) fn prepare(
     ctx: &Arc<GpuContext>,
     case: &AntialiasCase,
-    options: &SetOptions,
+    (size, truth_grid, supersamples): (u32, u32, u32),
     progress: &ProgressBar,
-) -> Result<CaseResult> {
-    options.validate()?;
+) -> Result<Prepared> {
     let scene = synth_scene(case.scene)
         .ok_or_else(|| Error::Invalid(format!("no synth scene '{}'", case.scene)))?;
-    let size = options.size;
     let rig = SynthRig {
         grid: GridSize { cols: 5, rows: 5 },
         width: size,
@@ -296,7 +307,7 @@ pub fn run_case(
     };
     progress.set_message(format!("{}: rendering the views", case.name));
     let mut r = Rasterizer::with_context(Arc::clone(ctx), &scene.mesh())?;
-    let lf = render_light_field(&mut r, &rig, options.supersamples, false)?.light_field;
+    let lf = render_light_field(&mut r, &rig, supersamples, false)?.light_field;
     let plane = focus_plane(case.focus)?;
     let aperture = Aperture {
         shape: ApertureShape::Disk,
@@ -316,14 +327,44 @@ pub fn run_case(
         &plan.reference_camera,
         &plane,
         case.radius * rig.baseline,
-        options.truth_grid,
+        truth_grid,
         (size, size),
-        options.supersamples,
+        supersamples,
     )?;
-    let raster_errors = r.context().validation().errors();
-    drop(r);
-    let truth = encoded(&gt);
-    let m = masks(&lf, &plan, rig.baseline * rig.focal_px, case.radius)?;
+    let masks = masks(&lf, &plan, rig.baseline * rig.focal_px, case.radius)?;
+    Ok(Prepared {
+        lf,
+        plan,
+        aperture,
+        truth: encoded(&gt),
+        pinholes,
+        masks,
+    })
+}
+
+/// Runs one case on `ctx`; `progress` gets its steps as messages. (Validation errors are
+/// the caller's to check on `ctx`, as [`run`] does.)
+pub fn run_case(
+    ctx: &Arc<GpuContext>,
+    case: &AntialiasCase,
+    options: &SetOptions,
+    progress: &ProgressBar,
+) -> Result<CaseResult> {
+    options.validate()?;
+    let size = options.size;
+    let Prepared {
+        lf,
+        plan,
+        aperture,
+        truth,
+        pinholes,
+        masks: m,
+    } = prepare(
+        ctx,
+        case,
+        (size, options.truth_grid, options.supersamples),
+        progress,
+    )?;
     let settings = RenderSettings {
         output: OutputFormat::Float,
         filter: options.filter,
@@ -368,12 +409,6 @@ pub fn run_case(
     } else {
         None
     };
-    if raster_errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{raster_errors} validation errors rendering case '{}'",
-            case.name
-        )));
-    }
     Ok(CaseResult {
         name: case.name.into(),
         what: case.what.into(),
