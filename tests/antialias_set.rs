@@ -87,3 +87,27 @@ fn antialiasing_beats_the_plain_sum_on_every_case_of_the_set() {
     let log = ctx.validation();
     assert_eq!(log.errors(), 0, "validation errors: {:#?}", log.messages());
 }
+
+/// Bad options of `tiltfield antialias-set` fail with their cause, before any work.
+#[test]
+fn bad_set_options_fail_clearly() {
+    for (args, want) in [
+        (
+            vec!["antialias-set", "--cases", "moon"],
+            "no anti-aliasing case 'moon'",
+        ),
+        (vec!["antialias-set", "--size", "4000"], "48 to 512 px"),
+        (
+            vec!["antialias-set", "--truth-grid", "3"],
+            "at least 9 pinholes",
+        ),
+        (vec!["antialias-set", "--filter", "sinc"], "sinc"),
+    ] {
+        let out = common::tiltfield(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(want),
+            "{args:?}: {err}"
+        );
+    }
+}

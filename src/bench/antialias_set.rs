@@ -202,7 +202,8 @@ pub struct SetOptions {
 }
 
 impl SetOptions {
-    fn validate(&self) -> Result<()> {
+    /// Checks the size and the truth's grid.
+    pub fn validate(&self) -> Result<()> {
         if !(48..=512).contains(&self.size) {
             return Err(Error::Invalid(format!(
                 "the anti-aliasing set's views must be 48 to 512 px a side, got {}",

@@ -314,6 +314,16 @@ pub struct AntialiasSetArgs {
 pub fn run_antialias_set(args: &AntialiasSetArgs) -> Result<()> {
     use crate::bench::antialias_set::{self as set, SetOptions};
     let cases = set::select(args.cases.as_deref())?;
+    let options = SetOptions {
+        size: args.size,
+        truth_grid: args.truth_grid,
+        frames: args.frames,
+        estimate: !args.no_estimate,
+        filter: args.filter,
+        supersamples: args.supersamples,
+    };
+    // Bad options fail before any folder is made or the GPU starts.
+    options.validate()?;
     if let Some(md) = &args.markdown {
         crate::io::check_writable(md)?;
     }
@@ -327,14 +337,6 @@ pub fn run_antialias_set(args: &AntialiasSetArgs) -> Result<()> {
         indicatif::ProgressStyle::with_template("anti-aliasing set {bar:30} {pos}/{len} {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
-    let options = SetOptions {
-        size: args.size,
-        truth_grid: args.truth_grid,
-        frames: args.frames,
-        estimate: !args.no_estimate,
-        filter: args.filter,
-        supersamples: args.supersamples,
-    };
     let rows = set::run(&ctx, &cases, &options, &bar)?;
     bar.finish_and_clear();
     if let Some(dir) = images {
