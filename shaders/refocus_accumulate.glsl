@@ -340,14 +340,17 @@ void footprint(vec3 x, vec3 y0, uint k, float s, float sigma, float front, float
     }
 }
 
-// The focus test (refocus::antialias::focus_agrees): whether the plain samples at the focus
+// The focus test (refocus::antialias::focus_spread): whether the plain samples at the focus
 // surface of every view of the plan (not only this draw's, so that batches decide alike)
 // agree, their weighted standard deviation in square-root units (close to sRGB levels) at most
 // `threshold` in every channel: then the pixel is in focus whatever the depth map says.
-bool views_agree(vec3 x, float s, vec2 lo, vec2 hi, float threshold) {
+// `sum` and `wsum` return the samples' weighted sum and weight: the plain sum of the plan.
+bool views_agree(vec3 x, float s, vec2 lo, vec2 hi, float threshold, out vec3 sum,
+                 out float wsum) {
     vec3 lin = vec3(0.0);
     vec3 root = vec3(0.0);
-    float wsum = 0.0;
+    sum = vec3(0.0);
+    wsum = 0.0;
     for (uint k = 0u; k < pc.total_views; ++k) {
         vec4 b = UNIFORM_WARPS != 0u ? warps_u[k].b_weight : warps[k].b_weight;
         mat3 a = UNIFORM_WARPS != 0u
@@ -362,9 +365,12 @@ bool views_agree(vec3 x, float s, vec2 lo, vec2 hi, float threshold) {
         if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
             continue;
         }
-        vec3 c = max(fetch(p, layer), vec3(0.0));
-        lin += b.w * c;
-        root += b.w * sqrt(c);
+        vec3 c = fetch(p, layer);
+        sum += b.w * c;
+        // A bicubic fetch may overshoot below 0.
+        vec3 cp = max(c, vec3(0.0));
+        lin += b.w * cp;
+        root += b.w * sqrt(cp);
         wsum += b.w;
     }
     if (wsum <= 0.0) {
@@ -405,7 +411,15 @@ vec4 accumulate(vec2 frag) {
         // Views that agree at the focus surface see it in focus: the plain sum with the cells'
         // weights (sigma < 0 gives every sub-sample the plain sample's residual 0).
         float threshold = footprints[0].vis.w;
-        if (threshold > 0.0 && sigma >= 0.0 && views_agree(x, s, lo, hi, threshold)) {
+        vec3 agreed;
+        float agreed_w;
+        if (threshold > 0.0 && sigma >= 0.0
+            && views_agree(x, s, lo, hi, threshold, agreed, agreed_w)) {
+            // A draw of the whole plan has its result already (the loop below would fetch
+            // the same samples again); a batch adds its own views' plain samples.
+            if (pc.first_view == 0u && pc.view_count == pc.total_views) {
+                return vec4(agreed, agreed_w);
+            }
             sigma = -1.0;
             front = -1.0;
             reach = 0.0;

@@ -390,7 +390,10 @@ pub fn run_case(
         t_aa.push(timed(h.render_timed_antialiased(&aa, &settings)?)?);
     }
     let median = |t: &[f64]| stats::summarize(t).map_or(f64::NAN, |s| s.median);
-    let mut images = vec![truth.clone(), plain_img.clone(), given_img.clone()];
+    let (plain, given) = (
+        scores(&plain_img, &truth, &m),
+        scores(&given_img, &truth, &m),
+    );
     let estimated = if options.estimate {
         progress.set_message(format!("{}: estimating depth", case.name));
         let mut est = lf.clone();
@@ -404,12 +407,15 @@ pub fn run_case(
         )?;
         let aa_est = plan_for(&est, &plan, aperture, &[], AntialiasSettings::default())?;
         let img = encoded(&float(h.render_antialiased(&aa_est, &settings)?.0)?.pixels);
-        let s = scores(&img, &truth, &m);
-        images.push(img);
-        Some(s)
+        Some((scores(&img, &truth, &m), img))
     } else {
         None
     };
+    let mut images = vec![truth, plain_img, given_img];
+    let estimated = estimated.map(|(s, img)| {
+        images.push(img);
+        s
+    });
     Ok(CaseResult {
         name: case.name.into(),
         what: case.what.into(),
@@ -418,8 +424,8 @@ pub fn run_case(
         out_of_focus_px: m[1].iter().filter(|&&b| b).count(),
         focused_px: m[2].iter().filter(|&&b| b).count(),
         truth_pinholes: pinholes,
-        plain: scores(&plain_img, &truth, &m),
-        given: scores(&given_img, &truth, &m),
+        plain,
+        given,
         estimated,
         cost_ratio: median(&t_aa) / median(&t_plain),
         images,

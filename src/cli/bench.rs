@@ -348,9 +348,7 @@ pub fn run_antialias_set(args: &AntialiasSetArgs) -> Result<()> {
     }
     let table = set::markdown(&rows);
     if let Some(md) = &args.markdown {
-        crate::io::write_with(md, "Markdown table", |w| {
-            std::io::Write::write_all(w, table.as_bytes()).map_err(|e| e.to_string())
-        })?;
+        crate::io::write_bytes(md, "Markdown table", table.as_bytes())?;
     }
     if args.json {
         println!(

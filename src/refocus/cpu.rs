@@ -275,17 +275,17 @@ fn antialiased_with(
         let reach = cell_reach(&aa.depth, px, s);
         // The focus test: views that agree at the surface see it in focus (the plain sum with
         // the cells' weights).
-        if threshold > 0.0
-            && aa.depth.at(px).is_some()
-            && focus_spread(plain_samples(lf, plan, table, px, s)).is_some_and(|v| v <= threshold)
-        {
-            for (wk, c) in plain_samples(lf, plan, table, px, s) {
-                for k in 0..3 {
-                    sum[k] += wk * c[k];
+        if threshold > 0.0 && aa.depth.at(px).is_some() {
+            let plain: Vec<(f64, [f64; 3])> = plain_samples(lf, plan, table, px, s).collect();
+            if focus_spread(plain.iter().copied()).is_some_and(|v| v <= threshold) {
+                for (wk, c) in plain {
+                    for k in 0..3 {
+                        sum[k] += wk * c[k];
+                    }
+                    wsum += wk;
                 }
-                wsum += wk;
+                return (sum, wsum);
             }
-            return (sum, wsum);
         }
         let views = plan.views.iter().zip(&aa.footprints).zip(&pyramids);
         for (k, ((v, fp), pyramid)) in views.enumerate() {
@@ -356,6 +356,7 @@ pub fn ambiguous_antialiased(
     let (wf, hf) = (lf.width as f64, lf.height as f64);
     let max = aa.settings.max_samples;
     let table = averaging_table(averaging);
+    let threshold = aa.focus_threshold();
     let near = |v: f64, edge: f64| (v - edge).abs() <= eps * edge.abs().max(1.0);
     (0..w as usize * h as usize)
         .into_par_iter()
@@ -364,7 +365,6 @@ pub fn ambiguous_antialiased(
             let px = (DVec2::new(x, y) + 0.5) * scale - 0.5;
             let s = plan.m.dot(px.extend(1.0)).max(0.0);
             // The focus test decided within f32's reach of its threshold.
-            let threshold = aa.focus_threshold();
             if threshold > 0.0 && aa.depth.at(px).is_some() {
                 let spread = focus_spread(plain_samples(lf, plan, &table, px, s));
                 if spread.is_some_and(|v| (v - threshold).abs() <= FOCUS_TIE) {
