@@ -378,7 +378,9 @@ pub fn param_range_from(
 }
 
 /// The wide range searched when no range is known: the reference centre moves by up to an
-/// eighth of the smaller image side in the farthest matched view, nearer than infinity.
+/// eighth of the smaller image side in the farthest matched view, on either side of the depth
+/// it does not move at all (the zero-disparity distance of an HCI rig; infinity for parallel
+/// calibrated cameras, the point they look at for converging ones), nearer than infinity.
 pub fn wide_range(plan: &SweepPlan) -> (f64, f64) {
     let motion = plan.width.min(plan.height) as f64 / 8.0;
     match plan.convention {
@@ -394,23 +396,97 @@ pub fn wide_range(plan: &SweepPlan) -> (f64, f64) {
             (-d, d)
         }
         Convention::InverseDepth => {
-            // Motion grows monotonically with w for a view in front: bisect for the target.
-            let (mut lo, mut hi) = (0.0, 1e-9);
-            while plan.centre_motion(0.0, hi) < motion && hi < 1e12 {
-                lo = hi;
-                hi *= 2.0;
-            }
-            for _ in 0..60 {
-                let mid = 0.5 * (lo + hi);
-                if plan.centre_motion(0.0, mid) < motion {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
+            // The scale: the inverse depth w whose centre moves `motion` from infinity (w = 0;
+            // motion grows monotonically with w for a view in front).
+            let scale = bisect_motion(plan, 0.0, motion, 1.0);
+            let w0 = still_point(plan, scale);
+            let hi = bisect_motion(plan, w0, motion, 1.0);
             // w = 0 is infinity: start a hair in front of it.
-            (1e-3 * hi, hi)
+            let lo = if w0 > 0.0 {
+                bisect_motion(plan, w0, motion, -1.0)
+            } else {
+                0.0
+            };
+            (lo.max(1e-3 * hi), hi)
         }
+    }
+}
+
+/// The inverse depth on side `dir` (+1 nearer, −1 farther, never past infinity) of `from`
+/// where the reference centre has moved `motion` pixels from where it is at `from`: the
+/// nearest such w, by doubling then bisection; the end of the search where it never does.
+fn bisect_motion(plan: &SweepPlan, from: f64, motion: f64, dir: f64) -> f64 {
+    let at = |step: f64| (from + dir * step).max(0.0);
+    let moved = |step: f64| plan.centre_motion(from, at(step)) >= motion;
+    let (mut lo, mut hi) = if dir > 0.0 {
+        let (mut lo, mut hi) = (0.0, 1e-9_f64.max(1e-6 * from));
+        while !moved(hi) && hi < 1e12 {
+            lo = hi;
+            hi *= 2.0;
+        }
+        (lo, hi)
+    } else {
+        // Farther only as far as infinity.
+        if !moved(from) {
+            return 0.0;
+        }
+        (0.0, from)
+    };
+    for _ in 0..60 {
+        let mid = 0.5 * (lo + hi);
+        if moved(mid) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    at(hi)
+}
+
+/// The inverse depth in `[0, 64·scale]` at which the reference centre moves least between the
+/// matched views (it stays still there on a rig that converges on it): the largest distance
+/// from the reference centre of its image in any matched view, minimised by a scan and a
+/// golden-section refinement. 0 (infinity) for parallel cameras.
+fn still_point(plan: &SweepPlan, scale: f64) -> f64 {
+    let x = DVec2::new(
+        (plan.width as f64 - 1.0) / 2.0,
+        (plan.height as f64 - 1.0) / 2.0,
+    );
+    let spread = |w: f64| {
+        plan.views
+            .iter()
+            .map(|v| {
+                let y = v.sample(x, w);
+                (DVec2::new(y.x / y.z, y.y / y.z) - x).length()
+            })
+            .map(|m| if m.is_finite() { m } else { f64::INFINITY })
+            .fold(0.0, f64::max)
+    };
+    const STEPS: usize = 1024;
+    let top = 64.0 * scale;
+    let step = top / STEPS as f64;
+    let best = (0..=STEPS)
+        .min_by(|&a, &b| spread(a as f64 * step).total_cmp(&spread(b as f64 * step)))
+        .unwrap_or(0);
+    let (mut a, mut b) = (
+        (best as f64 - 1.0).max(0.0) * step,
+        (best as f64 + 1.0).min(STEPS as f64) * step,
+    );
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    for _ in 0..80 {
+        let (c, d) = (b - g * (b - a), a + g * (b - a));
+        if spread(c) <= spread(d) {
+            b = d;
+        } else {
+            a = c;
+        }
+    }
+    let w = 0.5 * (a + b);
+    // Parallel cameras are still only at infinity: keep w = 0 exactly there.
+    if spread(0.0) <= spread(w) {
+        0.0
+    } else {
+        w
     }
 }
 
@@ -626,6 +702,84 @@ mod tests {
         };
         let (lo, hi) = wide_range(&plan);
         assert!(lo > 0.0 && lo < hi);
-        assert!((plan.centre_motion(0.0, hi) - 3.0).abs() < 1e-6);
+        // These parallel cameras' sensors are shifted to hold the rig's focus distance (2 m)
+        // still: the range reaches an eighth of the image of motion nearer than it, and
+        // farther as far as that motion or infinity, whichever comes first.
+        let still = 1.0 / RIG.focus_distance;
+        assert!((plan.centre_motion(still, hi) - 3.0).abs() < 1e-6, "{hi}");
+        let far = plan.centre_motion(lo, still);
+        assert!(
+            (far - 3.0).abs() < 1e-6 || (lo - 1e-3 * hi).abs() < 1e-12,
+            "{lo} {far}"
+        );
+    }
+
+    /// Cameras turned to a point 2.5 m away see it still in every view: the wide range is
+    /// centred there, and reaches an eighth of the image of motion on both sides of it (a
+    /// range anchored at infinity stopped at 1.6 m here and lost everything nearer).
+    #[test]
+    fn a_converging_rig_searches_around_the_point_it_looks_at() {
+        let rig = crate::synth::SynthRig {
+            grid: GridSize { cols: 5, rows: 5 },
+            width: 128,
+            height: 128,
+            focal_px: 128.0,
+            baseline: 0.1,
+            focus_distance: 2.5,
+            kind: crate::synth::RigKind::Converging { distance: 2.5 },
+        };
+        let views = rig
+            .cameras()
+            .into_iter()
+            .enumerate()
+            .map(|(i, camera)| View {
+                s: i % 5,
+                t: i / 5,
+                camera,
+                image: image::RgbaImage::new(128, 128),
+                source: format!("view {i}"),
+            })
+            .collect();
+        let lf = LightField {
+            name: "converging".into(),
+            grid: rig.grid,
+            width: 128,
+            height: 128,
+            views,
+            depth: Vec::new(),
+            rig: None,
+            disparity_range: None,
+            source: Source::Generated {
+                scene: "converging".into(),
+            },
+        };
+        let r = reference_view(&lf, None).unwrap();
+        let conv = convention_of(&lf);
+        assert_eq!(conv, Convention::InverseDepth);
+        let views = select_views(&lf, r, ViewSet::Cross(usize::MAX), &[])
+            .into_iter()
+            .map(|i| sweep_view(&lf, r, i, conv))
+            .collect();
+        let plan = SweepPlan {
+            reference: r,
+            reference_st: (2, 2),
+            reference_camera: lf.views[r].camera,
+            width: 128,
+            height: 128,
+            views,
+            convention: conv,
+            range: (0.1, 1.0),
+            range_origin: RangeOrigin::Given,
+            planes: 9,
+        };
+        let (lo, hi) = wide_range(&plan);
+        let still = 1.0 / 2.5;
+        assert!(lo < still && still < hi, "{lo} … {hi}");
+        assert!((plan.centre_motion(still, hi) - 16.0).abs() < 1e-3, "{hi}");
+        // Infinity moves less than 16 px from there: the range goes all the way out.
+        assert!(plan.centre_motion(0.0, still) < 16.0);
+        assert!((lo - 1e-3 * hi).abs() < 1e-12, "{lo}");
+        // The nearest layer of the anti-aliasing set's converging case (1.03 m) is inside.
+        assert!(hi > 1.0 / 1.03, "{hi}");
     }
 }
