@@ -160,11 +160,20 @@ fn quick_bench_writes_report_csv_and_both_charts() {
         // Quoted names have no commas here, so a plain split counts the fields.
         assert_eq!(l.split(',').count(), columns, "{l}");
     }
-    for chart in ["speed_accuracy", "scaling"] {
+    for chart in ["speed_accuracy", "scaling", "antialias"] {
         let svg = std::fs::read_to_string(out.join(format!("{chart}.svg"))).unwrap();
         assert_well_formed(&svg);
         assert!(svg.contains("PSNR") || chart == "scaling");
         assert_png_drawn(&out.join(format!("{chart}.png")));
+    }
+    // The anti-aliasing chart labels every setting of the study, with its cost.
+    let svg = std::fs::read_to_string(out.join("antialias.svg")).unwrap();
+    for p in aa {
+        let name = p["name"].as_str().unwrap();
+        assert!(
+            svg.contains(&format!("{name} ×")),
+            "{name} not on the chart"
+        );
     }
     let hs: Value =
         serde_json::from_slice(&std::fs::read(out.join("homographies.json")).unwrap()).unwrap();
@@ -211,6 +220,12 @@ fn chosen_variants_only_and_no_sweep() {
         !out.join("scaling.svg").exists(),
         "no sweep, no scaling chart"
     );
+    if report["antialias"].is_null() {
+        assert!(
+            !out.join("antialias.svg").exists(),
+            "no study, no anti-aliasing chart"
+        );
+    }
 }
 
 #[test]

@@ -1,6 +1,8 @@
-//! The two benchmark charts, drawn with `plotters` to SVG and PNG: GPU time (log axis)
-//! against PSNR with one labelled point per variant (the speed–accuracy chart), and GPU time
-//! against view-samples per frame with the fitted cost model (the scaling chart).
+//! The benchmark charts, drawn with `plotters` to SVG and PNG: GPU time (log axis) against
+//! PSNR with one labelled point per variant (the speed–accuracy chart), GPU time against
+//! view-samples per frame with the fitted cost model (the scaling chart), and the anti-aliasing
+//! study's cost (× the plain sum, log axis) against its PSNR to the lens (the anti-aliasing
+//! chart).
 //!
 //! PNG text is rasterised by `ab_glyph` from a font compiled into the binary
 //! (`assets/fonts/DejaVuSans.ttf`), so no system font library is needed; SVG text names the
@@ -11,6 +13,7 @@ use std::path::PathBuf;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
+use super::antialias::AntialiasPoint;
 use super::{BenchReport, VariantReport};
 use crate::error::{Error, Result};
 
@@ -41,8 +44,9 @@ fn chart_err(e: impl std::fmt::Display) -> Error {
     Error::Invalid(format!("drawing a chart: {e}"))
 }
 
-/// Draws both charts as `speed_accuracy.{svg,png}` and `scaling.{svg,png}` in `folder`; the
-/// scaling chart only when the report has a sweep. Returns the files written.
+/// Draws the charts as `speed_accuracy.{svg,png}`, `scaling.{svg,png}` and
+/// `antialias.{svg,png}` in `folder`; the scaling chart only when the report has a sweep, the
+/// anti-aliasing chart only when it has the study. Returns the files written.
 pub fn write_charts(
     report: &BenchReport,
     folder: &crate::io::OutputFolder,
@@ -52,8 +56,12 @@ pub fn write_charts(
     for (stem, kind) in [
         ("speed_accuracy", Kind::SpeedAccuracy),
         ("scaling", Kind::Scaling),
+        ("antialias", Kind::Antialias),
     ] {
         if kind == Kind::Scaling && report.scaling.len() < 2 {
+            continue;
+        }
+        if kind == Kind::Antialias && study_points(report).len() < 2 {
             continue;
         }
         let mut svg = String::new();
@@ -82,6 +90,7 @@ pub fn write_charts(
 enum Kind {
     SpeedAccuracy,
     Scaling,
+    Antialias,
 }
 
 fn draw<DB: DrawingBackend>(
@@ -96,6 +105,7 @@ where
     match kind {
         Kind::SpeedAccuracy => speed_accuracy(report, root),
         Kind::Scaling => scaling(report, root),
+        Kind::Antialias => antialias(report, root),
     }
 }
 
@@ -152,26 +162,8 @@ where
                 .map(|p| (v.gpu_ms_median, p))
         })
         .collect();
-    // The anti-aliasing study's points: (GPU ms, PSNR against its lens, name with the cost
-    // ratio to the plain sum).
-    let mut aa: Vec<(f64, f64, String)> = report
-        .antialias
-        .iter()
-        .flat_map(|a| &a.points)
-        .filter(|p| p.gpu_ms_median > 0.0 && p.psnr_vs_truth_db.is_finite())
-        .map(|p| {
-            let label = format!("{} ×{:.1}", p.name, p.cost_ratio);
-            (p.gpu_ms_median, p.psnr_vs_truth_db, label)
-        })
-        .collect();
-    // By time, so that alternating labels below and above separates neighbours on the chart
-    // (the study lists prefiltered and sharp settings apart, whose times interleave).
-    aa.sort_by(|a, b| a.0.total_cmp(&b.0));
     let (tlo, thi) = span(
-        points
-            .iter()
-            .map(|v| v.gpu_ms_median.ln())
-            .chain(aa.iter().map(|a| a.0.ln())),
+        points.iter().map(|v| v.gpu_ms_median.ln()),
         0.08,
         (0.0, 1.0),
     );
@@ -181,8 +173,7 @@ where
         points
             .iter()
             .map(|v| v.psnr_vs_reference_db)
-            .chain(truth.iter().map(|t| t.1))
-            .chain(aa.iter().map(|a| a.1)),
+            .chain(truth.iter().map(|t| t.1)),
         0.08,
         (0.0, 100.0),
     );
@@ -237,50 +228,207 @@ where
             .label("vs the optical ground truth")
             .legend(move |(x, y)| TriangleMarker::new((x, y), 6, orange.stroke_width(2)));
     }
-    if !aa.is_empty() {
-        let green = RGBColor(30, 140, 60);
-        chart
-            .draw_series(aa.iter().map(|(t, p, _)| {
-                Rectangle::new([(*t * 0.97, p - 0.4), (*t * 1.03, p + 0.4)], green.filled())
-            }))
-            .map_err(chart_err)?
-            .label("anti-aliasing study vs its lens (× plain sum's time)")
-            .legend(move |(x, y)| Rectangle::new([(x - 5, y - 5), (x + 5, y + 5)], green.filled()));
-        // Below, above and further below in turn, since neighbouring settings often sit close
-        // together (two rows were not enough for seven settings).
-        for (k, (t, p, label)) in aa.iter().enumerate() {
-            let (px, py) = chart.backend_coord(&(*t, *p));
-            let style = TextStyle::from((FONT, 13).into_font()).color(&green);
-            let dy = [4, -18, 20][k % 3];
-            root.draw(&Text::new(label.clone(), (px + 8, py + dy), style))
-                .map_err(chart_err)?;
-        }
-    }
     // Labels: beside each point, moved up or down where they would overlap one already placed
     // (sizes estimated from the font size: about 0.6 em per character).
-    let mut placed: Vec<(i32, i32, i32, i32)> = Vec::new();
+    let mut placed = Vec::new();
     let mut by_x: Vec<&&VariantReport> = points.iter().collect();
     by_x.sort_by(|a, b| a.gpu_ms_median.total_cmp(&b.gpu_ms_median));
     for v in by_x {
-        let (px, py) = chart.backend_coord(&(v.gpu_ms_median, v.psnr_vs_reference_db));
-        let w = 8 * v.label.chars().count() as i32;
-        let h = 14;
-        let offsets = [0, -15, 15, -30, 30, -45, 45, -60, 60];
-        let dy = offsets
-            .iter()
-            .copied()
-            .find(|dy| {
-                let (x0, y0) = (px + 8, py - h / 2 + dy);
-                placed
-                    .iter()
-                    .all(|&(a, b, c, d)| x0 + w <= a || c <= x0 || y0 + h <= b || d <= y0)
-            })
-            .unwrap_or(0);
-        let (x0, y0) = (px + 8, py - h / 2 + dy);
-        placed.push((x0, y0, x0 + w, y0 + h));
+        let at = chart.backend_coord(&(v.gpu_ms_median, v.psnr_vs_reference_db));
+        let (x0, y0) = place_label(&mut placed, at, &v.label);
         let style =
             TextStyle::from((FONT, 13).into_font()).color(if v.default { &RED } else { &BLACK });
         root.draw(&Text::new(v.label.clone(), (x0, y0), style))
+            .map_err(chart_err)?;
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .label_font((FONT, 14))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(chart_err)?;
+    Ok(())
+}
+
+/// Where the label `text` of the point at backend position `(px, py)` goes: beside it, moved
+/// up or down where it would overlap one already `placed` (sizes estimated from the 13-px
+/// font: about 0.6 em per character); the box is added to `placed`.
+fn place_label(
+    placed: &mut Vec<(i32, i32, i32, i32)>,
+    (px, py): (i32, i32),
+    text: &str,
+) -> (i32, i32) {
+    let w = 8 * text.chars().count() as i32;
+    let h = 14;
+    let offsets = [0, -15, 15, -30, 30, -45, 45, -60, 60];
+    let dy = offsets
+        .iter()
+        .copied()
+        .find(|dy| {
+            let (x0, y0) = (px + 8, py - h / 2 + dy);
+            placed
+                .iter()
+                .all(|&(a, b, c, d)| x0 + w <= a || c <= x0 || y0 + h <= b || d <= y0)
+        })
+        .unwrap_or(0);
+    let (x0, y0) = (px + 8, py - h / 2 + dy);
+    placed.push((x0, y0, x0 + w, y0 + h));
+    (x0, y0)
+}
+
+/// The anti-aliasing study's points with a measured time and score.
+fn study_points(report: &BenchReport) -> Vec<&AntialiasPoint> {
+    report
+        .antialias
+        .iter()
+        .flat_map(|a| &a.points)
+        .filter(|p| p.cost_ratio > 0.0 && p.psnr_vs_truth_db.is_finite())
+        .collect()
+}
+
+/// The anti-aliasing study: cost (× the plain sum's GPU time, log axis) against PSNR to the
+/// lens, overall (filled) and out of focus (hollow), one labelled point per setting; lines
+/// join the plain sum to the prefiltered settings and to the sharp ones in order of their
+/// sample cap, so each line is the trade-off one switch offers.
+fn antialias<DB: DrawingBackend>(report: &BenchReport, root: &DrawingArea<DB, Shift>) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let points = study_points(report);
+    let (xlo, xhi) = span(points.iter().map(|p| p.cost_ratio.ln()), 0.08, (0.0, 1.0));
+    // Room on the right for the labels of the costliest settings.
+    let xhi = xhi + 0.2 * (xhi - xlo);
+    let (ylo, yhi) = span(
+        points
+            .iter()
+            .flat_map(|p| [p.psnr_vs_truth_db, p.psnr_out_of_focus_db]),
+        0.08,
+        (0.0, 50.0),
+    );
+    // Room at the top for the legend.
+    let yhi = yhi + 0.25 * (yhi - ylo);
+    let (flo, fhi) = points
+        .iter()
+        .map(|p| p.psnr_focused_db)
+        .filter(|v| v.is_finite())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    let focused = if !flo.is_finite() {
+        String::new()
+    } else if fhi - flo < 0.05 {
+        format!("; focused plane {flo:.1} dB for all")
+    } else {
+        format!("; focused plane {flo:.1}–{fhi:.1} dB")
+    };
+    // The title, then the scene on a line of its own (it is a sentence long).
+    let scene = report
+        .antialias
+        .as_ref()
+        .map_or(String::new(), |a| a.scene.clone());
+    let area = root
+        .titled(
+            &format!(
+                "Anti-aliasing: cost against accuracy on {}",
+                report.device.name
+            ),
+            (FONT, 20),
+        )
+        .map_err(chart_err)?
+        .titled(&format!("{scene}{focused}"), (FONT, 14))
+        .map_err(chart_err)?;
+    let mut chart = ChartBuilder::on(&area)
+        .margin(18)
+        .x_label_area_size(50)
+        .y_label_area_size(65)
+        .build_cartesian_2d((xlo.exp()..xhi.exp()).log_scale(), ylo..yhi)
+        .map_err(chart_err)?;
+    chart
+        .configure_mesh()
+        .x_desc("GPU time × the plain sum's (same run, medians, log scale)")
+        .y_desc("PSNR against the lens (dB)")
+        .light_line_style(WHITE)
+        .x_label_formatter(&log_label)
+        .label_style((FONT, 14))
+        .axis_desc_style((FONT, 16))
+        .draw()
+        .map_err(chart_err)?;
+    let green = RGBColor(30, 140, 60);
+    let blue = RGBColor(31, 119, 180);
+    // The plain sum, then each family by its cap.
+    let family = |prefilter: bool| {
+        let mut f: Vec<&&AntialiasPoint> = points
+            .iter()
+            .filter(|p| p.max_samples.is_none() || (p.prefilter == prefilter && p.focus_test))
+            .collect();
+        f.sort_by_key(|p| p.max_samples.unwrap_or(0));
+        f
+    };
+    for (prefilter, dash) in [(true, false), (false, true)] {
+        let f = family(prefilter);
+        for (y, colour) in [
+            (
+                f.iter()
+                    .map(|p| (p.cost_ratio, p.psnr_vs_truth_db))
+                    .collect::<Vec<_>>(),
+                green,
+            ),
+            (
+                f.iter()
+                    .map(|p| (p.cost_ratio, p.psnr_out_of_focus_db))
+                    .collect(),
+                blue,
+            ),
+        ] {
+            let style = colour.mix(if dash { 0.35 } else { 0.7 }).stroke_width(2);
+            chart
+                .draw_series(LineSeries::new(y, style))
+                .map_err(chart_err)?;
+        }
+    }
+    chart
+        .draw_series(points.iter().map(|p| {
+            Rectangle::new(
+                [
+                    (p.cost_ratio * 0.98, p.psnr_vs_truth_db - 0.15),
+                    (p.cost_ratio * 1.02, p.psnr_vs_truth_db + 0.15),
+                ],
+                green.filled(),
+            )
+        }))
+        .map_err(chart_err)?
+        .label("overall (solid line: prefiltered, faint: sharp)")
+        .legend(move |(x, y)| Rectangle::new([(x - 5, y - 5), (x + 5, y + 5)], green.filled()));
+    chart
+        .draw_series(points.iter().map(|p| {
+            Circle::new(
+                (p.cost_ratio, p.psnr_out_of_focus_db),
+                5,
+                blue.stroke_width(2),
+            )
+        }))
+        .map_err(chart_err)?
+        .label("out of focus")
+        .legend(move |(x, y)| Circle::new((x, y), 5, blue.stroke_width(2)));
+    // Labels keep clear of every marker as well as of each other.
+    let mut placed: Vec<(i32, i32, i32, i32)> = points
+        .iter()
+        .flat_map(|p| [p.psnr_vs_truth_db, p.psnr_out_of_focus_db].map(|y| (p.cost_ratio, y)))
+        .map(|c| {
+            let (x, y) = chart.backend_coord(&c);
+            (x - 6, y - 6, x + 6, y + 6)
+        })
+        .collect();
+    let mut by_x: Vec<&&AntialiasPoint> = points.iter().collect();
+    by_x.sort_by(|a, b| a.cost_ratio.total_cmp(&b.cost_ratio));
+    for p in by_x {
+        let label = format!("{} ×{:.1}", p.name, p.cost_ratio);
+        let at = chart.backend_coord(&(p.cost_ratio, p.psnr_vs_truth_db));
+        let (x0, y0) = place_label(&mut placed, at, &label);
+        let style = TextStyle::from((FONT, 13).into_font()).color(&green);
+        root.draw(&Text::new(label, (x0, y0), style))
             .map_err(chart_err)?;
     }
     chart
