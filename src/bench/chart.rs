@@ -241,6 +241,16 @@ where
         root.draw(&Text::new(v.label.clone(), (x0, y0), style))
             .map_err(chart_err)?;
     }
+    legend(&mut chart)
+}
+
+/// The legend box of a chart's labelled series, top left.
+fn legend<'a, DB: DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
     chart
         .configure_series_labels()
         .position(SeriesLabelPosition::UpperLeft)
@@ -248,8 +258,7 @@ where
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .draw()
-        .map_err(chart_err)?;
-    Ok(())
+        .map_err(chart_err)
 }
 
 /// Where the label `text` of the point at backend position `(px, py)` goes: beside it, moved
@@ -431,15 +440,7 @@ where
         root.draw(&Text::new(label, (x0, y0), style))
             .map_err(chart_err)?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .label_font((FONT, 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(chart_err)?;
-    Ok(())
+    legend(&mut chart)
 }
 
 fn scaling<DB: DrawingBackend>(report: &BenchReport, root: &DrawingArea<DB, Shift>) -> Result<()>
@@ -501,13 +502,5 @@ where
             ))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED.stroke_width(2)));
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .label_font((FONT, 14))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(chart_err)?;
-    Ok(())
+    legend(&mut chart)
 }

@@ -678,28 +678,34 @@ mod tests {
         assert!((m - 2.0 * 2.0_f64.hypot(1.0)).abs() < 1e-9, "{m}");
     }
 
-    #[test]
-    fn the_wide_range_moves_the_centre_an_eighth_image() {
-        let lf = lf(false);
-        let r = reference_view(&lf, None).unwrap();
-        let conv = convention_of(&lf);
+    /// A sweep plan of `lf` (a calibrated rig: inverse-depth convention) from its middle view
+    /// against `set`, at the views' size.
+    fn calibrated_plan(lf: &LightField, set: ViewSet) -> SweepPlan {
+        let r = reference_view(lf, None).unwrap();
+        let conv = convention_of(lf);
         assert_eq!(conv, Convention::InverseDepth);
-        let views = select_views(&lf, r, ViewSet::All, &[])
+        let views = select_views(lf, r, set, &[])
             .into_iter()
-            .map(|i| sweep_view(&lf, r, i, conv))
+            .map(|i| sweep_view(lf, r, i, conv))
             .collect();
-        let plan = SweepPlan {
+        SweepPlan {
             reference: r,
-            reference_st: (2, 1),
+            reference_st: (lf.views[r].s, lf.views[r].t),
             reference_camera: lf.views[r].camera,
-            width: 32,
-            height: 24,
+            width: lf.width,
+            height: lf.height,
             views,
             convention: conv,
             range: (0.1, 1.0),
             range_origin: RangeOrigin::Given,
             planes: 9,
-        };
+        }
+    }
+
+    #[test]
+    fn the_wide_range_moves_the_centre_an_eighth_image() {
+        let lf = lf(false);
+        let plan = calibrated_plan(&lf, ViewSet::All);
         let (lo, hi) = wide_range(&plan);
         assert!(lo > 0.0 && lo < hi);
         // These parallel cameras' sensors are shifted to hold the rig's focus distance (2 m)
@@ -753,25 +759,7 @@ mod tests {
                 scene: "converging".into(),
             },
         };
-        let r = reference_view(&lf, None).unwrap();
-        let conv = convention_of(&lf);
-        assert_eq!(conv, Convention::InverseDepth);
-        let views = select_views(&lf, r, ViewSet::Cross(usize::MAX), &[])
-            .into_iter()
-            .map(|i| sweep_view(&lf, r, i, conv))
-            .collect();
-        let plan = SweepPlan {
-            reference: r,
-            reference_st: (2, 2),
-            reference_camera: lf.views[r].camera,
-            width: 128,
-            height: 128,
-            views,
-            convention: conv,
-            range: (0.1, 1.0),
-            range_origin: RangeOrigin::Given,
-            planes: 9,
-        };
+        let plan = calibrated_plan(&lf, ViewSet::Cross(usize::MAX));
         let (lo, hi) = wide_range(&plan);
         let still = 1.0 / 2.5;
         assert!(lo < still && still < hi, "{lo} … {hi}");
