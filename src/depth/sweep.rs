@@ -501,20 +501,28 @@ mod tests {
         focus_distance: 2.0,
     };
 
-    fn lf(rig: bool) -> LightField {
-        let grid = GridSize { cols: 5, rows: 3 };
-        let views = RIG
-            .cameras(grid, 32, 24)
+    /// Black views of `w × h` for `cameras`, row-major on a grid `cols` wide.
+    fn blank_views(
+        cameras: Vec<crate::geometry::camera::Camera>,
+        cols: usize,
+        (w, h): (u32, u32),
+    ) -> Vec<View> {
+        cameras
             .into_iter()
             .enumerate()
             .map(|(i, camera)| View {
-                s: i % 5,
-                t: i / 5,
+                s: i % cols,
+                t: i / cols,
                 camera,
-                image: image::RgbaImage::new(32, 24),
+                image: image::RgbaImage::new(w, h),
                 source: format!("view {i}"),
             })
-            .collect();
+            .collect()
+    }
+
+    fn lf(rig: bool) -> LightField {
+        let grid = GridSize { cols: 5, rows: 3 };
+        let views = blank_views(RIG.cameras(grid, 32, 24), 5, (32, 24));
         LightField {
             name: "t".into(),
             grid,
@@ -734,18 +742,7 @@ mod tests {
             focus_distance: 2.5,
             kind: crate::synth::RigKind::Converging { distance: 2.5 },
         };
-        let views = rig
-            .cameras()
-            .into_iter()
-            .enumerate()
-            .map(|(i, camera)| View {
-                s: i % 5,
-                t: i / 5,
-                camera,
-                image: image::RgbaImage::new(128, 128),
-                source: format!("view {i}"),
-            })
-            .collect();
+        let views = blank_views(rig.cameras(), 5, (128, 128));
         let lf = LightField {
             name: "converging".into(),
             grid: rig.grid,
