@@ -76,9 +76,22 @@ fn antialiasing_beats_the_plain_sum_on_every_case_of_the_set() {
     let mean = |f: &dyn Fn(&antialias_set::CaseResult) -> f64| {
         rows.iter().map(f).sum::<f64>() / rows.len() as f64
     };
-    // Measured: plain 29.5 / 30.0 dB, given 33.7 / 37.4, estimated 32.9 / 36.3 (overall / out
+    // Measured: plain 29.5 / 30.0 dB, given 33.7 / 37.4, estimated 32.9 / 36.5 (overall / out
     // of focus). Per case the estimate is not held overall: on `depths` it scores 29.5 dB
     // against the plain sum's 29.6 (its colour-bar card, README).
+    // On the converging rig the estimate finds the nearest card now that the depth search is
+    // centred where the cameras look (docs/depth.md step 2): out of focus 38.0 dB against the
+    // given depth's 37.8; 35.8 with the range anchored at infinity, which put the card on the
+    // wall.
+    let rotated = rows.iter().find(|r| r.name == "layers-rotated").unwrap();
+    let (go, eo) = (
+        rotated.given.out_of_focus.unwrap(),
+        rotated.estimated.as_ref().unwrap().out_of_focus.unwrap(),
+    );
+    assert!(
+        eo >= go - 1.0,
+        "converging rig: given {go:.1}, estimated {eo:.1} dB"
+    );
     let plain = mean(&|r| r.plain.out_of_focus.unwrap());
     assert!(mean(&|r| r.given.out_of_focus.unwrap()) >= plain + 6.0);
     let plain = mean(&|r| r.plain.overall);
