@@ -672,14 +672,13 @@ pub fn plan_antialias_reusing(
 ) -> Result<AntialiasPlan> {
     settings.validate()?;
     aperture.validate()?;
-    if base.method == FocusMethod::ClassicShift {
-        return Err(Error::Invalid(
-            "anti-aliasing needs the cameras' geometry, but --disparity on a light field \
-             without a rig is classic shift-and-sum; focus with --plane or --focus, or use \
-             --antialias off"
-                .into(),
-        ));
-    }
+    let converted;
+    let base = if base.method == FocusMethod::ClassicShift {
+        converted = classic_as_plane(lf, base, aperture, excluded)?;
+        &converted
+    } else {
+        base
+    };
     let scene = scene_depth(depth, &base.reference_camera, (lf.width, lf.height))?;
     let mut cells = Vec::new();
     for (index, v) in lf.views.iter().enumerate() {
@@ -802,6 +801,101 @@ pub fn plan_antialias_reusing(
     })
 }
 
+/// A classic shift-and-sum plan (`--disparity D` on a light field without a rig: every view
+/// shifted by D pixels per grid step) as the frontoparallel plane that shifts every view
+/// alike, where `lf`'s cameras form a parallel grid: same orientation and focal length,
+/// centres on a plane (a grid folder's nominal cameras, which take the sensor shift of its
+/// depth estimate's range, `depth::cache::install`, so that every estimated surface lies in
+/// front of infinity). Its plain sum is the classic one up to rounding, and it has the parallax
+/// term the footprints need. An error names the cause where the cameras are not such a grid or
+/// D lies at or beyond their infinity.
+fn classic_as_plane(
+    lf: &LightField,
+    base: &RefocusPlan,
+    aperture: Aperture,
+    excluded: &[bool],
+) -> Result<RefocusPlan> {
+    let refuse = |why: &str| {
+        Error::Invalid(format!(
+            "anti-aliasing needs the cameras' geometry, but --disparity on a light field \
+             without a rig is classic shift-and-sum{why}; focus with --plane or --focus, or \
+             use --antialias off"
+        ))
+    };
+    let offset = |s: usize, t: usize| DVec2::new(s as f64, t as f64) - base.reference;
+    // D from the plan's translations (0 for an aperture of the reference view alone).
+    let d = base
+        .views
+        .iter()
+        .find(|v| offset(v.s, v.t).length() > 0.5)
+        .map_or(0.0, |v| {
+            let o = offset(v.s, v.t);
+            v.warp.a.z_axis.truncate().dot(o) / o.length_squared()
+        });
+    // Under the cameras, view j's sample moves by t_j + b_j w from the output pixel on the
+    // frontoparallel plane of inverse depth w (reference frame), when its warp's linear part
+    // is the identity and b_j has no depth component; w solves t_j + b_j w = D·offset_j.
+    let rc = &base.reference_camera;
+    let mut rows = Vec::new();
+    for (j, v) in lf.views.iter().enumerate() {
+        if excluded.get(j).copied().unwrap_or(false) {
+            continue;
+        }
+        let w = ViewWarp::new(&v.camera, rc);
+        let scale = 1.0 + w.a.z_axis.truncate().length();
+        let parallel = (w.a.x_axis - DVec3::X).length() < 1e-9
+            && (w.a.y_axis - DVec3::Y).length() < 1e-9
+            && (w.a.z_axis.z - 1.0).abs() < 1e-9
+            && w.b.z.abs() < 1e-9 * scale.max(w.b.length());
+        if !parallel {
+            return Err(refuse(" and these cameras are not a parallel grid"));
+        }
+        rows.push((w.a.z_axis.truncate(), w.b.truncate(), offset(v.s, v.t)));
+    }
+    let (num, den) = rows.iter().fold((0.0, 0.0), |(n, dd), (t, b, o)| {
+        (n + b.dot(d * *o - *t), dd + b.length_squared())
+    });
+    if den <= 0.0 {
+        return Err(refuse(" and these cameras share one centre"));
+    }
+    let w = num / den;
+    let misfit = rows
+        .iter()
+        .map(|(t, b, o)| (*t + *b * w - d * *o).length())
+        .fold(0.0, f64::max);
+    if misfit.is_nan() || misfit > 1e-6 * (1.0 + d.abs()) {
+        return Err(refuse(&format!(
+            ", and these cameras shift their views unlike it (by up to {misfit:.3} px)"
+        )));
+    }
+    if w.is_nan() || w <= 0.0 {
+        // D at w = 0, measured along the grid's first offset.
+        let at_infinity = rows
+            .iter()
+            .find(|(_, _, o)| o.length() > 0.5)
+            .map_or(f64::NAN, |(t, _, o)| t.dot(*o) / o.length_squared());
+        return Err(Error::Invalid(format!(
+            "--disparity {d} lies at or beyond the cameras' infinity ({at_infinity:.3} px per \
+             grid step), so it is no plane anti-aliasing can integrate over; focus nearer, or \
+             use --antialias off"
+        )));
+    }
+    let r_t = rc.r.transpose();
+    let plane = crate::geometry::plane::Plane::new(
+        rc.centre() + r_t * DVec3::new(0.0, 0.0, 1.0 / w),
+        r_t * DVec3::new(0.0, 0.0, -1.0),
+    )?;
+    super::plan(
+        lf,
+        &super::RefocusRequest {
+            focus: super::FocusSpec::Plane(plane),
+            aperture,
+            reference: Some(base.reference),
+        },
+        excluded,
+    )
+}
+
 /// [`plan_antialias`] with the depth of `lf`'s map-carrying view ([`LightField::view_depth`]);
 /// an error naming the light field when it has no depth.
 pub fn plan_for(
@@ -913,6 +1007,71 @@ mod tests {
                 scene: "grid".into(),
             },
         }
+    }
+
+    /// A grid folder focused by `--disparity D` (classic shift-and-sum) anti-aliases on the
+    /// frontoparallel plane of its parallel cameras that shifts every view by the same D per
+    /// grid step; a D at or beyond the cameras' infinity, and cameras that are not a parallel
+    /// grid, are refused naming the cause.
+    #[test]
+    fn a_classic_disparity_on_parallel_cameras_is_their_frontoparallel_plane() {
+        // No rig: `--disparity` is classic shift-and-sum on the grid's (sensor-shifted)
+        // cameras.
+        let mut lf = grid();
+        lf.rig = None;
+        // RIG (f·b = 4 px, focus 2 m) puts infinity at classic D = f·b/Z₀ = 2.
+        let plan_at = |lf: &LightField, d: f64| {
+            let req = super::super::RefocusRequest {
+                focus: super::super::FocusSpec::Disparity(d),
+                aperture: Aperture::default(),
+                reference: None,
+            };
+            let base = super::super::plan(lf, &req, &[]).unwrap();
+            assert_eq!(base.method, FocusMethod::ClassicShift);
+            plan_for(
+                lf,
+                &base,
+                Aperture::default(),
+                &[],
+                AntialiasSettings::default(),
+            )
+        };
+        for d in [-1.5, 0.0, 1.5] {
+            let aa = plan_at(&lf, d).unwrap();
+            assert_ne!(aa.plan.method, FocusMethod::ClassicShift);
+            for v in &aa.plan.views {
+                let off = DVec2::new(v.s as f64 - 2.0, v.t as f64 - 2.0);
+                for x in [
+                    DVec2::new(0.0, 0.0),
+                    DVec2::new(15.0, 11.0),
+                    DVec2::new(7.5, 3.0),
+                ] {
+                    let y = v.warp.apply(aa.plan.m, x);
+                    let y = DVec2::new(y.x / y.z, y.y / y.z);
+                    assert!(
+                        (y - (x + d * off)).length() < 1e-9,
+                        "D {d}: {y} vs {x} + {off}"
+                    );
+                }
+            }
+        }
+        let e = plan_at(&lf, 2.0).unwrap_err().to_string();
+        assert!(
+            e.contains("--disparity 2 lies at or beyond the cameras' infinity (2.000"),
+            "{e}"
+        );
+        // A camera turned a degree: not a parallel grid.
+        let c = lf.views[3].camera;
+        lf.views[3].camera = Camera::from_centre(
+            c.k,
+            DMat3::from_rotation_y(1f64.to_radians()) * c.r,
+            c.centre(),
+        );
+        let e = plan_at(&lf, 0.0).unwrap_err().to_string();
+        assert!(
+            e.contains("not a parallel grid") && e.contains("--antialias off"),
+            "{e}"
+        );
     }
 
     fn aa_plan(lf: &LightField, aperture: Aperture, reference: Option<DVec2>) -> AntialiasPlan {
