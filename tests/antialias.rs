@@ -901,14 +901,7 @@ fn a_grid_folder_focused_by_disparity_antialiases_on_its_estimate() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let gf = dir.path().join("grid");
-    std::fs::create_dir(&gf).unwrap();
-    for i in 0..25 {
-        std::fs::copy(
-            hci.join(format!("input_Cam{i:03}.png")),
-            gf.join(format!("view_{}_{}.png", i / 5, i % 5)),
-        )
-        .unwrap();
-    }
+    hci_as_grid_folder(&hci, &gf, 5, 5);
     let png = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     // The HCI disparity −D is the classic D of the same views (and 0 is 0).
     let render = |lf: &std::path::Path, aa: &str, out: &str| {

@@ -947,14 +947,7 @@ fn repeated_disparity_without_a_rig_is_refused() {
     assert!(o.status.success(), "{}", stderr(&o));
     // The same views as a grid folder (row_col.png): nominal cameras, no rig, no depth.
     let grid = dir.path().join("grid");
-    std::fs::create_dir(&grid).unwrap();
-    for k in 0..9 {
-        std::fs::copy(
-            hci.join(format!("input_Cam{k:03}.png")),
-            grid.join(format!("{:02}_{:02}.png", k / 3, k % 3)),
-        )
-        .unwrap();
-    }
+    hci_as_grid_folder(&hci, &grid, 3, 3);
     let out = dir.path().join("o.png");
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
         .args([

@@ -273,6 +273,20 @@ pub fn rect_mask(x0: usize, y0: usize, x1: usize, y1: usize) -> Vec<bool> {
         .collect()
 }
 
+/// Copies the views of the HCI folder `hci` (a `cols × rows` grid, `input_CamNNN.png`) into a
+/// new grid folder `grid` named by row and column (`RR_CC.png`): the same views with nominal
+/// cameras, no rig and no depth.
+pub fn hci_as_grid_folder(hci: &std::path::Path, grid: &std::path::Path, cols: usize, rows: usize) {
+    std::fs::create_dir(grid).unwrap();
+    for k in 0..cols * rows {
+        std::fs::copy(
+            hci.join(format!("input_Cam{k:03}.png")),
+            grid.join(format!("{:02}_{:02}.png", k / cols, k % cols)),
+        )
+        .unwrap();
+    }
+}
+
 /// Runs the `tiltfield` binary with the validation layer on (commands that touch the GPU then
 /// fail on any validation error).
 pub fn tiltfield(args: &[&str]) -> std::process::Output {
