@@ -325,7 +325,7 @@ pub fn run_antialias_set(args: &AntialiasSetArgs) -> Result<()> {
     // Bad options fail before any folder is made or the GPU starts.
     options.validate()?;
     if let Some(md) = &args.markdown {
-        crate::io::check_writable(md)?;
+        super::check_output(md)?;
     }
     let images = args
         .images
@@ -346,23 +346,16 @@ pub fn run_antialias_set(args: &AntialiasSetArgs) -> Result<()> {
         }
         dir.finish();
     }
-    let table = set::markdown(&rows);
-    if let Some(md) = &args.markdown {
-        crate::io::write_bytes(md, "Markdown table", table.as_bytes())?;
-    }
-    if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&serde_json::json!({
+    super::report_set(
+        &set::markdown(&rows),
+        args.markdown.as_deref(),
+        args.json.then(|| {
+            serde_json::json!({
                 "device": ctx.info.name,
                 "size": args.size,
                 "rows": rows,
-            }))
-            .map_err(|e| Error::Invalid(e.to_string()))?
-        );
-    } else {
-        println!("{table}");
-        eprintln!("device: {}", ctx.info.name);
-    }
-    Ok(())
+            })
+        }),
+        &ctx.info.name,
+    )
 }

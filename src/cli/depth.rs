@@ -187,20 +187,13 @@ pub fn run_set(args: &DepthSetArgs) -> Result<()> {
         testset::markdown(&rows),
         testset::calibration_markdown(&rows)
     );
-    if let Some(md) = &args.markdown {
-        crate::io::write_bytes(md, "Markdown table", table.as_bytes())?;
-    }
-    if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&json!({"device": ctx.info.name, "rows": rows}))
-                .map_err(|e| Error::Invalid(e.to_string()))?
-        );
-    } else {
-        println!("{table}");
-        eprintln!("device: {}", ctx.info.name);
-    }
-    Ok(())
+    super::report_set(
+        &table,
+        args.markdown.as_deref(),
+        args.json
+            .then(|| json!({"device": ctx.info.name, "rows": rows})),
+        &ctx.info.name,
+    )
 }
 
 use crate::depth::request::{parse_kind, DepthRequest};

@@ -263,6 +263,32 @@ pub(crate) fn check_output(path: &Path) -> Result<()> {
     crate::io::check_writable(path)
 }
 
+/// The report of a test-set command (`depth-set`, `antialias-set`): `table` also to
+/// `markdown` when given, then on stdout the `json` document with `--json`, else the table
+/// with the device on stderr.
+pub(crate) fn report_set(
+    table: &str,
+    markdown: Option<&Path>,
+    json: Option<serde_json::Value>,
+    device: &str,
+) -> Result<()> {
+    if let Some(md) = markdown {
+        crate::io::write_bytes(md, "Markdown table", table.as_bytes())?;
+    }
+    match json {
+        Some(doc) => println!(
+            "{}",
+            serde_json::to_string_pretty(&doc)
+                .map_err(|e| crate::error::Error::Invalid(e.to_string()))?
+        ),
+        None => {
+            println!("{table}");
+            eprintln!("device: {device}");
+        }
+    }
+    Ok(())
+}
+
 /// Default output folder of `demo`.
 pub(crate) fn default_demo_dir() -> PathBuf {
     PathBuf::from("tiltfield-demo")
