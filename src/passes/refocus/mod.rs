@@ -807,12 +807,7 @@ impl RefocusPass {
         }
         let changed = self.set_views(&aa.plan)?;
         self.set_visibility(ctx, aa)?;
-        let visible = aa.visibility.is_some();
-        let records: Vec<GpuFootprint> = aa
-            .footprints
-            .iter()
-            .map(|f| GpuFootprint::new(f, visible, aa.guard_px, aa.focus_threshold()))
-            .collect();
+        let records = footprint_records(aa);
         if records != self.uploaded_footprints {
             let bytes = as_bytes(&records);
             self.footprints.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
@@ -903,19 +898,7 @@ impl RefocusPass {
     /// frames in flight waits for them first.
     pub fn antialias_differs(&self, aa: &AntialiasPlan) -> bool {
         self.views_differ(&aa.plan)
-            || self.uploaded_footprints.len() != aa.footprints.len()
-            || aa
-                .footprints
-                .iter()
-                .zip(&self.uploaded_footprints)
-                .any(|(f, u)| {
-                    GpuFootprint::new(
-                        f,
-                        aa.visibility.is_some(),
-                        aa.guard_px,
-                        aa.focus_threshold(),
-                    ) != *u
-                })
+            || footprint_records(aa) != self.uploaded_footprints
             || aa.visibility.as_ref().map(|v| v.id) != self.uploaded_visibility
             || aa.depth.interleaved() != self.uploaded_depth
             || aa.settings.prefilter != self.uploaded_prefilter
@@ -1491,6 +1474,16 @@ impl PassObjects {
             d.destroy_sampler(self.sampler_mip, None);
         }
     }
+}
+
+/// The footprint records of `aa` as the pass uploads them (one per view), so that
+/// [`RefocusPass::set_antialias`] and [`RefocusPass::antialias_differs`] build them alike.
+fn footprint_records(aa: &AntialiasPlan) -> Vec<GpuFootprint> {
+    let visible = aa.visibility.is_some();
+    aa.footprints
+        .iter()
+        .map(|f| GpuFootprint::new(f, visible, aa.guard_px, aa.focus_threshold()))
+        .collect()
 }
 
 #[cfg(test)]
