@@ -880,15 +880,15 @@ fn classic_as_plane(
              use --antialias off"
         )));
     }
-    let r_t = rc.r.transpose();
-    let plane = crate::geometry::plane::Plane::new(
-        rc.centre() + r_t * DVec3::new(0.0, 0.0, 1.0 / w),
-        r_t * DVec3::new(0.0, 0.0, -1.0),
-    )?;
+    // The keyboard definition's frontoparallel plane at distance 1/w.
     super::plan(
         lf,
         &super::RefocusRequest {
-            focus: super::FocusSpec::Plane(plane),
+            focus: super::FocusSpec::FocusTiltSwing {
+                distance: 1.0 / w,
+                tilt_deg: 0.0,
+                swing_deg: 0.0,
+            },
             aperture,
             reference: Some(base.reference),
         },
