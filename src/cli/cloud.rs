@@ -147,17 +147,12 @@ pub fn run(args: &CloudArgs) -> Result<()> {
             "--slab needs a focus plane to lie around; give --plane, --focus or a click".into(),
         ));
     }
-    if let Some(f) = &focus {
-        if f.plane.is_none() {
-            return Err(Error::Invalid(format!(
-                "--disparity on '{}' is classic shift-and-sum (no camera rig), which has no \
-                 plane to draw; give --plane, --focus or a click option",
-                lf.name
-            )));
-        }
-    }
+    // Classic shift-and-sum (--disparity without a rig) is drawn as the plane it stands for.
+    let focus = focus
+        .map(|f| crate::refocus::plan::with_classic_plane(&lf, f, reference))
+        .transpose()?;
     // The surface's planes placed as the focus is, from the reference camera.
-    let surface = asked.resolve(&lf, &lf.camera_at(reference)?)?;
+    let surface = asked.resolve(&lf, reference)?;
     let mut builder = SceneBuilder::new(&lf).reference(reference).cloud(cloud);
     if let Some(f) = &focus {
         builder = builder.focus(f);

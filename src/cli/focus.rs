@@ -42,8 +42,8 @@ pub struct PlaneArgs {
     /// Frontoparallel focus by disparity in pixels per grid step. HCI convention on HCI data,
     /// rig manifests and built-in scenes (positive = nearer than the focus distance); classic
     /// shift-and-sum elsewhere (view (s,t) sampled at u + (s − s_r)·D, v + (t − t_r)·D).
-    /// `render` and `cloud` take it 2 to 8 times on a rig: a focus surface of frontoparallel
-    /// planes (classic shift-and-sum has no planes to choose between).
+    /// `render` and `cloud` take it 2 to 8 times: a focus surface of frontoparallel planes
+    /// (without a rig, the planes the classic shifts stand for on parallel cameras).
     #[arg(
         long,
         value_name = "D",

@@ -448,7 +448,15 @@ fn prepare_excluding(
         }
     };
     let (plan, focus) = make_plan_excluding(lf, options, window, excluded)?;
-    let surface = asked.resolve(lf, &plan.reference_camera)?;
+    // A surface chooses between the inverse depths of planes: classic shift-and-sum becomes
+    // the plane it stands for (its plain sum is the classic one up to rounding).
+    let plan = match asked.needs_depth() {
+        true => refocus::plan::with_plane(lf, &plan, options.aperture, excluded)
+            .map_err(|e| refocus::surface::in_surface(asked.name(), e))?
+            .into_owned(),
+        false => plan,
+    };
+    let surface = asked.resolve(lf, plan.reference)?;
     let antialias = match aa_on {
         true => antialias_plan_excluding(lf, options, &plan, excluded)?,
         false => None,

@@ -34,7 +34,6 @@
 use glam::{DMat3, DVec2, DVec3};
 
 use super::plan::{PlannedView, RefocusPlan};
-use super::FocusMethod;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::geometry::camera::Camera;
@@ -672,13 +671,13 @@ pub fn plan_antialias_reusing(
 ) -> Result<AntialiasPlan> {
     settings.validate()?;
     aperture.validate()?;
-    let converted;
-    let base = if base.method == FocusMethod::ClassicShift {
-        converted = classic_as_plane(lf, base, aperture, excluded)?;
-        &converted
-    } else {
-        base
-    };
+    let base = &*super::plan::with_plane(lf, base, aperture, excluded).map_err(|e| match e {
+        Error::Invalid(m) => Error::Invalid(format!(
+            "anti-aliasing needs the cameras' geometry: {m}; focus with --plane or --focus, \
+             or use --antialias off"
+        )),
+        e => e,
+    })?;
     let scene = scene_depth(depth, &base.reference_camera, (lf.width, lf.height))?;
     let mut cells = Vec::new();
     for (index, v) in lf.views.iter().enumerate() {
@@ -801,101 +800,6 @@ pub fn plan_antialias_reusing(
     })
 }
 
-/// A classic shift-and-sum plan (`--disparity D` on a light field without a rig: every view
-/// shifted by D pixels per grid step) as the frontoparallel plane that shifts every view
-/// alike, where `lf`'s cameras form a parallel grid: same orientation and focal length,
-/// centres on a plane (a grid folder's nominal cameras, which take the sensor shift of its
-/// depth estimate's range, `depth::cache::install`, so that every estimated surface lies in
-/// front of infinity). Its plain sum is the classic one up to rounding, and it has the parallax
-/// term the footprints need. An error names the cause where the cameras are not such a grid or
-/// D lies at or beyond their infinity.
-fn classic_as_plane(
-    lf: &LightField,
-    base: &RefocusPlan,
-    aperture: Aperture,
-    excluded: &[bool],
-) -> Result<RefocusPlan> {
-    let refuse = |why: &str| {
-        Error::Invalid(format!(
-            "anti-aliasing needs the cameras' geometry, but --disparity on a light field \
-             without a rig is classic shift-and-sum{why}; focus with --plane or --focus, or \
-             use --antialias off"
-        ))
-    };
-    let offset = |s: usize, t: usize| DVec2::new(s as f64, t as f64) - base.reference;
-    // D from the plan's translations (0 for an aperture of the reference view alone).
-    let d = base
-        .views
-        .iter()
-        .find(|v| offset(v.s, v.t).length() > 0.5)
-        .map_or(0.0, |v| {
-            let o = offset(v.s, v.t);
-            v.warp.a.z_axis.truncate().dot(o) / o.length_squared()
-        });
-    // Under the cameras, view j's sample moves by t_j + b_j w from the output pixel on the
-    // frontoparallel plane of inverse depth w (reference frame), when its warp's linear part
-    // is the identity and b_j has no depth component; w solves t_j + b_j w = D·offset_j.
-    let rc = &base.reference_camera;
-    let mut rows = Vec::new();
-    for (j, v) in lf.views.iter().enumerate() {
-        if excluded.get(j).copied().unwrap_or(false) {
-            continue;
-        }
-        let w = ViewWarp::new(&v.camera, rc);
-        let scale = 1.0 + w.a.z_axis.truncate().length();
-        let parallel = (w.a.x_axis - DVec3::X).length() < 1e-9
-            && (w.a.y_axis - DVec3::Y).length() < 1e-9
-            && (w.a.z_axis.z - 1.0).abs() < 1e-9
-            && w.b.z.abs() < 1e-9 * scale.max(w.b.length());
-        if !parallel {
-            return Err(refuse(" and these cameras are not a parallel grid"));
-        }
-        rows.push((w.a.z_axis.truncate(), w.b.truncate(), offset(v.s, v.t)));
-    }
-    let (num, den) = rows.iter().fold((0.0, 0.0), |(n, dd), (t, b, o)| {
-        (n + b.dot(d * *o - *t), dd + b.length_squared())
-    });
-    if den <= 0.0 {
-        return Err(refuse(" and these cameras share one centre"));
-    }
-    let w = num / den;
-    let misfit = rows
-        .iter()
-        .map(|(t, b, o)| (*t + *b * w - d * *o).length())
-        .fold(0.0, f64::max);
-    if misfit.is_nan() || misfit > 1e-6 * (1.0 + d.abs()) {
-        return Err(refuse(&format!(
-            ", and these cameras shift their views unlike it (by up to {misfit:.3} px)"
-        )));
-    }
-    if w.is_nan() || w <= 0.0 {
-        // D at w = 0, measured along the grid's first offset.
-        let at_infinity = rows
-            .iter()
-            .find(|(_, _, o)| o.length() > 0.5)
-            .map_or(f64::NAN, |(t, _, o)| t.dot(*o) / o.length_squared());
-        return Err(Error::Invalid(format!(
-            "--disparity {d} lies at or beyond the cameras' infinity ({at_infinity:.3} px per \
-             grid step), so it is no plane anti-aliasing can integrate over; focus nearer, or \
-             use --antialias off"
-        )));
-    }
-    // The keyboard definition's frontoparallel plane at distance 1/w.
-    super::plan(
-        lf,
-        &super::RefocusRequest {
-            focus: super::FocusSpec::FocusTiltSwing {
-                distance: 1.0 / w,
-                tilt_deg: 0.0,
-                swing_deg: 0.0,
-            },
-            aperture,
-            reference: Some(base.reference),
-        },
-        excluded,
-    )
-}
-
 /// [`plan_antialias`] with the depth of `lf`'s map-carrying view ([`LightField::view_depth`]);
 /// an error naming the light field when it has no depth.
 pub fn plan_for(
@@ -963,6 +867,7 @@ pub fn antialias_json(
 mod tests {
     use super::*;
     use crate::lightfield::{GridSize, ParallelRig, Source, View};
+    use crate::refocus::FocusMethod;
 
     const RIG: ParallelRig = ParallelRig {
         focal_px: 40.0,

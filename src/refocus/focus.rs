@@ -13,7 +13,8 @@
 //!   the reference camera centre (|d_r| above 10⁻⁶ of the rig's extent), so the plane term
 //!   `m` is finite;
 //! - `--disparity` without a parallel rig is classic shift-and-sum and has no plane
-//!   ([`FocusMethod::ClassicShift`], `plane: None`);
+//!   ([`FocusMethod::ClassicShift`], `plane: None`; what needs one takes the plane its shifts
+//!   stand for, [`super::plan::classic_plane`]);
 //! - pixels of clicks are pixels of the view that carries the depth map; the plane found is a
 //!   world-frame plane, the same from every viewpoint. Nudges and three world points act
 //!   relative to the reference camera (`reference`, fractional grid position).

@@ -10,9 +10,11 @@
 //! - otherwise it is classic shift-and-sum (Ng 2005): view (s, t) is sampled at
 //!   u + (s − s_r)·D, v + (t − t_r)·D, with no camera model involved.
 
+use std::borrow::Cow;
+
 use glam::{DVec2, DVec3};
 
-use super::focus::{focus_plane, FocusMethod, FocusSpec};
+use super::focus::{focus_plane, FocusMethod, FocusSpec, ResolvedFocus};
 use crate::error::{Error, Result};
 use crate::geometry::aperture::Aperture;
 use crate::geometry::camera::Camera;
@@ -123,6 +125,152 @@ pub fn plan(lf: &LightField, req: &RefocusRequest, excluded: &[bool]) -> Result<
         width: lf.width,
         height: lf.height,
     })
+}
+
+/// The disparity of a classic shift-and-sum plan (pixels per grid step, read back from its
+/// translations; 0 for an aperture of the reference view alone); `None` for any other plan.
+fn classic_disparity(plan: &RefocusPlan) -> Option<f64> {
+    if plan.method != FocusMethod::ClassicShift {
+        return None;
+    }
+    let offset = |v: &PlannedView| DVec2::new(v.s as f64, v.t as f64) - plan.reference;
+    Some(
+        plan.views
+            .iter()
+            .find(|v| offset(v).length() > 0.5)
+            .map_or(0.0, |v| {
+                let o = offset(v);
+                v.warp.a.z_axis.truncate().dot(o) / o.length_squared()
+            }),
+    )
+}
+
+/// The distance (along the optical axis of the camera at grid position `reference`) of the
+/// frontoparallel plane that classic shift-and-sum by `d` pixels per grid step stands for,
+/// where `lf`'s cameras (those `excluded` leaves in) form a parallel grid: same orientation
+/// and focal length, centres on a plane — a grid folder's nominal cameras, which take the
+/// sensor shift of its depth estimate's range (`depth::cache::install`) so that every
+/// estimated surface lies in front of infinity. The plane's plain sum is the classic one up
+/// to rounding. An error names the cause where the cameras are not such a grid or `d` lies
+/// at or beyond their infinity.
+pub fn classic_distance(
+    lf: &LightField,
+    reference: DVec2,
+    d: f64,
+    excluded: &[bool],
+) -> Result<f64> {
+    let refuse = |why: String| {
+        Error::Invalid(format!(
+            "--disparity {d} on a light field without a rig is classic shift-and-sum, and {why}"
+        ))
+    };
+    let rc = lf.camera_at(reference)?;
+    // Under the cameras, view j's sample moves by t_j + b_j w from the output pixel on the
+    // frontoparallel plane of inverse depth w (reference frame), when its warp's linear part
+    // is the identity and b_j has no depth component; w solves t_j + b_j w = d·offset_j.
+    let mut rows = Vec::new();
+    for (j, v) in lf.views.iter().enumerate() {
+        if excluded.get(j).copied().unwrap_or(false) {
+            continue;
+        }
+        let w = ViewWarp::new(&v.camera, &rc);
+        let scale = 1.0 + w.a.z_axis.truncate().length();
+        let parallel = (w.a.x_axis - DVec3::X).length() < 1e-9
+            && (w.a.y_axis - DVec3::Y).length() < 1e-9
+            && (w.a.z_axis.z - 1.0).abs() < 1e-9
+            && w.b.z.abs() < 1e-9 * scale.max(w.b.length());
+        if !parallel {
+            return Err(refuse("these cameras are not a parallel grid".into()));
+        }
+        let offset = DVec2::new(v.s as f64, v.t as f64) - reference;
+        rows.push((w.a.z_axis.truncate(), w.b.truncate(), offset));
+    }
+    let (num, den) = rows.iter().fold((0.0, 0.0), |(n, dd), (t, b, o)| {
+        (n + b.dot(d * *o - *t), dd + b.length_squared())
+    });
+    if den <= 0.0 {
+        return Err(refuse("these cameras share one centre".into()));
+    }
+    let w = num / den;
+    let misfit = rows
+        .iter()
+        .map(|(t, b, o)| (*t + *b * w - d * *o).length())
+        .fold(0.0, f64::max);
+    if misfit.is_nan() || misfit > 1e-6 * (1.0 + d.abs()) {
+        return Err(refuse(format!(
+            "these cameras shift their views unlike it (by up to {misfit:.3} px)"
+        )));
+    }
+    if w.is_nan() || w <= 0.0 {
+        // d at w = 0, measured along the grid's first offset.
+        let at_infinity = rows
+            .iter()
+            .find(|(_, _, o)| o.length() > 0.5)
+            .map_or(f64::NAN, |(t, _, o)| t.dot(*o) / o.length_squared());
+        return Err(Error::Invalid(format!(
+            "--disparity {d} lies at or beyond the cameras' infinity ({at_infinity:.3} px per \
+             grid step), so it stands for no plane (focus nearer)"
+        )));
+    }
+    Ok(1.0 / w)
+}
+
+/// The frontoparallel plane of the camera at grid position `reference` that classic
+/// shift-and-sum by `d` pixels per grid step stands for ([`classic_distance`]).
+pub fn classic_plane(
+    lf: &LightField,
+    reference: DVec2,
+    d: f64,
+    excluded: &[bool],
+) -> Result<Plane> {
+    let distance = classic_distance(lf, reference, d, excluded)?;
+    Plane::from_focus_tilt_swing(&lf.camera_at(reference)?, distance, 0.0, 0.0)
+}
+
+/// `focus` (resolved for the reference view at grid position `reference`) with its plane:
+/// classic shift-and-sum gets the plane it stands for ([`classic_plane`]), for drawing; an
+/// error names the cause where it stands for none.
+pub fn with_classic_plane(
+    lf: &LightField,
+    mut focus: ResolvedFocus,
+    reference: DVec2,
+) -> Result<ResolvedFocus> {
+    if let (None, FocusSpec::Disparity(d)) = (focus.plane, focus.spec) {
+        let plane = classic_plane(lf, reference, d, &[]).map_err(|e| {
+            Error::Invalid(format!(
+                "{e}, so '{}' has no focus plane to draw; give --plane, --focus or a click option",
+                lf.name
+            ))
+        })?;
+        focus.plane = Some(plane);
+    }
+    Ok(focus)
+}
+
+/// `plan` as a plan with a plane: itself, or for classic shift-and-sum the plan of the
+/// frontoparallel plane it stands for ([`classic_distance`]: the keyboard definition at that
+/// distance, tilt and swing 0), over the same `aperture` and views. For what needs the plane's
+/// geometry (anti-aliasing's parallax, focus surfaces' inverse depths).
+pub fn with_plane<'a>(
+    lf: &LightField,
+    plan: &'a RefocusPlan,
+    aperture: Aperture,
+    excluded: &[bool],
+) -> Result<Cow<'a, RefocusPlan>> {
+    let Some(d) = classic_disparity(plan) else {
+        return Ok(Cow::Borrowed(plan));
+    };
+    let distance = classic_distance(lf, plan.reference, d, excluded)?;
+    let request = RefocusRequest {
+        focus: FocusSpec::FocusTiltSwing {
+            distance,
+            tilt_deg: 0.0,
+            swing_deg: 0.0,
+        },
+        aperture,
+        reference: Some(plan.reference),
+    };
+    Ok(Cow::Owned(self::plan(lf, &request, excluded)?))
 }
 
 /// The JSON description of a plan (`render --json`, `demo`, the viewer's `--json` and screenshots).

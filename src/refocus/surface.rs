@@ -23,9 +23,8 @@ use glam::{DVec2, DVec3};
 
 use super::antialias::{scene_depth, AntialiasPlan, SceneDepth};
 use super::focus::{focus_plane, FocusSpec};
-use super::plan::RefocusPlan;
+use super::plan::{classic_plane, RefocusPlan};
 use crate::error::{Error, Result};
-use crate::geometry::camera::Camera;
 use crate::geometry::homography::plane_term;
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
@@ -132,12 +131,14 @@ impl<P: Clone> FocusSurface<P> {
 }
 
 impl FocusSurface<FocusSpec> {
-    /// The surface with every plane placed in the world as seen from `camera` (the reference
-    /// camera of the render), each the plane [`super::resolve_focus`] would give for it alone:
-    /// a `--plane` as given, `--focus/--tilt/--swing` through `camera`'s optical axis, a
-    /// `--disparity` the rig's frontoparallel plane. A disparity without a rig (classic
-    /// shift-and-sum) has no plane and is refused; errors name the plane by its place.
-    pub fn resolve(&self, lf: &LightField, camera: &Camera) -> Result<FocusSurface> {
+    /// The surface with every plane placed in the world as seen from the camera at grid
+    /// position `reference` (the render's reference camera), each the plane
+    /// [`super::resolve_focus`] would give for it alone: a `--plane` as given,
+    /// `--focus/--tilt/--swing` through the camera's optical axis, a `--disparity` the rig's
+    /// frontoparallel plane; without a rig (classic shift-and-sum) the plane its shifts stand
+    /// for ([`super::plan::classic_plane`]), refused where there is none. Errors name the
+    /// plane by its place.
+    pub fn resolve(&self, lf: &LightField, reference: DVec2) -> Result<FocusSurface> {
         let specs = match self {
             FocusSurface::Planes(specs) => specs,
             FocusSurface::Plane => return Ok(FocusSurface::Plane),
@@ -148,14 +149,20 @@ impl FocusSurface<FocusSpec> {
             }
             FocusSurface::AllInFocus => return Ok(FocusSurface::AllInFocus),
         };
+        let camera = lf.camera_at(reference)?;
         let planes = specs
             .iter()
             .enumerate()
             .map(|(k, spec)| match spec {
                 FocusSpec::Plane(p) => Ok(*p),
-                _ => match focus_plane(lf, spec, camera) {
+                _ => match focus_plane(lf, spec, &camera) {
                     Ok((_, Some(p), _)) => Ok(p),
-                    Ok((_, None, _)) => Err(needs_geometry(self.name())),
+                    // Classic shift-and-sum: the plane it stands for on a parallel grid.
+                    Ok((_, None, _)) => match spec {
+                        FocusSpec::Disparity(d) => classic_plane(lf, reference, *d, &[])
+                            .map_err(|e| in_plane(k, in_surface(self.name(), e))),
+                        _ => Err(needs_geometry(self.name())),
+                    },
                     Err(e) => Err(in_plane(k, e)),
                 },
             })
@@ -169,6 +176,17 @@ fn in_plane(k: usize, e: Error) -> Error {
     match e {
         Error::Invalid(m) => Error::Invalid(format!("focus plane {}: {m}", k + 1)),
         Error::Geometry(m) => Error::Geometry(format!("focus plane {}: {m}", k + 1)),
+        e => e,
+    }
+}
+
+/// `e` (why a classic shift-and-sum stands for no plane) as the refusal of surface `name`.
+pub fn in_surface(name: &str, e: Error) -> Error {
+    match e {
+        Error::Invalid(m) => Error::Invalid(format!(
+            "the focus surface '{name}' needs the cameras' geometry: {m}; focus with --plane or \
+             --focus"
+        )),
         e => e,
     }
 }
@@ -437,6 +455,7 @@ pub fn surface_for(
 mod tests {
     use super::*;
     use crate::geometry::camera::Camera;
+    use crate::geometry::homography::ViewWarp;
     use crate::refocus::focus::FocusMethod;
     use glam::DMat3;
 
@@ -543,7 +562,7 @@ mod tests {
             FocusSpec::Plane(given),
             FocusSpec::Disparity(0.5),
         ]);
-        let FocusSurface::Planes(placed) = asked.resolve(&lf, &cam).unwrap() else {
+        let FocusSurface::Planes(placed) = asked.resolve(&lf, reference).unwrap() else {
             panic!("several planes stay several planes");
         };
         // Each plane is the one resolve_focus gives for it alone from the same viewpoint.
@@ -560,14 +579,12 @@ mod tests {
             );
         }
         // The keyboard plane follows the reference camera: another viewpoint, another plane.
-        let other = asked
-            .resolve(&lf, &lf.camera_at(DVec2::new(3.0, 2.0)).unwrap())
-            .unwrap();
+        let other = asked.resolve(&lf, DVec2::new(3.0, 2.0)).unwrap();
         assert_ne!(other, FocusSurface::Planes(placed.clone()));
         // Surfaces without planes pass through.
         let slab: FocusSurface<FocusSpec> = FocusSurface::Slab { half_width: 0.2 };
         assert_eq!(
-            slab.resolve(&lf, &cam).unwrap(),
+            slab.resolve(&lf, reference).unwrap(),
             FocusSurface::Slab { half_width: 0.2 }
         );
         // A bad later plane is named by its place; a disparity without a rig has no plane.
@@ -579,17 +596,42 @@ mod tests {
                 swing_deg: 0.0,
             },
         ]);
-        let e = bad.resolve(&lf, &cam).unwrap_err().to_string();
+        let e = bad.resolve(&lf, reference).unwrap_err().to_string();
         assert!(
             e.contains("focus plane 2: tilt must lie strictly between"),
             "{e}"
         );
+        // Without a rig a disparity is classic shift-and-sum: on these parallel cameras each
+        // plane is the frontoparallel one that moves view (s, t)'s sample by D·(s, t) minus
+        // the reference's grid position, as the classic sum does.
         let mut no_rig = lf.clone();
         no_rig.rig = None;
-        let d = FocusSurface::Planes(vec![FocusSpec::Disparity(0.5), FocusSpec::Disparity(1.0)]);
-        let e = d.resolve(&no_rig, &cam).unwrap_err().to_string();
+        let d = FocusSurface::Planes(vec![FocusSpec::Disparity(0.5), FocusSpec::Disparity(-1.5)]);
+        let FocusSurface::Planes(placed) = d.resolve(&no_rig, reference).unwrap() else {
+            panic!("several planes stay several planes");
+        };
+        for (disparity, plane) in [0.5, -1.5].into_iter().zip(&placed) {
+            let m = plane_term(&cam, plane, 1e-9).unwrap();
+            for v in &no_rig.views {
+                let x = DVec2::new(10.0, 7.0);
+                let y = ViewWarp::new(&v.camera, &cam).apply(m, x);
+                let moved = DVec2::new(y.x / y.z, y.y / y.z) - x;
+                let want = (DVec2::new(v.s as f64, v.t as f64) - reference) * disparity;
+                assert!((moved - want).length() < 1e-9, "{moved} vs {want}");
+            }
+        }
+        // Cameras that are not a parallel grid (one turned a degree): refused, naming why.
+        let c = no_rig.views[3].camera;
+        no_rig.views[3].camera = Camera::from_centre(
+            c.k,
+            DMat3::from_rotation_y(1f64.to_radians()) * c.r,
+            c.centre(),
+        );
+        let e = d.resolve(&no_rig, reference).unwrap_err().to_string();
         assert!(
-            e.contains("'planes' needs the cameras' geometry") && e.contains("classic"),
+            e.contains("focus plane 1: the focus surface 'planes' needs the cameras' geometry")
+                && e.contains("classic shift-and-sum")
+                && e.contains("not a parallel grid"),
             "{e}"
         );
     }

@@ -27,7 +27,7 @@ use crate::geometry::normals::NormalParams;
 use crate::geometry::picking::{nudge_plane, KeyboardPlane, Nudge};
 use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
-use crate::refocus::surface::{surface_terms, FocusSurface, MAX_PLANES};
+use crate::refocus::surface::{in_surface, surface_terms, FocusSurface, MAX_PLANES};
 use crate::refocus::{
     self, Averaging, FocusRequest, FocusSpec, FocusTarget, RefocusPlan, RefocusRequest,
     ResolvedFocus,
@@ -688,6 +688,14 @@ fn resolve(
     // The surface must hold around the new plane too (a slab must not reach the reference
     // camera): checked by the library's own geometry, without the scene depth.
     let surface = core.surface.surface(plan.plane.or(resolved.plane));
+    // A surface chooses between the inverse depths of planes: classic shift-and-sum becomes
+    // the plane it stands for, as `render` does.
+    let plan = match surface.needs_depth() {
+        true => refocus::plan::with_plane(lf, &plan, core.aperture, excluded)
+            .map_err(|e| in_surface(surface.name(), e))?
+            .into_owned(),
+        false => plan,
+    };
     surface_terms(&plan, &surface)?;
     Ok((resolved, plan))
 }
