@@ -1006,6 +1006,32 @@ fn repeated_disparity_on_a_grid_folder_is_the_surface_of_its_planes() {
     // Measured 39.6 dB (the estimate's sub-pixel errors refocus each pixel slightly off).
     assert!(a >= 35.0 && a >= alone + 5.0, "{a} {alone}");
 
+    // A classic disparity at or beyond the nominal cameras' infinity stands for no plane:
+    // refused, naming it, and no image written.
+    let beyond = dir.path().join("beyond.png");
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+        .args([
+            "render",
+            grid.to_str().unwrap(),
+            "--disparity=-1.3333333",
+            "--disparity=40",
+            "-o",
+            beyond.to_str().unwrap(),
+        ])
+        .env("TILTFIELD_VALIDATION", "1")
+        .env("TILTFIELD_CACHE_DIR", &cache)
+        .env_remove("RUST_LOG")
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success() && !err.contains("panicked"), "{err}");
+    assert!(
+        err.contains("focus plane 2: the focus surface 'planes' needs the cameras' geometry")
+            && err.contains("--disparity 40 lies at or beyond the cameras' infinity"),
+        "{err}"
+    );
+    assert!(!beyond.exists());
+
     // The point cloud draws the plane a classic --disparity stands for.
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
         .args([

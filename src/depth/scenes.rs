@@ -93,6 +93,15 @@ pub enum DepthScene {
     /// rim (vignetting, corner views at about half brightness, with a radial falloff inside
     /// each view) and Gaussian sensor noise of σ = 3 levels.
     Plenoptic,
+    /// The `Wide` cards, the nearest at d = +4.5, seen by a calibrated converging rig: the
+    /// regular rig's camera centres,
+    /// every camera turned towards the point 2 m away on the centre axis (where the regular
+    /// rig has zero disparity), no regular-grid declaration. The depth search has no dataset
+    /// range and no disparity convention there: its automatic range must centre on the point
+    /// the cameras look at (anchored at infinity, it stopped at d = +3.6 and lost the nearest
+    /// card). Scored as the regular rig's disparity of the estimated depth
+    /// ([`DepthScene::scored_as`]).
+    Converging,
 }
 
 impl DepthScene {
@@ -104,7 +113,7 @@ impl DepthScene {
     ];
 
     /// The depth test set (module docs).
-    pub const SET: [DepthScene; 9] = [
+    pub const SET: [DepthScene; 10] = [
         DepthScene::Planes,
         DepthScene::Tilted,
         DepthScene::Textureless,
@@ -114,6 +123,7 @@ impl DepthScene {
         DepthScene::Wide,
         DepthScene::Thin,
         DepthScene::Plenoptic,
+        DepthScene::Converging,
     ];
 
     /// A short name.
@@ -128,6 +138,7 @@ impl DepthScene {
             DepthScene::Wide => "wide",
             DepthScene::Thin => "thin",
             DepthScene::Plenoptic => "plenoptic",
+            DepthScene::Converging => "converging",
         }
     }
 
@@ -148,6 +159,7 @@ impl DepthScene {
             DepthScene::Wide => "large disparity range",
             DepthScene::Thin => "thin structures",
             DepthScene::Plenoptic => "sensor noise and vignetting",
+            DepthScene::Converging => "converging calibrated rig, no disparity convention",
         }
     }
 
@@ -223,7 +235,7 @@ impl DepthScene {
                     floor(&rig, s, noise(54, 4.0 * s, [0.3, 0.27, 0.22])),
                 ]
             }
-            DepthScene::Wide => vec![
+            DepthScene::Wide | DepthScene::Converging => vec![
                 card(
                     &rig,
                     size,
@@ -248,7 +260,14 @@ impl DepthScene {
                 card(
                     &rig,
                     size,
-                    3.2 * k,
+                    // The converging rig's nearest card lies beyond the reach of a range
+                    // anchored at infinity (w ≤ 1.25/m, d ≤ +3.6·k) and inside the one centred
+                    // on the point the cameras look at.
+                    if *self == DepthScene::Converging {
+                        4.5 * k
+                    } else {
+                        3.2 * k
+                    },
                     [0.3 * s, 0.7 * s, 0.6 * s, 2.0 * s],
                     noise(64, 0.6 * s, [0.4, 0.5, 0.8]),
                 ),
@@ -307,8 +326,17 @@ impl DepthScene {
         }
     }
 
-    /// The light field on the regular rig: `grid × grid` views of `size²` px.
+    /// The light field on the regular rig (the converging one for
+    /// [`DepthScene::Converging`]): `grid × grid` views of `size²` px.
     pub fn light_field(&self, grid: usize, size: u32) -> LightField {
+        if *self == DepthScene::Converging {
+            // Turned by the angle the grid step subtends at the focus distance, per step.
+            let r = rig(size);
+            let toe = (r.baseline / r.focus_distance).atan().to_degrees();
+            let mut lf = self.rotated_light_field(grid, size, toe);
+            lf.name = self.name().into();
+            return lf;
+        }
         let rig = rig(size);
         let g = GridSize {
             cols: grid,
@@ -319,6 +347,14 @@ impl DepthScene {
             plenoptic_degrade(&mut lf, 3.0, 0xC0FFEE);
         }
         lf
+    }
+
+    /// The regular rig whose disparity scores the scene when it has no disparity convention
+    /// of its own (a calibrated rotated rig: the estimate's depth and the exact depth become
+    /// that rig's disparities, same camera centres); `None` where the scene's own HCI
+    /// disparity is scored.
+    pub fn scored_as(&self, size: u32) -> Option<ParallelRig> {
+        (*self == DepthScene::Converging).then(|| rig(size))
     }
 
     /// The same scene seen by a rotated (converging) rig without a regular-grid declaration:
@@ -339,9 +375,12 @@ impl DepthScene {
         for (i, cam) in regular.iter().enumerate() {
             let (s, t) = (i % grid, i / grid);
             let (ds, dt) = (s as f64 - c.x, t as f64 - c.y);
-            // Toe in: a camera right of the centre turns left (negative rotation about y).
-            let r = DMat3::from_rotation_x(dt * toe_deg.to_radians())
-                * DMat3::from_rotation_y(-ds * toe_deg.to_radians());
+            // Toe in: a camera right of the centre (world +x) turns its optical axis, the
+            // world direction Rᵀ·ẑ of the world-to-camera rotation R, towards −x, and one
+            // below (+y) towards −y. (The signs were once the other way round: the cameras
+            // diverged, and the converging test scene was a diverging one.)
+            let r = DMat3::from_rotation_x(-dt * toe_deg.to_radians())
+                * DMat3::from_rotation_y(ds * toe_deg.to_radians());
             let centre = cam.centre();
             let k = crate::geometry::camera::intrinsics(
                 rig.focal_px,

@@ -11,7 +11,7 @@ use super::scenes::{truth, DepthScene};
 use super::{DepthOptions, SweepParams};
 use crate::error::{Error, Result};
 use crate::lightfield::pfm::read_pfm_depth;
-use crate::lightfield::{DepthKind, GridCameraOptions, LightField};
+use crate::lightfield::{DepthKind, GridCameraOptions, LightField, ParallelRig};
 
 /// The border left out of the scores of the small synthetic scenes (HCI's 15 px is a sixth of
 /// a 96-px view).
@@ -28,6 +28,28 @@ pub struct SetScene {
     pub truth: Vec<f32>,
     /// Border excluded from the scores, px.
     pub border: u32,
+    /// A light field without a disparity convention (a calibrated rotated rig) is scored as
+    /// this regular rig's disparity: the estimate's depth and the exact depth converted
+    /// alike ([`DepthScene::scored_as`]).
+    pub scored_as: Option<ParallelRig>,
+}
+
+impl SetScene {
+    /// The disparity of `est` that is scored against [`SetScene::truth`].
+    pub fn scored_disparity(&self, est: &super::DepthEstimate) -> Result<Vec<f32>> {
+        match &self.scored_as {
+            None => est.values(DepthKind::Disparity),
+            Some(rig) => Ok(equivalent_disparity(rig, &est.values(DepthKind::Depth)?)),
+        }
+    }
+}
+
+/// Depths as `rig`'s disparities (NaN stays NaN).
+fn equivalent_disparity(rig: &ParallelRig, depth: &[f32]) -> Vec<f32> {
+    depth
+        .iter()
+        .map(|&z| rig.disparity_of_depth(z as f64) as f32)
+        .collect()
 }
 
 /// The synthetic scenes of [`DepthScene::SET`] (or those named in `only`) as `grid × grid`
@@ -61,7 +83,11 @@ pub fn synthetic(grid: usize, size: u32, only: Option<&[String]>) -> Result<Vec<
         .into_iter()
         .map(|scene| {
             let mut lf = scene.light_field(grid, size);
-            let t = truth(&lf, DepthKind::Disparity);
+            let scored_as = scene.scored_as(size);
+            let t = match &scored_as {
+                None => truth(&lf, DepthKind::Disparity),
+                Some(rig) => equivalent_disparity(rig, &truth(&lf, DepthKind::Depth)),
+            };
             lf.depth.clear();
             SetScene {
                 name: scene.name().into(),
@@ -69,6 +95,7 @@ pub fn synthetic(grid: usize, size: u32, only: Option<&[String]>) -> Result<Vec<
                 light_field: lf,
                 truth: t,
                 border: SYNTH_BORDER,
+                scored_as,
             }
         })
         .collect())
@@ -106,6 +133,7 @@ pub fn hci(folder: &Path) -> Result<SetScene> {
         light_field: lf,
         truth: truth.values,
         border: HCI_BORDER,
+        scored_as: None,
     })
 }
 

@@ -74,6 +74,14 @@ pub fn estimate(
         let (out, ms) = run_sweep(ctx, &coarse, &small_refs, &options.params, progress)?;
         plan.range = range_from_coarse(&coarse, &out);
         plan.planes = plane_count(&plan, options);
+        log::info!(
+            "automatic range {:.4} … {:.4} from a coarse sweep over {:.4} … {:.4}; {} planes",
+            plan.range.0,
+            plan.range.1,
+            coarse.range.0,
+            coarse.range.1,
+            plan.planes
+        );
         progress.set_length((coarse.planes + plan.planes) as u64);
         coarse_ms = ms;
     }
@@ -214,7 +222,7 @@ pub fn score_set(
         for scene in set {
             progress.set_message(format!("{} ({name})", scene.name));
             let est = estimate(ctx, &scene.light_field, options, &ProgressBar::hidden())?;
-            let disparity = est.values(crate::depth::DepthKind::Disparity)?;
+            let disparity = scene.scored_disparity(&est)?;
             on_estimate(scene, name, &disparity)?;
             rows.push(score_row(
                 scene,
