@@ -6,20 +6,14 @@ mod common;
 
 use std::path::Path;
 
-use common::{fails_with, json_of, stderr};
+use common::{fails_with, json_of, stderr, tiltfield_cached};
 use tiltfield::depth::scenes::{truth, DepthScene};
 use tiltfield::lightfield::pfm::read_pfm_depth;
 use tiltfield::lightfield::DepthKind;
 
 /// `tiltfield ARGS` with the depth cache in `cache`.
 fn run(args: &[&str], cache: &Path) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
-        .args(args)
-        .env("TILTFIELD_VALIDATION", "1")
-        .env("TILTFIELD_CACHE_DIR", cache)
-        .env_remove("RUST_LOG")
-        .output()
-        .expect("run tiltfield")
+    tiltfield_cached(args, cache)
 }
 
 /// The planes scene as a folder of views named by row and column (no depth, no calibration).

@@ -958,13 +958,7 @@ fn repeated_disparity_on_a_grid_folder_is_the_surface_of_its_planes() {
         let mut args = vec!["render", lf.to_str().unwrap()];
         args.extend_from_slice(focus);
         args.extend_from_slice(&["--antialias", "off", "-o", out.to_str().unwrap()]);
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
-            .args(&args)
-            .env("TILTFIELD_VALIDATION", "1")
-            .env("TILTFIELD_CACHE_DIR", &cache)
-            .env_remove("RUST_LOG")
-            .output()
-            .unwrap();
+        let o = tiltfield_cached(&args, &cache);
         assert!(o.status.success(), "{args:?}: {}", stderr(&o));
         view_rgb(&image::open(&out).unwrap().to_rgba8())
     };
@@ -1009,20 +1003,17 @@ fn repeated_disparity_on_a_grid_folder_is_the_surface_of_its_planes() {
     // A classic disparity at or beyond the nominal cameras' infinity stands for no plane:
     // refused, naming it, and no image written.
     let beyond = dir.path().join("beyond.png");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
-        .args([
+    let o = tiltfield_cached(
+        &[
             "render",
             grid.to_str().unwrap(),
             "--disparity=-1.3333333",
             "--disparity=40",
             "-o",
             beyond.to_str().unwrap(),
-        ])
-        .env("TILTFIELD_VALIDATION", "1")
-        .env("TILTFIELD_CACHE_DIR", &cache)
-        .env_remove("RUST_LOG")
-        .output()
-        .unwrap();
+        ],
+        &cache,
+    );
     let err = stderr(&o);
     assert!(!o.status.success() && !err.contains("panicked"), "{err}");
     assert!(
@@ -1033,20 +1024,17 @@ fn repeated_disparity_on_a_grid_folder_is_the_surface_of_its_planes() {
     assert!(!beyond.exists());
 
     // The point cloud draws the plane a classic --disparity stands for.
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
-        .args([
+    let o = tiltfield_cached(
+        &[
             "cloud",
             grid.to_str().unwrap(),
             "--disparity=-1.3333333",
             "--json",
             "-o",
             dir.path().join("c.ply").to_str().unwrap(),
-        ])
-        .env("TILTFIELD_VALIDATION", "1")
-        .env("TILTFIELD_CACHE_DIR", &cache)
-        .env_remove("RUST_LOG")
-        .output()
-        .unwrap();
+        ],
+        &cache,
+    );
     let j = json_of(&o);
     let normal = &j["plane"]["plane"]["normal"];
     assert!(

@@ -361,15 +361,8 @@ fn a_light_field_without_depth_estimates_it_for_clicks_and_clouds() {
     let out = tmp.path().join("x.png");
     let out = out.to_str().unwrap();
     // The depth cache goes to the test's folder, not the user's.
-    let run = |args: &[&str]| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
-            .args(args)
-            .env("TILTFIELD_VALIDATION", "1")
-            .env("TILTFIELD_CACHE_DIR", tmp.path().join("cache"))
-            .env_remove("RUST_LOG")
-            .output()
-            .expect("run tiltfield")
-    };
+    let cache = tmp.path().join("cache");
+    let run = |args: &[&str]| tiltfield_cached(args, &cache);
     // Clicks and three clicks: depth estimated from the views (HCI convention: the manifest
     // declares its rig), reported as such, and the back plane (disparity −1) found.
     let v = json_of(&run(&[

@@ -647,15 +647,7 @@ fn frames_render_anti_aliased_with_the_first_frames_estimated_depth() {
     std::fs::create_dir(&d).unwrap();
     video(&d);
     let cache = tmp.path().join("cache");
-    let run = |args: &[&str]| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
-            .args(args)
-            .env("TILTFIELD_VALIDATION", "1")
-            .env("TILTFIELD_CACHE_DIR", &cache)
-            .env_remove("RUST_LOG")
-            .output()
-            .unwrap()
-    };
+    let run = |args: &[&str]| tiltfield_cached(args, &cache);
     let pattern = tmp.path().join("aa_{frame}.png");
     let plane = [
         "--focus",

@@ -298,6 +298,17 @@ pub fn tiltfield(args: &[&str]) -> std::process::Output {
         .expect("run tiltfield")
 }
 
+/// [`tiltfield`] with the depth cache in `cache` (a test's own folder, not the user's).
+pub fn tiltfield_cached(args: &[&str], cache: &std::path::Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+        .args(args)
+        .env("TILTFIELD_VALIDATION", "1")
+        .env("TILTFIELD_CACHE_DIR", cache)
+        .env_remove("RUST_LOG")
+        .output()
+        .expect("run tiltfield")
+}
+
 /// A command's stderr as text.
 pub fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
