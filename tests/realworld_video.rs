@@ -638,10 +638,11 @@ fn world_frame_is_the_calibrations() {
     assert!((down - r.m * DVec3::new(0.0, 0.08, 0.0)).length() < 1e-9);
 }
 
-/// `render --frames --antialias on` on a video without depth: the depth is estimated once,
-/// from the first frame, and the first frame equals `render --frame --antialias on` of it.
+/// `render --frames --antialias on` on a video without depth: each frame is anti-aliased on its
+/// own estimated depth (the card moves between frames), so every frame equals `render --frame
+/// N --antialias on` of it.
 #[test]
-fn frames_render_anti_aliased_with_the_first_frames_estimated_depth() {
+fn frames_render_anti_aliased_each_on_its_own_estimated_depth() {
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path().join("video");
     std::fs::create_dir(&d).unwrap();
@@ -661,7 +662,7 @@ fn frames_render_anti_aliased_with_the_first_frames_estimated_depth() {
         "render",
         s(&d),
         "--frames",
-        "1..2",
+        "1..3",
         "-o",
         s(&pattern),
         "--json",
@@ -669,17 +670,25 @@ fn frames_render_anti_aliased_with_the_first_frames_estimated_depth() {
     args.extend(plane);
     let report = json_of(&run(&args));
     assert_eq!(report["antialias"]["used"], true, "{report}");
+    assert_eq!(report["antialias"]["depth_frames"], 3, "{report}");
     assert_eq!(
         report["antialias"]["depth_origin"]["origin"], "estimated",
         "{report}"
     );
-    let single = tmp.path().join("single.png");
-    let mut args = vec!["render", s(&d), "--frame", "1", "-o", s(&single)];
-    args.extend(plane);
-    let o = run(&args);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let batch = image::open(tmp.path().join("aa_1.png")).unwrap().to_rgba8();
-    assert_eq!(batch, image::open(&single).unwrap().to_rgba8());
+    for frame in ["1", "2", "3"] {
+        let single = tmp.path().join(format!("single_{frame}.png"));
+        let mut args = vec!["render", s(&d), "--frame", frame, "-o", s(&single)];
+        args.extend(plane);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let batch = image::open(tmp.path().join(format!("aa_{frame}.png")))
+            .unwrap()
+            .to_rgba8();
+        assert!(
+            batch == image::open(&single).unwrap().to_rgba8(),
+            "frame {frame} differs from its own anti-aliased render"
+        );
+    }
     // Off (the default here: a video ships no depth) is the plain sum.
     let mut args = vec![
         "render",

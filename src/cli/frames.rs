@@ -68,26 +68,57 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
     bar.set_message(format!("refocusing {}", sequence.name()));
     let mut focus = None;
     let mut depth_origin = None;
+    // The plan that anti-aliasing starts from, made on the first frame with its depth.
+    let mut aa_base = None;
+    let mut depth_frames = 0usize;
     let (report, frame_plan) = render_frames(
         Arc::clone(&ctx),
         &job,
-        |lf| {
-            // The plane is fixed from the first frame; picks use a depth map the video
-            // carries (the range does not estimate one per frame).
-            let (plan, f) = make_plan(lf, &options, super::focus::GIVEN_DEPTH_WINDOW)?;
-            focus = Some(f);
-            // Anti-aliasing's depth too comes from the first frame: the one the video
-            // carries, or one estimated from it (`--antialias on`).
+        |lf, previous| {
             let aa_on = crate::refocus::antialias::wanted(options.antialias, lf);
-            let antialias = if aa_on {
-                let mut first = lf.clone();
-                depth_origin = Some(super::depth::ensure_for(&ctx, &mut first)?.0);
-                let (plan, _) = make_plan(&first, &options, super::focus::GIVEN_DEPTH_WINDOW)?;
-                antialias_plan(&first, &options, &plan, true)?
-            } else {
-                None
+            let plan = match previous {
+                // The plane is fixed from the first frame; picks use a depth map the video
+                // carries (the range does not estimate one per frame for them).
+                None => {
+                    let (plan, f) = make_plan(lf, &options, super::focus::GIVEN_DEPTH_WINDOW)?;
+                    focus = Some(f);
+                    plan
+                }
+                Some(_) if !aa_on => return Ok(None),
+                Some(p) => p.plan.clone(),
             };
-            Ok(FramePlan { plan, antialias })
+            if !aa_on {
+                return Ok(Some(FramePlan {
+                    plan,
+                    antialias: None,
+                }));
+            }
+            // Anti-aliasing follows each frame's own depth (things move between frames):
+            // the one the video carries, or one estimated from the frame (cached by content;
+            // the first frame's estimate shows its own progress, the others count as frames).
+            let mut frame = lf.clone();
+            let origin = match previous {
+                None => super::depth::ensure_for(&ctx, &mut frame)?.0,
+                Some(_) => {
+                    crate::jobs::depth::ensure_for(
+                        &ctx,
+                        &mut frame,
+                        &indicatif::ProgressBar::hidden(),
+                    )?
+                    .0
+                }
+            };
+            depth_frames += 1;
+            depth_origin.get_or_insert(origin);
+            let base = match &aa_base {
+                Some(b) => b,
+                None => {
+                    let (b, _) = make_plan(&frame, &options, super::focus::GIVEN_DEPTH_WINDOW)?;
+                    aa_base.insert(b)
+                }
+            };
+            let antialias = antialias_plan(&frame, &options, base, true)?;
+            Ok(Some(FramePlan { plan, antialias }))
         },
         |_| bar.inc(1),
     )?;
@@ -124,9 +155,12 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
             "frames": frames,
             "outputs": frames.iter().map(|&f| pattern.path(f)).collect::<Vec<_>>(),
             "averaging": args.aperture.average,
-            "antialias": crate::refocus::antialias::antialias_json(
-                frame_plan.antialias.as_ref(),
-                depth_origin.as_ref().map(super::depth::origin_json)
+            "antialias": with_depth_frames(
+                crate::refocus::antialias::antialias_json(
+                    frame_plan.antialias.as_ref(),
+                    depth_origin.as_ref().map(super::depth::origin_json),
+                ),
+                depth_frames,
             ),
             "strategy": settings.strategy.name(),
             "filter": settings.filter,
@@ -138,6 +172,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
             "mean_ms": {
                 "decode": mean(|t| Some(t.decode_ms)),
                 "wait_for_decode": mean(|t| Some(t.wait_ms)),
+                "planning": mean(|t| Some(t.plan_ms)),
                 "upload": steady_upload,
                 "render_and_readback": mean(|t| Some(t.render_ms)),
                 "gpu_refocus": mean(|t| t.gpu_refocus_ms),
@@ -168,14 +203,27 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         report.frames_per_second,
         report.device
     );
+    if depth_frames > 0 {
+        eprintln!("anti-aliased on each frame's own depth ({depth_frames} frames)");
+    }
     eprintln!(
-        "per frame: decode {} (background), waiting for it {}, upload {steady_upload:.0} ms, \
-         render and readback {} (GPU refocus {}), encode {} (background)",
+        "per frame: decode {} (background), waiting for it {}, planning {}, upload \
+         {steady_upload:.0} ms, render and readback {} (GPU refocus {}), encode {} (background)",
         ms(mean(|t| Some(t.decode_ms))),
         ms(mean(|t| Some(t.wait_ms))),
+        ms(mean(|t| Some(t.plan_ms))),
         ms(mean(|t| Some(t.render_ms))),
         ms(mean(|t| t.gpu_refocus_ms)),
         ms(mean(|t| Some(t.encode_ms))),
     );
     Ok(())
+}
+
+/// The anti-aliasing report of a frame range with the number of frames anti-aliased on their
+/// own depth (`depth_frames`; the origin reported is the first frame's).
+fn with_depth_frames(mut report: serde_json::Value, depth_frames: usize) -> serde_json::Value {
+    if let Some(obj) = report.as_object_mut() {
+        obj.insert("depth_frames".into(), json!(depth_frames));
+    }
+    report
 }

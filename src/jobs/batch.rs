@@ -11,8 +11,9 @@
 //!
 //! The refocus plan — plane, aperture, reference view, views left out — is made once, from the
 //! first frame: every frame of a video has the same cameras, so the same plan is exact for all
-//! of them. Each frame's times are recorded ([`FrameTimes`]) so a report can say where the
-//! time goes.
+//! of them. The scene is not the same: anti-aliasing follows each frame's own depth (the
+//! planner may replace the frame plan's anti-aliasing for every frame). Each frame's times
+//! are recorded ([`FrameTimes`]) so a report can say where the time goes.
 
 use std::path::{Path, PathBuf};
 use std::sync::mpsc::{channel, sync_channel};
@@ -93,6 +94,9 @@ pub struct FrameTimes {
     pub decode_ms: f64,
     /// How long the render thread waited for the decoded frame.
     pub wait_ms: f64,
+    /// Planning the frame (the first: the refocus plan; with anti-aliasing, every frame: its
+    /// depth, estimated or read from the cache, and the footprints and visibility on it).
+    pub plan_ms: f64,
     /// Converting and uploading the views into the texture (the first frame: the whole set-up
     /// of texture, pass and target).
     pub upload_ms: f64,
@@ -158,21 +162,22 @@ pub struct BatchJob<'a> {
     pub limits: LoadLimits,
 }
 
-/// The plan of every frame: the refocus plan, and the anti-aliasing plan when it is on (its
-/// scene depth, like the plane, comes from the first frame).
+/// The plan of a frame: the refocus plan (the first frame's, for all), and the anti-aliasing
+/// plan when it is on (on the frame's own scene depth).
 #[derive(Debug, Clone)]
 pub struct FramePlan {
     pub plan: RefocusPlan,
     pub antialias: Option<AntialiasPlan>,
 }
 
-/// Renders every frame of `job` (see the module docs). `make_plan` turns the first frame into
-/// the plan used for all; `progress` is called after each frame is rendered. Returns the
-/// report and the plan.
+/// Renders every frame of `job` (see the module docs). `plan_frame` is called with each frame
+/// and the plan of the frame before (`None` for the first, which must get a plan): it returns
+/// the frame's plan, or `None` to keep the one before. `progress` is called after each frame
+/// is rendered. Returns the report and the first frame's plan.
 pub fn render_frames(
     ctx: Arc<GpuContext>,
     job: &BatchJob,
-    make_plan: impl FnOnce(&LightField) -> Result<FramePlan>,
+    mut plan_frame: impl FnMut(&LightField, Option<&FramePlan>) -> Result<Option<FramePlan>>,
     mut progress: impl FnMut(u64),
 ) -> Result<(BatchReport, FramePlan)> {
     let t0 = Instant::now();
@@ -202,8 +207,8 @@ pub fn render_frames(
 
     let mut times: Vec<FrameTimes> = Vec::with_capacity(job.frames.len());
     let mut renderer: Option<HeadlessRenderer> = None;
+    let mut first: Option<FramePlan> = None;
     let mut plan: Option<FramePlan> = None;
-    let mut make_plan = Some(make_plan);
     let mut done: Vec<(u64, f64, usize)> = Vec::new();
     let result: Result<()> = (|| {
         for &expected in job.frames {
@@ -219,11 +224,21 @@ pub fn render_frames(
                 )));
             }
             let lf = decoded.light_field?;
+            let tp = Instant::now();
+            match plan_frame(&lf, plan.as_ref())? {
+                Some(p) => plan = Some(p),
+                None if plan.is_none() => {
+                    return Err(Error::Invalid("the first frame got no plan".into()))
+                }
+                None => {}
+            }
+            if first.is_none() {
+                first = plan.clone();
+            }
+            let plan_ms = tp.elapsed().as_secs_f64() * 1e3;
             let tu = Instant::now();
             match renderer.as_mut() {
                 None => {
-                    let p = (make_plan.take().expect("plan made once"))(&lf)?;
-                    plan = Some(p);
                     renderer = Some(HeadlessRenderer::with_context(
                         Arc::clone(&ctx),
                         &lf,
@@ -247,6 +262,7 @@ pub fn render_frames(
                 frame: expected,
                 decode_ms: decoded.decode_ms,
                 wait_ms,
+                plan_ms,
                 upload_ms,
                 render_ms,
                 gpu_refocus_ms: gpu.map(|g| g.refocus_ms),
@@ -289,8 +305,8 @@ pub fn render_frames(
         device: ctx.info.name.clone(),
     };
     drop(renderer);
-    let plan = plan.ok_or_else(|| Error::Invalid("no frame was rendered".into()))?;
-    Ok((report, plan))
+    let first = first.ok_or_else(|| Error::Invalid("no frame was rendered".into()))?;
+    Ok((report, first))
 }
 
 #[cfg(test)]
