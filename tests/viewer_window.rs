@@ -777,6 +777,68 @@ fn video_frames_step_with_comma_and_period_and_match_render() {
     );
 }
 
+/// With anti-aliasing on, each video frame the viewer steps to is anti-aliased on its own
+/// depth, estimated in the background (the card moves between frames): the converged frame
+/// equals `render --frame N --antialias on`, which differs from the plain sum.
+#[test]
+fn video_frames_anti_alias_on_their_own_depth_as_render_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let video = d.join("video");
+    std::fs::create_dir_all(&video).unwrap();
+    let rig = realworld_rig::rig(tiltfield::lightfield::GridSize { cols: 4, rows: 4 }, 64, 48);
+    realworld_rig::write_video(&video, &rig, "Birthday", &[1, 2, 3]);
+    let cache = d.join("cache");
+    let script = d.join("frames.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "wait-converged\nkey PERIOD\nwait-converged\nscreenshot {d}/f2\nkey PERIOD\n\
+             wait-converged\nscreenshot {d}/f3\nquit\n",
+            d = d.display()
+        ),
+    )
+    .unwrap();
+    let v = video.to_str().unwrap();
+    let focus = ["--focus", "2.4", "--aperture-radius", "1.5"];
+    let mut args = vec![v];
+    args.extend(focus);
+    args.extend([
+        "--antialias",
+        "on",
+        "--script",
+        script.to_str().unwrap(),
+        "--json",
+    ]);
+    let o = view_in_xvfb_cached(&args, &cache);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0);
+    for (shot, frame) in [("f2", 2), ("f3", 3)] {
+        let state = json_file(&d.join(format!("{shot}.json")));
+        assert_eq!(state["frame"], frame, "{shot}");
+        assert_eq!(state["antialias"]["used"], true, "{shot}");
+        let frame_arg = format!("--frame={frame}");
+        let render = |aa: &str, out: &Path| {
+            let mut args = vec!["render", v, &frame_arg];
+            args.extend(focus);
+            args.extend(["--antialias", aa, "-o", out.to_str().unwrap()]);
+            let o = common::tiltfield_cached(&args, &cache);
+            assert!(o.status.success(), "{}", stderr(&o));
+            std::fs::read(out).unwrap()
+        };
+        let viewer = std::fs::read(d.join(format!("{shot}_refocus.png"))).unwrap();
+        assert!(
+            viewer == render("on", &d.join(format!("aa{shot}.png"))),
+            "{shot}: viewer ≠ render --frame {frame} --antialias on"
+        );
+        assert!(
+            viewer != render("off", &d.join(format!("plain{shot}.png"))),
+            "{shot}: anti-aliasing changed nothing"
+        );
+    }
+}
+
 #[test]
 fn bad_scripts_are_refused_with_the_line_before_any_window_opens() {
     let dir = tempfile::tempdir().unwrap();

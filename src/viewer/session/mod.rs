@@ -80,6 +80,7 @@ impl Dirty {
 }
 
 /// How the session gets its depth when the light field has none of its own.
+#[derive(Debug, Clone)]
 pub struct DepthPlan {
     /// The GPU options of the background estimate's own context.
     pub gpu: GpuOptions,
@@ -130,6 +131,12 @@ pub struct Session {
     /// Depth still to be estimated (started after the first frame) and the estimate running.
     depth_plan: Option<DepthPlan>,
     depth_job: Option<DepthJob>,
+    /// The video frame the running estimate is of (`None` outside videos).
+    depth_job_frame: Option<u64>,
+    /// A video without depth of its own: how each newly shown frame gets its depth (the
+    /// first frame's plan, keeping the focus as it is), so that anti-aliasing, clicks and the
+    /// cloud follow what moves, as `render --frame N` does.
+    frame_depth_plan: Option<DepthPlan>,
     /// Validation errors of the depth estimate's own GPU context.
     pub depth_validation_errors: usize,
     /// The process's start (`--json` reports milestones from it).
@@ -192,6 +199,8 @@ impl Session {
             cursor_depth: None,
             depth_plan: None,
             depth_job: None,
+            depth_job_frame: None,
+            frame_depth_plan: None,
             depth_validation_errors: 0,
             launched,
             milestones,
@@ -243,8 +252,19 @@ impl Session {
     /// Estimates depth in the background once the first frame is shown.
     pub fn with_depth_plan(mut self, plan: DepthPlan) -> Self {
         self.depth.state = DepthState::Estimating { done: 0, total: 0 };
+        if self.video.is_some() {
+            self.frame_depth_plan = Some(DepthPlan {
+                default_focus: false,
+                ..plan.clone()
+            });
+        }
         self.depth_plan = Some(plan);
         self
+    }
+
+    /// The video frame whose views are shown (`None` outside videos).
+    fn shown_frame(&self) -> Option<u64> {
+        self.video.as_ref().map(|v| v.shown)
     }
 
     /// Depth is still on its way (a script's clicks and `wait-converged` wait for it).
@@ -267,7 +287,10 @@ impl Session {
                     self.lf.name
                 );
                 match DepthJob::start(Arc::clone(&self.lf), plan.gpu.clone()) {
-                    Ok(job) => self.depth_job = Some(job),
+                    Ok(job) => {
+                        self.depth_job = Some(job);
+                        self.depth_job_frame = self.shown_frame();
+                    }
                     Err(e) => self.depth_failed(e.to_string()),
                 }
             }
@@ -286,6 +309,14 @@ impl Session {
         };
         let elapsed = job.elapsed_s();
         self.depth_job = None;
+        if self.depth_job_frame != self.shown_frame() {
+            // A frame shown since the estimate began has its own: this one is stale (its
+            // validation errors still count). The next poll starts the shown frame's.
+            if let Ok(e) = &result {
+                self.depth_validation_errors += e.validation_errors;
+            }
+            return Ok(());
+        }
         let plan = self.depth_plan.take();
         let estimated = match result {
             Ok(e) => e,
@@ -309,12 +340,22 @@ impl Session {
         if let Some(c) = &self.depth.cloud {
             gpu.set_cloud(&c.vertices())?;
         }
-        eprintln!(
-            "depth of '{}' ready after {elapsed:.1} s: the point cloud, clicks and \
-             anti-aliasing are on",
-            lf.name
-        );
-        self.milestones.depth_ready_ms = Some(self.since_launch_ms());
+        // A later video frame's depth replaces the one before: the scene camera stays where
+        // it is and the console is told once.
+        let first_depth = self.milestones.depth_ready_ms.is_none();
+        if first_depth {
+            eprintln!(
+                "depth of '{}' ready after {elapsed:.1} s: the point cloud, clicks and \
+                 anti-aliasing are on",
+                lf.name
+            );
+            self.milestones.depth_ready_ms = Some(self.since_launch_ms());
+        } else {
+            log::info!(
+                "depth of frame {:?} ready after {elapsed:.1} s",
+                self.shown_frame()
+            );
+        }
         let plan = plan.as_ref();
         self.act(Action::DepthArrived {
             normal_window: origin.normal_window(),
@@ -323,14 +364,16 @@ impl Session {
                 .is_some_and(|p| p.default_focus)
                 .then(|| default_focus(&lf, self.depth.depth.as_ref())),
         });
-        let (centre, keep, array) = framing(&lf, &self.depth);
-        let scene = self.layout.scene;
-        self.act(Action::Reframe {
-            centre,
-            keep,
-            array,
-            aspect: scene.width.max(1.0) as f64 / scene.height.max(1.0) as f64,
-        });
+        if first_depth {
+            let (centre, keep, array) = framing(&lf, &self.depth);
+            let scene = self.layout.scene;
+            self.act(Action::Reframe {
+                centre,
+                keep,
+                array,
+                aspect: scene.width.max(1.0) as f64 / scene.height.max(1.0) as f64,
+            });
+        }
         self.depth_origin = Some(origin);
         self.dirty.window_changed();
         self.dirty.cloud = true;
@@ -486,6 +529,14 @@ impl Session {
                     gpu.replace_views(&frame_lf)?;
                     if let Some(v) = self.video.as_mut() {
                         v.shown(decoded.frame);
+                    }
+                    if let Some(plan) = &self.frame_depth_plan {
+                        // The frame's own depth, estimated in the background (cached by
+                        // content); until it arrives the frame before's stays in use.
+                        self.lf = Arc::new(frame_lf);
+                        self.depth_plan = Some(plan.clone());
+                        self.depth.state = DepthState::Estimating { done: 0, total: 0 };
+                        self.dirty.text = true;
                     }
                     self.act(Action::ShowFrame(decoded.frame));
                 }
