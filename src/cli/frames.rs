@@ -12,8 +12,8 @@ use super::{check_output, device_load_limits};
 use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::io::OutputKind;
-use crate::jobs::batch::{render_frames, BatchJob, FramePlan, OutputPattern};
-use crate::jobs::render::{antialias_plan, check_output_fits, make_plan};
+use crate::jobs::batch::{render_frames, BatchJob, OutputPattern};
+use crate::jobs::render::{check_output_fits, FramePlanner};
 use crate::lightfield::technicolor::describe_frames;
 use crate::lightfield::video::{FrameRange, FrameSequence};
 
@@ -66,59 +66,20 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         bar.set_style(style.progress_chars("=> "));
     }
     bar.set_message(format!("refocusing {}", sequence.name()));
-    let mut focus = None;
-    let mut depth_origin = None;
-    // The plan that anti-aliasing starts from, made on the first frame with its depth.
-    let mut aa_base = None;
-    let mut depth_frames = 0usize;
+    let mut planner = FramePlanner::new(&options);
     let (report, frame_plan) = render_frames(
         Arc::clone(&ctx),
         &job,
         |lf, previous| {
-            let aa_on = crate::refocus::antialias::wanted(options.antialias, lf);
-            let plan = match previous {
-                // The plane is fixed from the first frame; picks use a depth map the video
-                // carries (the range does not estimate one per frame for them).
-                None => {
-                    let (plan, f) = make_plan(lf, &options, super::focus::GIVEN_DEPTH_WINDOW)?;
-                    focus = Some(f);
-                    plan
-                }
-                Some(_) if !aa_on => return Ok(None),
-                Some(p) => p.plan.clone(),
+            // The first frame's depth estimate shows its planes; later frames' run silently
+            // (the range's bar counts frames).
+            let first_depth = match previous {
+                None => super::depth::progress_bar_for(lf),
+                Some(_) => indicatif::ProgressBar::hidden(),
             };
-            if !aa_on {
-                return Ok(Some(FramePlan {
-                    plan,
-                    antialias: None,
-                }));
-            }
-            // Anti-aliasing follows each frame's own depth (things move between frames):
-            // the one the video carries, or one estimated from the frame (cached by content;
-            // the first frame's estimate shows its own progress, the others count as frames).
-            let mut frame = lf.clone();
-            let origin = match previous {
-                None => super::depth::ensure_for(&ctx, &mut frame)?.0,
-                Some(_) => {
-                    crate::jobs::depth::ensure_for(
-                        &ctx,
-                        &mut frame,
-                        &indicatif::ProgressBar::hidden(),
-                    )?
-                    .0
-                }
-            };
-            depth_frames += 1;
-            depth_origin.get_or_insert(origin);
-            let base = match &aa_base {
-                Some(b) => b,
-                None => {
-                    let (b, _) = make_plan(&frame, &options, super::focus::GIVEN_DEPTH_WINDOW)?;
-                    aa_base.insert(b)
-                }
-            };
-            let antialias = antialias_plan(&frame, &options, base, true)?;
-            Ok(Some(FramePlan { plan, antialias }))
+            let planned = planner.plan_frame(&ctx, lf, previous, &first_depth);
+            first_depth.finish_and_clear();
+            planned
         },
         |_| bar.inc(1),
     )?;
@@ -151,16 +112,16 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
                 "grid": [sequence.grid().cols, sequence.grid().rows],
                 "size": [sequence.view_size().0, sequence.view_size().1],
             },
-            "focus": focus.as_ref().map(focus_json),
+            "focus": planner.focus.as_ref().map(focus_json),
             "frames": frames,
             "outputs": frames.iter().map(|&f| pattern.path(f)).collect::<Vec<_>>(),
             "averaging": args.aperture.average,
             "antialias": with_depth_frames(
                 crate::refocus::antialias::antialias_json(
                     frame_plan.antialias.as_ref(),
-                    depth_origin.as_ref().map(super::depth::origin_json),
+                    planner.depth_origin.as_ref().map(super::depth::origin_json),
                 ),
-                depth_frames,
+                planner.depth_frames,
             ),
             "strategy": settings.strategy.name(),
             "filter": settings.filter,
@@ -189,7 +150,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         );
         return Ok(());
     }
-    if let Some(line) = focus.as_ref().and_then(focus_summary) {
+    if let Some(line) = planner.focus.as_ref().and_then(focus_summary) {
         eprintln!("{line}");
     }
     let ms = |v: Option<f64>| v.map_or("–".to_string(), |x| format!("{x:.0} ms"));
@@ -203,8 +164,11 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         report.frames_per_second,
         report.device
     );
-    if depth_frames > 0 {
-        eprintln!("anti-aliased on each frame's own depth ({depth_frames} frames)");
+    if planner.depth_frames > 0 {
+        eprintln!(
+            "anti-aliased on each frame's own depth ({} frames)",
+            planner.depth_frames
+        );
     }
     eprintln!(
         "per frame: decode {} (background), waiting for it {}, planning {}, upload \

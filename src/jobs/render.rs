@@ -473,6 +473,84 @@ fn prepare_excluding(
     })
 }
 
+/// The plans of a frame range (`render --frames`): the first frame's plane for every frame,
+/// and with anti-aliasing each frame's own depth (the video's, or estimated per frame and
+/// cached): things move between frames, and the first frame's depth blurred a moving card
+/// where it had been. [`FramePlanner::plan_frame`] is what [`crate::jobs::batch::render_frames`]
+/// calls per frame.
+pub struct FramePlanner<'a> {
+    options: &'a RenderOptions,
+    /// The plan anti-aliasing starts from, made on the first frame with its depth.
+    aa_base: Option<RefocusPlan>,
+    /// The first frame's focus.
+    pub focus: Option<ResolvedFocus>,
+    /// Where the first frame's depth came from (with anti-aliasing).
+    pub depth_origin: Option<DepthOrigin>,
+    /// Frames planned on their own depth.
+    pub depth_frames: usize,
+}
+
+impl<'a> FramePlanner<'a> {
+    pub fn new(options: &'a RenderOptions) -> Self {
+        FramePlanner {
+            options,
+            aa_base: None,
+            focus: None,
+            depth_origin: None,
+            depth_frames: 0,
+        }
+    }
+
+    /// The plan of frame `lf`, given the frame before's (`None` for the first); `None` keeps
+    /// the one before (nothing depends on the frame). `progress` counts the planes of the
+    /// frame's depth estimate, if one is made.
+    pub fn plan_frame(
+        &mut self,
+        ctx: &GpuContext,
+        lf: &LightField,
+        previous: Option<&crate::jobs::batch::FramePlan>,
+        progress: &ProgressBar,
+    ) -> Result<Option<crate::jobs::batch::FramePlan>> {
+        let options = self.options;
+        let aa_on = refocus::antialias::wanted(options.antialias, lf);
+        let plan = match previous {
+            // The plane is fixed from the first frame; picks use a depth map the video
+            // carries (the range does not estimate one per frame for them).
+            None => {
+                let (plan, f) =
+                    make_plan(lf, options, crate::geometry::normals::GIVEN_DEPTH_WINDOW)?;
+                self.focus = Some(f);
+                plan
+            }
+            Some(_) if !aa_on => return Ok(None),
+            Some(p) => p.plan.clone(),
+        };
+        if !aa_on {
+            return Ok(Some(crate::jobs::batch::FramePlan {
+                plan,
+                antialias: None,
+            }));
+        }
+        let mut frame = lf.clone();
+        let origin = crate::jobs::depth::ensure_for(ctx, &mut frame, progress)?.0;
+        self.depth_frames += 1;
+        self.depth_origin.get_or_insert(origin);
+        let base = match &self.aa_base {
+            Some(b) => b,
+            None => {
+                let (b, _) = make_plan(
+                    &frame,
+                    options,
+                    crate::geometry::normals::GIVEN_DEPTH_WINDOW,
+                )?;
+                self.aa_base.insert(b)
+            }
+        };
+        let antialias = antialias_plan(&frame, options, base, true)?;
+        Ok(Some(crate::jobs::batch::FramePlan { plan, antialias }))
+    }
+}
+
 /// Renders `prepared` on `renderer` (which holds its light field's views) and reads the image
 /// back: on the focus surface, anti-aliased or the plain sum, as planned.
 pub fn render(
