@@ -719,14 +719,21 @@ fn an_idle_viewer_renders_nothing_and_present_modes_fall_back_cleanly() {
     }
 }
 
-#[test]
-fn video_frames_step_with_comma_and_period_and_match_render() {
-    let dir = tempfile::tempdir().unwrap();
-    let d = dir.path();
+/// A 4×4 camera-array video of 64×48 views, frames 1 to 3 (a card moving before a wall), in
+/// `d/video`, and its rig.
+fn birthday_video(d: &Path) -> (std::path::PathBuf, realworld_rig::Rig) {
     let video = d.join("video");
     std::fs::create_dir_all(&video).unwrap();
     let rig = realworld_rig::rig(tiltfield::lightfield::GridSize { cols: 4, rows: 4 }, 64, 48);
     realworld_rig::write_video(&video, &rig, "Birthday", &[1, 2, 3]);
+    (video, rig)
+}
+
+#[test]
+fn video_frames_step_with_comma_and_period_and_match_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (video, rig) = birthday_video(d);
     let (p, n) = rig.wall_plane();
     let plane: Vec<String> = [p.x, p.y, p.z, n.x, n.y, n.z]
         .iter()
@@ -784,10 +791,7 @@ fn video_frames_step_with_comma_and_period_and_match_render() {
 fn video_frames_anti_alias_on_their_own_depth_as_render_does() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let video = d.join("video");
-    std::fs::create_dir_all(&video).unwrap();
-    let rig = realworld_rig::rig(tiltfield::lightfield::GridSize { cols: 4, rows: 4 }, 64, 48);
-    realworld_rig::write_video(&video, &rig, "Birthday", &[1, 2, 3]);
+    let (video, _) = birthday_video(d);
     let cache = d.join("cache");
     let script = d.join("frames.txt");
     std::fs::write(
