@@ -466,8 +466,9 @@ fn still_point(plan: &SweepPlan, scale: f64) -> f64 {
     let top = 64.0 * scale;
     let step = top / STEPS as f64;
     let best = (0..=STEPS)
-        .min_by(|&a, &b| spread(a as f64 * step).total_cmp(&spread(b as f64 * step)))
-        .unwrap_or(0);
+        .map(|k| (k, spread(k as f64 * step)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(0, |(k, _)| k);
     let (mut a, mut b) = (
         (best as f64 - 1.0).max(0.0) * step,
         (best as f64 + 1.0).min(STEPS as f64) * step,
