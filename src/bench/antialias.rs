@@ -181,7 +181,12 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
         truth,
         pinholes,
         masks: [all, out, focused],
-    } = antialias_set::prepare(&ctx, &case, (size, gt_grid, 3), &ProgressBar::hidden())?;
+    } = antialias_set::prepare(
+        &ctx,
+        &case,
+        (size, gt_grid, antialias_set::SUPERSAMPLES),
+        &ProgressBar::hidden(),
+    )?;
     let aa: Vec<AntialiasPlan> = VARIANTS
         .iter()
         .map(|&s| plan_for(&lf, &plan, aperture, &[], s))

@@ -294,7 +294,7 @@ pub struct AntialiasSetArgs {
     #[arg(long, value_name = "FILTER", default_value = "hardware")]
     pub filter: crate::passes::refocus::Filter,
     /// Jittered samples per pixel and axis of the rendered views (and of the lens).
-    #[arg(long, value_name = "N", default_value_t = 3)]
+    #[arg(long, value_name = "N", default_value_t = crate::bench::antialias_set::SUPERSAMPLES)]
     pub supersamples: u32,
     /// Also write the table to this Markdown file.
     #[arg(long, value_name = "FILE.md")]
