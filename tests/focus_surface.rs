@@ -825,25 +825,10 @@ fn repeated_focus_and_disparity_are_the_surfaces_of_their_planes() {
         &render(&["--plane=0,0,2,0,0,1", "--focus", "3"]),
         &["--plane", "--focus", "cannot be used with"],
     );
-    // A slab lies around one plane; --frames renders one plane per frame.
+    // A slab lies around one plane.
     fails_with(
         &render(&["--focus", "2", "--focus", "3", "--slab", "0.1"]),
         &["exactly one plane, got 2 planes"],
-    );
-    fails_with(
-        &[
-            "render",
-            "builtin:demo",
-            "--frames",
-            "0..1",
-            "--focus",
-            "2",
-            "--focus",
-            "3",
-            "-o",
-            &path("f_{frame}.png"),
-        ],
-        &["focus surfaces", "are for single renders"],
     );
     // A later plane that cannot be is named by its place.
     fails_with(

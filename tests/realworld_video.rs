@@ -641,6 +641,60 @@ fn world_frame_is_the_calibrations() {
 /// `render --frames --antialias on` on a video without depth: each frame is anti-aliased on its
 /// own estimated depth (the card moves between frames), so every frame equals `render --frame
 /// N --antialias on` of it.
+/// A focus surface over a frame range keeps the first frame's planes and chooses among them
+/// on each frame's own depth, as `render --frame N` of the same surface does: on the
+/// generated video the card moves 0.12 m a frame, and the first frame's depth would focus it
+/// where it had been.
+#[test]
+fn frames_keep_a_focus_surface_on_each_frames_own_depth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().join("video");
+    std::fs::create_dir(&d).unwrap();
+    video(&d);
+    let cache = tmp.path().join("cache");
+    let run = |args: &[&str]| tiltfield_cached(args, &cache);
+    for (name, surface, kind, aa) in [
+        ("all", &["--all-in-focus"][..], "all-in-focus", false),
+        (
+            "two",
+            &["--focus", "3.5", "--antialias", "on"][..],
+            "planes",
+            true,
+        ),
+    ] {
+        let mut common = vec!["--focus", "2.4", "--aperture-radius", "1.5"];
+        common.extend(surface);
+        let pattern = tmp.path().join(format!("{name}_{{frame}}.png"));
+        let mut args = vec!["render", s(&d), "--frames", "1..3", "-o", s(&pattern)];
+        args.extend(&common);
+        args.push("--json");
+        let report = json_of(&run(&args));
+        assert_eq!(report["surface"]["kind"], kind, "{report}");
+        assert_eq!(report["antialias"]["used"], aa, "{report}");
+        assert_eq!(report["antialias"]["depth_frames"], 3, "{report}");
+        let mut frames = Vec::new();
+        for frame in ["1", "2", "3"] {
+            let single = tmp.path().join(format!("{name}_single_{frame}.png"));
+            let mut args = vec!["render", s(&d), "--frame", frame, "-o", s(&single)];
+            args.extend(&common);
+            let o = run(&args);
+            assert!(o.status.success(), "{}", stderr(&o));
+            let batch = image::open(tmp.path().join(format!("{name}_{frame}.png")))
+                .unwrap()
+                .to_rgba8();
+            assert!(
+                batch == image::open(&single).unwrap().to_rgba8(),
+                "{name}: frame {frame} differs from its own render of the surface"
+            );
+            frames.push(batch);
+        }
+        assert!(
+            frames[0] != frames[1],
+            "{name}: frames 1 and 2 are the same image"
+        );
+    }
+}
+
 #[test]
 fn frames_render_anti_aliased_each_on_its_own_estimated_depth() {
     let tmp = tempfile::tempdir().unwrap();

@@ -21,18 +21,6 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
     // Options and outputs first, then the video's listing, then the device: nothing is
     // decoded before everything that can be checked cheaply has been.
     let range: FrameRange = spec.parse()?;
-    if args
-        .focus
-        .options()?
-        .surface(args.slab, args.all_in_focus)?
-        .needs_depth()
-    {
-        return Err(Error::Invalid(
-            "--frames renders one focus plane per frame; focus surfaces (several planes, \
-             --slab, --all-in-focus) are for single renders"
-                .into(),
-        ));
-    }
     let output_text = crate::io::utf8_path(&args.output, "the -o pattern")?;
     let pattern = OutputPattern::parse(output_text)?;
     let sequence = FrameSequence::open(Path::new(&args.lf.light_field))?;
@@ -116,6 +104,9 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
             "frames": frames,
             "outputs": frames.iter().map(|&f| pattern.path(f)).collect::<Vec<_>>(),
             "averaging": args.aperture.average,
+            "surface": frame_plan.surface.as_ref().map(|s| {
+                s.json(planner.depth_origin.as_ref().map(super::depth::origin_json))
+            }),
             "antialias": with_depth_frames(
                 crate::refocus::antialias::antialias_json(
                     frame_plan.antialias.as_ref(),
@@ -165,8 +156,13 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         report.device
     );
     if planner.depth_frames > 0 {
+        let what = match (&frame_plan.surface, &frame_plan.antialias) {
+            (Some(_), Some(_)) => "focus surface and anti-aliasing",
+            (Some(_), None) => "focus surface",
+            _ => "anti-aliasing",
+        };
         eprintln!(
-            "anti-aliased on each frame's own depth ({} frames)",
+            "{what}: each frame's own depth ({} frames)",
             planner.depth_frames
         );
     }

@@ -27,6 +27,7 @@ use crate::lightfield::video::{FrameLoader, FrameSequence};
 use crate::lightfield::{LightField, LoadLimits};
 use crate::passes::texture::ViewStorage;
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::surface::SurfacePlan;
 use crate::refocus::RefocusPlan;
 
 /// An output path with the frame number in it: `{frame}` (the number as is) or `{frame:0N}`
@@ -168,6 +169,8 @@ pub struct BatchJob<'a> {
 pub struct FramePlan {
     pub plan: RefocusPlan,
     pub antialias: Option<AntialiasPlan>,
+    /// A focus surface on this frame's depth (several planes, a slab, all in focus).
+    pub surface: Option<SurfacePlan>,
 }
 
 /// Renders every frame of `job` (see the module docs). `plan_frame` is called with each frame
@@ -253,9 +256,10 @@ pub fn render_frames(
                 return Err(Error::Vulkan("no renderer".into()));
             };
             let tr = Instant::now();
-            let (image, gpu) = match &p.antialias {
-                Some(aa) => r.render_antialiased(aa, &job.settings)?,
-                None => r.render(&p.plan, &job.settings)?,
+            let (image, gpu) = match (&p.surface, &p.antialias) {
+                (Some(s), aa) => r.render_surface(&p.plan, aa.as_ref(), s, &job.settings)?,
+                (None, Some(aa)) => r.render_antialiased(aa, &job.settings)?,
+                (None, None) => r.render(&p.plan, &job.settings)?,
             };
             let render_ms = tr.elapsed().as_secs_f64() * 1e3;
             times.push(FrameTimes {

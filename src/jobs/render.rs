@@ -473,15 +473,17 @@ fn prepare_excluding(
     })
 }
 
-/// The plans of a frame range (`render --frames`): the first frame's plane for every frame,
-/// and with anti-aliasing each frame's own depth (the video's, or estimated per frame and
-/// cached): things move between frames, and the first frame's depth blurred a moving card
-/// where it had been. [`FramePlanner::plan_frame`] is what [`crate::jobs::batch::render_frames`]
+/// The plans of a frame range (`render --frames`): the first frame's plane (or focus
+/// surface's planes) for every frame, and with anti-aliasing or a focus surface each frame's
+/// own depth (the video's, or estimated per frame and cached): things move between frames, and
+/// the first frame's depth blurred a moving card where it had been, or focused it where it had
+/// been. [`FramePlanner::plan_frame`] is what [`crate::jobs::batch::render_frames`]
 /// calls per frame.
 pub struct FramePlanner<'a> {
     options: &'a RenderOptions,
-    /// The plan anti-aliasing starts from, made on the first frame with its depth.
-    aa_base: Option<RefocusPlan>,
+    /// The plan anti-aliasing and a focus surface start from, made on the first frame with
+    /// its depth.
+    depth_base: Option<RefocusPlan>,
     /// The first frame's focus.
     pub focus: Option<ResolvedFocus>,
     /// Where the first frame's depth came from (with anti-aliasing).
@@ -494,7 +496,7 @@ impl<'a> FramePlanner<'a> {
     pub fn new(options: &'a RenderOptions) -> Self {
         FramePlanner {
             options,
-            aa_base: None,
+            depth_base: None,
             focus: None,
             depth_origin: None,
             depth_frames: 0,
@@ -513,6 +515,10 @@ impl<'a> FramePlanner<'a> {
     ) -> Result<Option<crate::jobs::batch::FramePlan>> {
         let options = self.options;
         let aa_on = refocus::antialias::wanted(options.antialias, lf);
+        let asked = options.surface()?;
+        // Anti-aliasing and a focus surface read the frame's own depth; a plain plane reads
+        // none, so its first frame's plan serves every frame.
+        let per_frame = aa_on || asked.needs_depth();
         let plan = match previous {
             // The plane is fixed from the first frame; picks use a depth map the video
             // carries (the range does not estimate one per frame for them).
@@ -522,20 +528,29 @@ impl<'a> FramePlanner<'a> {
                 self.focus = Some(f);
                 plan
             }
-            Some(_) if !aa_on => return Ok(None),
+            Some(_) if !per_frame => return Ok(None),
             Some(p) => p.plan.clone(),
         };
-        if !aa_on {
+        if !per_frame {
             return Ok(Some(crate::jobs::batch::FramePlan {
                 plan,
                 antialias: None,
+                surface: None,
             }));
         }
         let mut frame = lf.clone();
-        let origin = crate::jobs::depth::ensure_for(ctx, &mut frame, progress)?.0;
+        let origin = crate::jobs::depth::ensure_for(ctx, &mut frame, progress)
+            .map_err(|e| match asked.needs_depth() {
+                true => Error::Invalid(format!(
+                    "the focus surface '{}' needs each frame's depth, which this video lacks                      and cannot be estimated: {e}",
+                    asked.name()
+                )),
+                false => e,
+            })?
+            .0;
         self.depth_frames += 1;
         self.depth_origin.get_or_insert(origin);
-        let base = match &self.aa_base {
+        let base = match &self.depth_base {
             Some(b) => b,
             None => {
                 let (b, _) = make_plan(
@@ -543,11 +558,40 @@ impl<'a> FramePlanner<'a> {
                     options,
                     crate::geometry::normals::GIVEN_DEPTH_WINDOW,
                 )?;
-                self.aa_base.insert(b)
+                // A surface chooses between the inverse depths of planes: classic
+                // shift-and-sum becomes the plane it stands for (as `prepare` does).
+                let b = match asked.needs_depth() {
+                    true => refocus::plan::with_plane(
+                        &frame,
+                        &b,
+                        options.aperture,
+                        &frame.excluded_views(options.include_dark),
+                    )
+                    .map_err(|e| refocus::surface::in_surface(asked.name(), e))?
+                    .into_owned(),
+                    false => b,
+                };
+                self.depth_base.insert(b)
             }
         };
-        let antialias = antialias_plan(&frame, options, base, true)?;
-        Ok(Some(crate::jobs::batch::FramePlan { plan, antialias }))
+        let antialias = antialias_plan(&frame, options, base, aa_on)?;
+        if !asked.needs_depth() {
+            return Ok(Some(crate::jobs::batch::FramePlan {
+                plan,
+                antialias,
+                surface: None,
+            }));
+        }
+        // The surface's planes are the first frame's; where each pixel focuses among them
+        // follows this frame's depth.
+        let surface = asked.resolve(&frame, base.reference)?;
+        let surface_plan =
+            refocus::surface::surface_for(&frame, base, &surface, antialias.as_ref())?;
+        Ok(Some(crate::jobs::batch::FramePlan {
+            plan: base.clone(),
+            antialias,
+            surface: Some(surface_plan),
+        }))
     }
 }
 
