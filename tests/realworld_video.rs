@@ -638,9 +638,93 @@ fn world_frame_is_the_calibrations() {
     assert!((down - r.m * DVec3::new(0.0, 0.08, 0.0)).length() < 1e-9);
 }
 
+/// Renders frames 1–3 of the video in `d` with `render --frames` and each on its own with
+/// `render --frame N`, both with `args`, and asserts that every frame of the range equals its
+/// own render, byte for byte. Returns the range's `--json` report and its frames.
+fn frames_equal_single_renders(
+    tmp: &Path,
+    d: &Path,
+    name: &str,
+    args: &[&str],
+) -> (serde_json::Value, Vec<image::RgbaImage>) {
+    let cache = tmp.join("cache");
+    let run = |a: &[&str]| tiltfield_cached(a, &cache);
+    let pattern = tmp.join(format!("{name}_{{frame}}.png"));
+    let mut range = vec![
+        "render",
+        s(d),
+        "--frames",
+        "1..3",
+        "-o",
+        s(&pattern),
+        "--json",
+    ];
+    range.extend(args);
+    let report = json_of(&run(&range));
+    let mut frames = Vec::new();
+    for frame in ["1", "2", "3"] {
+        let single = tmp.join(format!("{name}_single_{frame}.png"));
+        let mut one = vec!["render", s(d), "--frame", frame, "-o", s(&single)];
+        one.extend(args);
+        let o = run(&one);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let batch = image::open(tmp.join(format!("{name}_{frame}.png")))
+            .unwrap()
+            .to_rgba8();
+        assert!(
+            batch == image::open(&single).unwrap().to_rgba8(),
+            "{name}: frame {frame} differs from its own render"
+        );
+        frames.push(batch);
+    }
+    (report, frames)
+}
+
 /// `render --frames --antialias on` on a video without depth: each frame is anti-aliased on its
 /// own estimated depth (the card moves between frames), so every frame equals `render --frame
 /// N --antialias on` of it.
+#[test]
+fn frames_render_anti_aliased_each_on_its_own_estimated_depth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().join("video");
+    std::fs::create_dir(&d).unwrap();
+    video(&d);
+    let plane = [
+        "--focus",
+        "2.4",
+        "--aperture-radius",
+        "1.5",
+        "--antialias",
+        "on",
+    ];
+    let (report, _) = frames_equal_single_renders(tmp.path(), &d, "aa", &plane);
+    assert_eq!(report["antialias"]["used"], true, "{report}");
+    assert_eq!(report["antialias"]["depth_frames"], 3, "{report}");
+    assert_eq!(
+        report["antialias"]["depth_origin"]["origin"], "estimated",
+        "{report}"
+    );
+    // Off (the default here: a video ships no depth) is the plain sum.
+    let pattern = tmp.path().join("plain_{frame}.png");
+    let report = json_of(&tiltfield_cached(
+        &[
+            "render",
+            s(&d),
+            "--frames",
+            "1..1",
+            "-o",
+            s(&pattern),
+            "--json",
+            "--focus",
+            "2.4",
+            "--aperture-radius",
+            "1.5",
+        ],
+        &tmp.path().join("cache"),
+    ));
+    assert_eq!(report["antialias"]["used"], false, "{report}");
+}
+
 /// A focus surface over a frame range keeps the first frame's planes and chooses among them
 /// on each frame's own depth, as `render --frame N` of the same surface does: on the
 /// generated video the card moves 0.12 m a frame, and the first frame's depth would focus it
@@ -651,8 +735,6 @@ fn frames_keep_a_focus_surface_on_each_frames_own_depth() {
     let d = tmp.path().join("video");
     std::fs::create_dir(&d).unwrap();
     video(&d);
-    let cache = tmp.path().join("cache");
-    let run = |args: &[&str]| tiltfield_cached(args, &cache);
     for (name, surface, kind, aa) in [
         ("all", &["--all-in-focus"][..], "all-in-focus", false),
         (
@@ -662,98 +744,15 @@ fn frames_keep_a_focus_surface_on_each_frames_own_depth() {
             true,
         ),
     ] {
-        let mut common = vec!["--focus", "2.4", "--aperture-radius", "1.5"];
-        common.extend(surface);
-        let pattern = tmp.path().join(format!("{name}_{{frame}}.png"));
-        let mut args = vec!["render", s(&d), "--frames", "1..3", "-o", s(&pattern)];
-        args.extend(&common);
-        args.push("--json");
-        let report = json_of(&run(&args));
+        let mut args = vec!["--focus", "2.4", "--aperture-radius", "1.5"];
+        args.extend(surface);
+        let (report, frames) = frames_equal_single_renders(tmp.path(), &d, name, &args);
         assert_eq!(report["surface"]["kind"], kind, "{report}");
         assert_eq!(report["antialias"]["used"], aa, "{report}");
         assert_eq!(report["antialias"]["depth_frames"], 3, "{report}");
-        let mut frames = Vec::new();
-        for frame in ["1", "2", "3"] {
-            let single = tmp.path().join(format!("{name}_single_{frame}.png"));
-            let mut args = vec!["render", s(&d), "--frame", frame, "-o", s(&single)];
-            args.extend(&common);
-            let o = run(&args);
-            assert!(o.status.success(), "{}", stderr(&o));
-            let batch = image::open(tmp.path().join(format!("{name}_{frame}.png")))
-                .unwrap()
-                .to_rgba8();
-            assert!(
-                batch == image::open(&single).unwrap().to_rgba8(),
-                "{name}: frame {frame} differs from its own render of the surface"
-            );
-            frames.push(batch);
-        }
         assert!(
             frames[0] != frames[1],
             "{name}: frames 1 and 2 are the same image"
         );
     }
-}
-
-#[test]
-fn frames_render_anti_aliased_each_on_its_own_estimated_depth() {
-    let tmp = tempfile::tempdir().unwrap();
-    let d = tmp.path().join("video");
-    std::fs::create_dir(&d).unwrap();
-    video(&d);
-    let cache = tmp.path().join("cache");
-    let run = |args: &[&str]| tiltfield_cached(args, &cache);
-    let pattern = tmp.path().join("aa_{frame}.png");
-    let plane = [
-        "--focus",
-        "2.4",
-        "--aperture-radius",
-        "1.5",
-        "--antialias",
-        "on",
-    ];
-    let mut args = vec![
-        "render",
-        s(&d),
-        "--frames",
-        "1..3",
-        "-o",
-        s(&pattern),
-        "--json",
-    ];
-    args.extend(plane);
-    let report = json_of(&run(&args));
-    assert_eq!(report["antialias"]["used"], true, "{report}");
-    assert_eq!(report["antialias"]["depth_frames"], 3, "{report}");
-    assert_eq!(
-        report["antialias"]["depth_origin"]["origin"], "estimated",
-        "{report}"
-    );
-    for frame in ["1", "2", "3"] {
-        let single = tmp.path().join(format!("single_{frame}.png"));
-        let mut args = vec!["render", s(&d), "--frame", frame, "-o", s(&single)];
-        args.extend(plane);
-        let o = run(&args);
-        assert!(o.status.success(), "{}", stderr(&o));
-        let batch = image::open(tmp.path().join(format!("aa_{frame}.png")))
-            .unwrap()
-            .to_rgba8();
-        assert!(
-            batch == image::open(&single).unwrap().to_rgba8(),
-            "frame {frame} differs from its own anti-aliased render"
-        );
-    }
-    // Off (the default here: a video ships no depth) is the plain sum.
-    let mut args = vec![
-        "render",
-        s(&d),
-        "--frames",
-        "1..1",
-        "-o",
-        s(&pattern),
-        "--json",
-    ];
-    args.extend(["--focus", "2.4", "--aperture-radius", "1.5"]);
-    let report = json_of(&run(&args));
-    assert_eq!(report["antialias"]["used"], false, "{report}");
 }
