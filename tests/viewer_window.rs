@@ -721,6 +721,28 @@ fn an_idle_viewer_renders_nothing_and_present_modes_fall_back_cleanly() {
 
 /// A 4×4 camera-array video of 64×48 views, frames 1 to 3 (a card moving before a wall), in
 /// `d/video`, and its rig.
+/// Runs the viewer under xvfb on `birthday_video` in `d` with `args` and the script `lines`
+/// (`{d}` replaced by `d`), its depth cached in `d/cache`; asserts it ran cleanly with no
+/// validation error. Returns the video's folder and the cache.
+fn view_video_script(
+    d: &Path,
+    lines: &str,
+    args: &[&str],
+) -> (std::path::PathBuf, std::path::PathBuf) {
+    let (video, _) = birthday_video(d);
+    let cache = d.join("cache");
+    let script = d.join("frames.txt");
+    std::fs::write(&script, lines.replace("{d}", &d.display().to_string())).unwrap();
+    let mut all = vec![video.to_str().unwrap()];
+    all.extend(args);
+    all.extend(["--script", script.to_str().unwrap(), "--json"]);
+    let o = view_in_xvfb_cached(&all, &cache);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(report["validation_errors"], 0);
+    (video, cache)
+}
+
 fn birthday_video(d: &Path) -> (std::path::PathBuf, realworld_rig::Rig) {
     let video = d.join("video");
     std::fs::create_dir_all(&video).unwrap();
@@ -791,33 +813,16 @@ fn video_frames_step_with_comma_and_period_and_match_render() {
 fn video_frames_anti_alias_on_their_own_depth_as_render_does() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let (video, _) = birthday_video(d);
-    let cache = d.join("cache");
-    let script = d.join("frames.txt");
-    std::fs::write(
-        &script,
-        format!(
-            "wait-converged\nkey PERIOD\nwait-converged\nscreenshot {d}/f2\nkey PERIOD\n\
-             wait-converged\nscreenshot {d}/f3\nquit\n",
-            d = d.display()
-        ),
-    )
-    .unwrap();
-    let v = video.to_str().unwrap();
     let focus = ["--focus", "2.4", "--aperture-radius", "1.5"];
-    let mut args = vec![v];
-    args.extend(focus);
-    args.extend([
-        "--antialias",
-        "on",
-        "--script",
-        script.to_str().unwrap(),
-        "--json",
-    ]);
-    let o = view_in_xvfb_cached(&args, &cache);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let report: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-    assert_eq!(report["validation_errors"], 0);
+    let mut args = focus.to_vec();
+    args.extend(["--antialias", "on"]);
+    let (video, cache) = view_video_script(
+        d,
+        "wait-converged\nkey PERIOD\nwait-converged\nscreenshot {d}/f2\nkey PERIOD\n\
+         wait-converged\nscreenshot {d}/f3\nquit\n",
+        &args,
+    );
+    let v = video.to_str().unwrap();
     for (shot, frame) in [("f2", 2), ("f3", 3)] {
         let state = json_file(&d.join(format!("{shot}.json")));
         assert_eq!(state["frame"], frame, "{shot}");
@@ -841,6 +846,51 @@ fn video_frames_anti_alias_on_their_own_depth_as_render_does() {
             "{shot}: anti-aliasing changed nothing"
         );
     }
+}
+
+/// All in focus (G) on a video: every frame the viewer steps to chooses its focus on that
+/// frame's own depth, as `render --frame N --all-in-focus` does (here without anti-aliasing,
+/// so the surface alone reads the depth).
+#[test]
+fn video_frames_keep_all_in_focus_on_their_own_depth_as_render_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let focus = [
+        "--focus",
+        "2.4",
+        "--aperture-radius",
+        "1.5",
+        "--antialias",
+        "off",
+    ];
+    let (video, cache) = view_video_script(
+        d,
+        "wait-converged\nkey G\nwait-converged\nkey PERIOD\nwait-converged\n\
+         screenshot {d}/f2\nquit\n",
+        &focus,
+    );
+    let v = video.to_str().unwrap();
+    let state = json_file(&d.join("f2.json"));
+    assert_eq!(state["frame"], 2);
+    assert_eq!(state["surface"]["kind"], "all-in-focus", "{state}");
+    let render = |surface: Option<&str>, out: &Path| {
+        let mut args = vec!["render", v, "--frame=2"];
+        args.extend(focus);
+        args.extend(surface);
+        args.extend(["-o", out.to_str().unwrap()]);
+        let o = common::tiltfield_cached(&args, &cache);
+        assert!(o.status.success(), "{}", stderr(&o));
+        std::fs::read(out).unwrap()
+    };
+    let viewer = std::fs::read(d.join("f2_refocus.png")).unwrap();
+    assert!(
+        viewer == render(Some("--all-in-focus"), &d.join("all.png")),
+        "viewer ≠ render --frame 2 --all-in-focus"
+    );
+    assert!(
+        viewer != render(None, &d.join("plane.png")),
+        "all in focus changed nothing"
+    );
 }
 
 #[test]
