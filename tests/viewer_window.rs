@@ -108,6 +108,9 @@ fn render_state_cached(
     if let Some(r) = aperture["radius"].as_f64() {
         args.push(format!("--aperture-radius={r:?}"));
     }
+    if let Some(f) = state["filter"].as_str() {
+        args.push(format!("--filter={f}"));
+    }
     args.extend(focus.iter().cloned());
     let refs: Vec<&str> = args.iter().map(String::as_str).collect();
     let o = match cache {
@@ -891,6 +894,32 @@ fn video_frames_keep_all_in_focus_on_their_own_depth_as_render_does() {
         viewer != render(None, &d.join("plane.png")),
         "all in focus changed nothing"
     );
+}
+
+/// `view --filter bicubic` samples the views as `render --filter bicubic` does: at a focus
+/// that reads every view between its pixels the converged image equals that render, byte for
+/// byte, and differs from the bilinear one.
+#[test]
+fn the_filter_option_samples_as_render_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let shot = d.join("cubic");
+    let script = format!("wait-converged\nscreenshot {}\nquit\n", shot.display());
+    let focus = ["--disparity", "1.3"];
+    let mut args = vec!["builtin:demo", "--filter", "bicubic", "--window", "640x400"];
+    args.extend(focus);
+    let (report, _) = run_script(d, "cubic.txt", &script, &args);
+    assert_eq!(report["filter"], "bicubic", "{report}");
+    let state = json_file(&d.join("cubic.json"));
+    assert_eq!(state["filter"], "bicubic", "{state}");
+    let focus: Vec<String> = focus.iter().map(|s| s.to_string()).collect();
+    let viewer = std::fs::read(d.join("cubic_refocus.png")).unwrap();
+    let render = render_state("builtin:demo", &state, &focus, &d.join("render.png"));
+    assert!(viewer == render, "viewer ≠ render --filter bicubic");
+    let mut bilinear = state.clone();
+    bilinear["filter"] = "hardware".into();
+    let plain = render_state("builtin:demo", &bilinear, &focus, &d.join("bilinear.png"));
+    assert!(viewer != plain, "the filter changed nothing");
 }
 
 #[test]

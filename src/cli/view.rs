@@ -33,6 +33,11 @@ pub struct ViewArgs {
     /// light field's own map or an estimate).
     #[command(flatten)]
     pub antialias: AntialiasArgs,
+    /// How views are sampled, as for `render`: hardware (bilinear), shader (exact bilinear),
+    /// bicubic (Catmull-Rom in the shader: sharper on a tilted plane, at several times the
+    /// GPU time) or nearest.
+    #[arg(long, value_name = "FILTER", default_value = "hardware")]
+    pub filter: crate::passes::refocus::Filter,
     /// Presentation: fifo (vsync), mailbox or immediate (for profiling).
     #[arg(long, default_value = "fifo")]
     pub present: PresentMode,
@@ -119,6 +124,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         script: lines,
         gpu: args.gpu.options(),
         storage: ViewStorage::default(),
+        filter: args.filter,
         screenshot_prefix: args.screenshot_prefix.clone(),
         video,
         normal_window,
@@ -151,6 +157,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             },
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},
             "storage": ViewStorage::default(),
+            "filter": args.filter,
             "size": [size.0, size.1],
             "device": report.device,
             "present_mode": report.present_mode,

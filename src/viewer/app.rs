@@ -35,6 +35,7 @@ use crate::gpu::swapchain::PresentMode;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::video::FrameSequence;
 use crate::lightfield::LightField;
+use crate::passes::refocus::Filter;
 use crate::passes::texture::ViewStorage;
 use crate::refocus::antialias::AntialiasSettings;
 use crate::refocus::{Averaging, FocusRequest};
@@ -68,6 +69,8 @@ pub struct ViewerOptions {
     pub script: Vec<Line>,
     pub gpu: GpuOptions,
     pub storage: ViewStorage,
+    /// How the views are sampled (as `render --filter`).
+    pub filter: Filter,
     /// Where `P` writes screenshots (prefix; a counter is appended).
     pub screenshot_prefix: PathBuf,
     /// The video `lf` is a frame of, and that frame's number: `,` `.` step, Space plays.
@@ -269,6 +272,7 @@ pub fn run(lf: LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         opts.present,
         opts.storage,
     )?;
+    gpu.filter = opts.filter;
     let layout = Layout::new(extent.width, extent.height, (lf.width, lf.height));
     gpu.rebuild_panels(&layout)?;
     if let Some(c) = &depth.cloud {

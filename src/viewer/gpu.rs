@@ -36,7 +36,9 @@ use crate::gpu::upload::Staging;
 use crate::gpu::GpuContext;
 use crate::lightfield::LightField;
 use crate::passes::panel::{Compositor, PanelMode, Rect};
-use crate::passes::refocus::{Accumulate, OutputFormat, RefocusPass, RefocusTarget, Strategy};
+use crate::passes::refocus::{
+    Accumulate, Filter, OutputFormat, RefocusPass, RefocusTarget, Strategy,
+};
 use crate::passes::scene::{SceneOverlay, ScenePass, SceneTarget, SceneView};
 use crate::passes::texture::{LightFieldTexture, ViewStorage};
 use crate::refocus::antialias::AntialiasPlan;
@@ -145,6 +147,8 @@ pub struct ViewerGpu {
     /// Output size of full-quality refocus images.
     pub full_size: (u32, u32),
     pub strategy: Strategy,
+    /// How the views are sampled (`view --filter`, as `render --filter`).
+    pub filter: Filter,
     /// The focus surface the pass holds (uploaded by [`ViewerGpu::prepare`]; `None` after
     /// anything else may have rewritten the pass's scene depth).
     surface: Option<SurfacePlan>,
@@ -191,6 +195,7 @@ impl ViewerGpu {
             ctx,
             full_size: (lf.width, lf.height),
             strategy: Strategy::default(),
+            filter: Filter::default(),
             surface: None,
         };
         // Each step stores what it made, so `Drop` frees it when a later step fails.
@@ -512,6 +517,7 @@ impl ViewerGpu {
                 batch,
                 averaging: req.averaging,
                 strategy: self.strategy,
+                filter: self.filter,
             };
             targets.record_batch(&ctx, cmd, pass, &work)?;
             self.slot_work[frame.slot] = Some((batch.views.len(), batch.divisor.max(1), req.tag));
@@ -629,7 +635,7 @@ impl ViewerGpu {
                 views: 0..plan.views.len(),
                 clear: true,
                 strategy: self.strategy,
-                filter: Default::default(),
+                filter: self.filter,
                 averaging,
                 antialias: aa.map_or(0, |a| a.settings.max_samples),
                 surface: surface.is_some(),
@@ -689,6 +695,7 @@ struct RefocusWork<'a> {
     batch: &'a Batch,
     averaging: Averaging,
     strategy: Strategy,
+    filter: Filter,
 }
 
 impl RefocusTargets {
@@ -708,7 +715,7 @@ impl RefocusTargets {
             views: batch.views.clone(),
             clear: batch.clear,
             strategy: work.strategy,
-            filter: Default::default(),
+            filter: work.filter,
             averaging: work.averaging,
             antialias: work.antialias,
             surface: work.surface,

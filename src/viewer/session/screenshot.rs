@@ -55,6 +55,7 @@ pub fn screenshot_json(
     aa: Option<&AntialiasPlan>,
     surface: Option<&SurfacePlan>,
     depth: Option<&DepthOrigin>,
+    filter: crate::passes::refocus::Filter,
 ) -> serde_json::Value {
     let mut v = crate::refocus::plan_json(aa.map_or(&state.plan, |a| &a.plan));
     if let Some(obj) = v.as_object_mut() {
@@ -71,6 +72,7 @@ pub fn screenshot_json(
             "antialias".into(),
             crate::refocus::antialias::antialias_json(aa, None),
         );
+        obj.insert("filter".into(), filter.name().into());
         obj.insert("surface".into(), surface_json(state, surface, depth));
         // What the panel says (a refusal, a pick in progress): scripts can check it.
         obj.insert("message".into(), state.message.clone().into());
@@ -135,7 +137,7 @@ pub fn save(
     if let Some(w) = window {
         crate::io::save_png(w, &with_suffix(prefix, "_window.png"))?;
     }
-    let mut json = screenshot_json(state, aa, surface, depth);
+    let mut json = screenshot_json(state, aa, surface, depth, gpu.filter);
     if let Some(obj) = json.as_object_mut() {
         if let Some(f) = state.frame {
             obj.insert("frame".into(), f.into());
