@@ -94,9 +94,8 @@ pub enum DepthScene {
     /// each view) and Gaussian sensor noise of σ = 3 levels.
     Plenoptic,
     /// The `Wide` cards, the nearest at d = +4.5, seen by a calibrated converging rig: the
-    /// regular rig's camera centres,
-    /// every camera turned towards the point 2 m away on the centre axis (where the regular
-    /// rig has zero disparity), no regular-grid declaration. The depth search has no dataset
+    /// regular rig's camera centres, every camera turned towards the point 2 m away on the
+    /// centre axis (where the regular rig has zero disparity), no regular-grid declaration. The depth search has no dataset
     /// range and no disparity convention there: its automatic range must centre on the point
     /// the cameras look at (anchored at infinity, it stopped at d = +3.6 and lost the nearest
     /// card). Scored as the regular rig's disparity of the estimated depth

@@ -428,13 +428,7 @@ fn prepare_excluding(
         // A focus surface chooses its focus from the scene's depth at every pixel.
         None if asked.needs_depth() => Some(
             crate::jobs::depth::ensure_for(ctx, lf, progress)
-                .map_err(|e| {
-                    Error::Invalid(format!(
-                        "the focus surface '{}' needs the scene's depth, which this light \
-                         field lacks and cannot be estimated: {e}",
-                        asked.name()
-                    ))
-                })?
+                .map_err(|e| surface_without_depth(asked.name(), e))?
                 .0,
         ),
         d => d,
@@ -471,6 +465,15 @@ fn prepare_excluding(
         surface_plan,
         depth,
     })
+}
+
+/// The error of a focus surface whose light field (or video frame) has no depth and cannot
+/// get an estimate: `e` says why.
+fn surface_without_depth(surface: &str, e: Error) -> Error {
+    Error::Invalid(format!(
+        "the focus surface '{surface}' needs the scene's depth, which this light field lacks \
+         and cannot be estimated: {e}"
+    ))
 }
 
 /// The plans of a frame range (`render --frames`): the first frame's plane (or focus
@@ -541,10 +544,7 @@ impl<'a> FramePlanner<'a> {
         let mut frame = lf.clone();
         let origin = crate::jobs::depth::ensure_for(ctx, &mut frame, progress)
             .map_err(|e| match asked.needs_depth() {
-                true => Error::Invalid(format!(
-                    "the focus surface '{}' needs each frame's depth, which this video lacks                      and cannot be estimated: {e}",
-                    asked.name()
-                )),
+                true => surface_without_depth(asked.name(), e),
                 false => e,
             })?
             .0;

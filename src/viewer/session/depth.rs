@@ -5,11 +5,11 @@
 //!
 //! A light field without its own map gets an estimate made on a background thread
 //! ([`DepthJob`]) while the window already shows the refocus image (a video without depth: one
-//! per frame shown, the session discarding estimates of frames no longer shown): the job has its own GPU
-//! context (instance, device and queue), so its submissions never meet the window's and need
-//! no locking; the session reads its progress and installs the result when it is done. A job
-//! still running when the viewer quits is abandoned with the process (the sweep cannot be
-//! cancelled; nothing is cached, `--json` reports no depth).
+//! per frame shown, the session discarding estimates of frames no longer shown): the job has
+//! its own GPU context (instance, device and queue), so its submissions never meet the
+//! window's and need no locking; the session reads its progress and installs the result when
+//! it is done. A job still running when the viewer quits is abandoned with the process (the
+//! sweep cannot be cancelled; nothing is cached, `--json` reports no depth).
 
 use std::sync::Arc;
 use std::thread::JoinHandle;
