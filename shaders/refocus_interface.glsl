@@ -36,4 +36,6 @@ layout(push_constant) uniform RefocusPush {
     uint accumulate; // compute: 1 adds to the accumulation image, 0 replaces its contents
     uint plane_count; // planes of a focus surface (SURFACE 1), the plane's included
     uint total_views; // warps of the whole plan (anti-aliasing's focus test reads them all)
+    float focused_reach; // anti-aliasing: |s - sigma| below which a pixel's own surface is in
+                         // focus and its sub-samples under half a pixel read Catmull-Rom (0: none)
 } pc;

@@ -325,20 +325,17 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
         "tilted through two layers",
         true,
     );
-    // Measured: plain 28.7 / 28.5 / 29.8 dB, anti-aliased 33.0 / 37.7 / 29.6 dB (the issue
-    // asks 34 / 38 / 36). On the tilted plane every view's shift is fractional and the
-    // bilinear filter softens the fine texture: the bicubic filter gives 35.9 / 38.5 /
-    // 33.2 dB (34 and 38 met, not 36 on the plane), at about 3 times the anti-aliased sum's
-    // GPU time on lavapipe. On the plane the views themselves are the limit: the plain sum
-    // scored on CPU with better interpolators reached 32.8 (Catmull-Rom), 33.4 (Lanczos-3)
-    // and 33.3 dB (prefiltered cubic B-spline) there, and on the pixels within 0.1 px of
-    // the plane every interpolator and the centre view itself score 35.3-35.4 dB against
-    // the lens: the panels' fine grain, foreshortened on the slanted plane, lies near the
-    // views' Nyquist limit and is aliased in them.
+    // Measured: plain 28.7 / 28.5 / 29.5 dB, anti-aliased 35.7 / 37.7 / 33.2 dB, with
+    // `--filter bicubic` 35.9 / 38.5 / 33.1 dB (3 x 3 jitters a pixel; the anti-aliasing
+    // set's 8 x 8 meets the issue's 34 / 38 / 36: README). On the tilted plane every view's
+    // shift is fractional and bilinear interpolation softens the panels' fine grain: before
+    // in-focus sub-samples read Catmull-Rom the default scored 33.0 / 37.7 / 29.6 dB. Now
+    // it is as sharp on the plane as bicubic everywhere, at a fraction of its GPU time.
     assert!(a.out_of_focus >= p.out_of_focus + 8.0);
-    assert!(a.focused >= p.focused - 0.5);
+    assert!(a.focused >= p.focused + 2.0, "Catmull-Rom on the plane");
     let c = c.unwrap();
-    assert!(c.focused >= a.focused + 2.0 && c.overall >= a.overall + 2.0);
+    assert!(a.focused >= c.focused - 0.5, "as sharp as bicubic");
+    assert!(a.overall >= 34.0 && a.out_of_focus >= 37.5);
     assert!(c.overall >= 34.0 && c.out_of_focus >= 37.5, "bicubic");
     assert_no_validation_errors(&h);
     assert_raster_clean(&r);
@@ -390,6 +387,7 @@ fn gpu_antialiasing_matches_the_f64_model() {
         max_samples: 4,
         prefilter: true,
         focus_test: true,
+        focused_bicubic: true,
     };
     let (_, aa) = plain_and_aa(&lf, front, None, settings);
     gpu_matches_model(&lf, &aa, "grid centre");
@@ -424,6 +422,25 @@ fn gpu_antialiasing_matches_the_f64_model() {
         .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 1e-6))
         .count();
     assert!(changed > 100, "the focus test changed {changed} pixels");
+    // Without the focus test every pixel of the panel is its own focused surface: its
+    // in-focus sub-samples read Catmull-Rom, and without that bilinear, as the model does.
+    let bilinear = AntialiasSettings {
+        focus_test: false,
+        focused_bicubic: false,
+        ..settings
+    };
+    let (_, bilinear) = plain_and_aa(&lf, panel, None, bilinear);
+    gpu_matches_model(
+        &lf,
+        &bilinear,
+        "focused on the panel, in-focus sub-samples bilinear",
+    );
+    let changed = model(&untested)
+        .iter()
+        .zip(&model(&bilinear))
+        .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 1e-4))
+        .count();
+    assert!(changed > 100, "Catmull-Rom changed {changed} pixels");
     // One sub-sample per view: footprints up to 3 px read the prefilter pyramid's levels
     // (refocus::prefilter), the shader's trilinear from texel fetches against the model's.
     let one = AntialiasSettings {
@@ -443,6 +460,7 @@ fn gpu_antialiasing_matches_the_f64_model() {
         max_samples: 2,
         prefilter: false,
         focus_test: false,
+        focused_bicubic: true,
     };
     let (_, aa2) = plain_and_aa(&lf, front, Some(DVec2::new(1.5, 2.25)), sharp);
     gpu_matches_model(&lf, &aa2, "virtual view, sharp 2 x 2");

@@ -403,7 +403,9 @@ impl LightField {
     /// depth), ``antialias_samples``, ``antialias_prefilter`` (True/False: long footprints
     /// read the views' box-filtered pyramid; default True), ``antialias_focus_test``
     /// (True/False: pixels whose views agree at the focus surface stay the plain sum whatever
-    /// the depth says; default True), ``strategy`` ("fragment", "batched:N", "compute"),
+    /// the depth says; default True), ``antialias_focused_bicubic`` (True/False: where the
+    /// pixel's own surface is in focus, sub-samples under half a pixel read Catmull-Rom;
+    /// default True), ``strategy`` ("fragment", "batched:N", "compute"),
     /// ``views_per_draw``, ``filter`` ("hardware", "shader", "bicubic", "nearest"),
     /// ``accumulation`` ("rgba32f", "rgba16f"), ``warps`` ("ubo", "ssbo"), ``storage``
     /// ("srgb8", "linear16").
@@ -421,7 +423,7 @@ impl LightField {
         normal_window=None, normal_method="inverse-depth", slab=None, all_in_focus=false,
         aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
         include_dark=false, antialias=None, antialias_samples=4, antialias_prefilter=true,
-        antialias_focus_test=true, strategy=None,
+        antialias_focus_test=true, antialias_focused_bicubic=true, strategy=None,
         views_per_draw=0, filter=None, accumulation=None, warps=None, storage=None,
         linear=false
     ))]
@@ -454,6 +456,7 @@ impl LightField {
         antialias_samples: u32,
         antialias_prefilter: bool,
         antialias_focus_test: bool,
+        antialias_focused_bicubic: bool,
         strategy: Option<&str>,
         views_per_draw: usize,
         filter: Option<&str>,
@@ -487,6 +490,7 @@ impl LightField {
             antialias_samples,
             antialias_prefilter,
             antialias_focus_test,
+            antialias_focused_bicubic,
             strategy: choice(strategy)?,
             views_per_draw,
             filter: choice(filter)?,

@@ -23,9 +23,10 @@ use crate::refocus::antialias::{plan_for, AntialiasPlan, AntialiasSettings};
 use crate::refocus::{RefocusImage, RefocusPlan};
 
 /// The settings the study measures: sub-sample caps per axis with the prefiltered lookup
-/// (`aaN`), without it (`aaN-sharp`: every sub-sample a full-resolution fetch), and the
-/// default without the focus test (`aa4-untested`: the depth alone decides every pixel).
-pub const VARIANTS: [AntialiasSettings; 8] = [
+/// (`aaN`), without it (`aaN-sharp`: every sub-sample a full-resolution fetch), the default
+/// without the focus test (`aa4-untested`: the depth alone decides every pixel) and without
+/// Catmull-Rom for in-focus sub-samples (`aa4-bilinear`).
+pub const VARIANTS: [AntialiasSettings; 9] = [
     aa(1, true),
     aa(2, true),
     aa(4, true),
@@ -37,6 +38,10 @@ pub const VARIANTS: [AntialiasSettings; 8] = [
         focus_test: false,
         ..aa(4, true)
     },
+    AntialiasSettings {
+        focused_bicubic: false,
+        ..aa(4, true)
+    },
 ];
 
 const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
@@ -44,6 +49,7 @@ const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
         max_samples,
         prefilter,
         focus_test: true,
+        focused_bicubic: true,
     }
 }
 
@@ -53,6 +59,11 @@ fn variant_name(s: &AntialiasSettings) -> String {
         format!("aa{}", s.max_samples)
     } else {
         format!("aa{}-sharp", s.max_samples)
+    };
+    let base = if s.focused_bicubic {
+        base
+    } else {
+        format!("{base}-bilinear")
     };
     if s.focus_test {
         base
@@ -72,6 +83,8 @@ pub struct AntialiasPoint {
     pub prefilter: bool,
     /// Whether the focus test ran (views that agree at the focus plane: the plain sum).
     pub focus_test: bool,
+    /// Whether in-focus sub-samples read Catmull-Rom.
+    pub focused_bicubic: bool,
     pub views: usize,
     pub gpu_ms_median: f64,
     /// GPU time over the plain sum's, same run.
@@ -242,6 +255,7 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
             max_samples: (k > 0).then(|| VARIANTS[k - 1].max_samples),
             prefilter: k > 0 && VARIANTS[k - 1].prefilter,
             focus_test: k > 0 && VARIANTS[k - 1].focus_test,
+            focused_bicubic: k > 0 && VARIANTS[k - 1].focused_bicubic,
             views: if k == 0 {
                 plan.views.len()
             } else {

@@ -212,6 +212,8 @@ pub struct SetOptions {
     /// Jittered samples per pixel and axis of the rendered views, and of the lens (each
     /// pinhole takes one of the same jitters).
     pub supersamples: u32,
+    /// How the anti-aliased images sample their footprints.
+    pub antialias: AntialiasSettings,
 }
 
 impl SetOptions {
@@ -229,7 +231,7 @@ impl SetOptions {
                 self.truth_grid
             )));
         }
-        Ok(())
+        self.antialias.validate()
     }
 }
 
@@ -388,7 +390,7 @@ pub fn run_case(
         filter: options.filter,
         ..RenderSettings::default()
     };
-    let aa = plan_for(&lf, &plan, aperture, &[], AntialiasSettings::default())?;
+    let aa = plan_for(&lf, &plan, aperture, &[], options.antialias)?;
     let mut h = HeadlessRenderer::with_context(Arc::clone(ctx), &lf, Default::default())?;
     progress.set_message(format!("{}: refocusing", case.name));
     let plain_img = encoded(&float(h.render(&plan, &settings)?.0)?.pixels);
@@ -422,7 +424,7 @@ pub fn run_case(
             &ProgressBar::hidden(),
             None,
         )?;
-        let aa_est = plan_for(&est, &plan, aperture, &[], AntialiasSettings::default())?;
+        let aa_est = plan_for(&est, &plan, aperture, &[], options.antialias)?;
         let img = encoded(&float(h.render_antialiased(&aa_est, &settings)?.0)?.pixels);
         Some((scores(&img, &truth, &m), img))
     } else {
@@ -594,6 +596,7 @@ mod tests {
             estimate: false,
             filter: Filter::Hardware,
             supersamples: 3,
+            antialias: AntialiasSettings::default(),
         };
         assert!(o.validate().unwrap_err().to_string().contains("48 to 512"));
         let o = SetOptions {
@@ -602,6 +605,15 @@ mod tests {
             ..o
         };
         assert!(o.validate().unwrap_err().to_string().contains("9 pinholes"));
+        let o = SetOptions {
+            truth_grid: 65,
+            antialias: AntialiasSettings {
+                max_samples: 0,
+                ..AntialiasSettings::default()
+            },
+            ..o
+        };
+        assert!(o.validate().unwrap_err().to_string().contains("1 to 16"));
     }
 
     #[test]

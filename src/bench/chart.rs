@@ -370,7 +370,10 @@ where
     let family = |prefilter: bool| {
         let mut f: Vec<&&AntialiasPoint> = points
             .iter()
-            .filter(|p| p.max_samples.is_none() || (p.prefilter == prefilter && p.focus_test))
+            .filter(|p| {
+                p.max_samples.is_none()
+                    || (p.prefilter == prefilter && p.focus_test && p.focused_bicubic)
+            })
             .collect();
         f.sort_by_key(|p| p.max_samples.unwrap_or(0));
         f

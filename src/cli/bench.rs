@@ -207,9 +207,10 @@ pub fn table(report: &BenchReport) -> String {
             "anti-aliasing on {} ({} truth pinholes; PSNR overall / out of focus / focused):\n",
             aa.scene, aa.truth_pinholes
         ));
+        let width = aa.points.iter().map(|p| p.name.len()).max().unwrap_or(0);
         for p in &aa.points {
             out.push_str(&format!(
-                "  {:<6} {:>3} views {:>9.2} ms  ×{:<5.2} {:>5.1} / {:>5.1} / {:>5.1} dB\n",
+                "  {:<width$} {:>3} views {:>9.2} ms  ×{:<5.2} {:>5.1} / {:>5.1} / {:>5.1} dB\n",
                 p.name,
                 p.views,
                 p.gpu_ms_median,
@@ -296,6 +297,9 @@ pub struct AntialiasSetArgs {
     /// Jittered samples per pixel and axis of the rendered views (and of the lens).
     #[arg(long, value_name = "N", default_value_t = crate::bench::antialias_set::SUPERSAMPLES)]
     pub supersamples: u32,
+    /// How the anti-aliased images sample their footprints (as for `render`).
+    #[command(flatten)]
+    pub sampling: super::AntialiasSamplingArgs,
     /// Also write the table to this Markdown file.
     #[arg(long, value_name = "FILE.md")]
     pub markdown: Option<PathBuf>,
@@ -321,6 +325,7 @@ pub fn run_antialias_set(args: &AntialiasSetArgs) -> Result<()> {
         estimate: !args.no_estimate,
         filter: args.filter,
         supersamples: args.supersamples,
+        antialias: args.sampling.settings()?,
     };
     // Bad options fail before any folder is made or the GPU starts.
     options.validate()?;

@@ -165,6 +165,14 @@ pub struct AntialiasArgs {
     /// estimates the depth where it is missing (cached).
     #[arg(long, value_name = "on|off")]
     pub antialias: Option<Switch>,
+    #[command(flatten)]
+    pub sampling: AntialiasSamplingArgs,
+}
+
+/// How anti-aliasing samples the footprints: in [`AntialiasArgs`], and alone in
+/// `antialias-set`, which scores whatever settings it is given.
+#[derive(Debug, Clone, Args)]
+pub struct AntialiasSamplingArgs {
     /// Anti-aliasing: most sub-samples per axis of each view's aperture cell (1 to 16; more
     /// is smoother and slower).
     #[arg(long, value_name = "N", default_value_t = crate::refocus::antialias::AntialiasSettings::default().max_samples)]
@@ -179,6 +187,12 @@ pub struct AntialiasArgs {
     /// depth map alone decides).
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub antialias_focus_test: Switch,
+    /// Anti-aliasing: where the pixel's own surface is in focus, sub-samples with footprints
+    /// under half a pixel read the views with Catmull-Rom instead of bilinear (with the
+    /// hardware or shader filter), so a tilted plane that cuts the views between their pixels
+    /// stays sharp: on (default) or off (every sub-sample bilinear).
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub antialias_focused_bicubic: Switch,
 }
 
 impl AntialiasArgs {
@@ -189,10 +203,18 @@ impl AntialiasArgs {
 
     /// The sampling settings (validated).
     pub fn settings(&self) -> Result<crate::refocus::antialias::AntialiasSettings> {
+        self.sampling.settings()
+    }
+}
+
+impl AntialiasSamplingArgs {
+    /// The sampling settings (validated).
+    pub fn settings(&self) -> Result<crate::refocus::antialias::AntialiasSettings> {
         crate::refocus::antialias::AntialiasSettings::checked(
             self.antialias_samples,
             self.antialias_prefilter == Switch::On,
             self.antialias_focus_test == Switch::On,
+            self.antialias_focused_bicubic == Switch::On,
         )
     }
 }

@@ -95,6 +95,7 @@ pub use crate::refocus::plan_json;
 /// The library request of `args` for an output of `kind` (parsing only: the library checks
 /// and decides, [`crate::jobs::render`]).
 pub fn options(args: &RenderArgs, kind: OutputKind) -> Result<RenderOptions> {
+    let aa = args.antialias.settings()?;
     let size = args
         .size
         .as_deref()
@@ -109,9 +110,10 @@ pub fn options(args: &RenderArgs, kind: OutputKind) -> Result<RenderOptions> {
         averaging: args.aperture.average,
         include_dark: args.aperture.include_dark,
         antialias: args.antialias.requested(),
-        antialias_samples: args.antialias.antialias_samples,
-        antialias_prefilter: args.antialias.antialias_prefilter == super::Switch::On,
-        antialias_focus_test: args.antialias.antialias_focus_test == super::Switch::On,
+        antialias_samples: aa.max_samples,
+        antialias_prefilter: aa.prefilter,
+        antialias_focus_test: aa.focus_test,
+        antialias_focused_bicubic: aa.focused_bicubic,
         strategy: args.strategy,
         views_per_draw: args.views_per_draw,
         filter: args.filter,

@@ -29,7 +29,7 @@ use crate::lightfield::pfm::{decode_pfm, encode_pfm};
 use crate::lightfield::LightField;
 
 /// Bumped whenever the estimator's output for the same input changes.
-const ALGORITHM_VERSION: &str = "tiltfield-depth-7";
+const ALGORITHM_VERSION: &str = "tiltfield-depth-8";
 
 /// Pixels whose confidence is below this are left out of the map installed by
 /// [`ensure_depth`] (NaN: a click there is refused naming the cause; the cloud skips them).

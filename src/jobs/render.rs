@@ -149,6 +149,8 @@ pub struct RenderOptions {
     pub antialias_prefilter: bool,
     /// Pixels whose views agree at the focus surface are in focus (`AntialiasSettings::focus_test`).
     pub antialias_focus_test: bool,
+    /// In-focus sub-samples read Catmull-Rom (`AntialiasSettings::focused_bicubic`).
+    pub antialias_focused_bicubic: bool,
     pub strategy: Option<Strategy>,
     /// `batched:N` when no strategy is given (0: one draw).
     pub views_per_draw: usize,
@@ -177,6 +179,7 @@ impl Default for RenderOptions {
             antialias_samples: AntialiasSettings::default().max_samples,
             antialias_prefilter: AntialiasSettings::default().prefilter,
             antialias_focus_test: AntialiasSettings::default().focus_test,
+            antialias_focused_bicubic: AntialiasSettings::default().focused_bicubic,
             strategy: None,
             views_per_draw: 0,
             filter: None,
@@ -223,6 +226,7 @@ impl RenderOptions {
             self.antialias_samples,
             self.antialias_prefilter,
             self.antialias_focus_test,
+            self.antialias_focused_bicubic,
         )
     }
 

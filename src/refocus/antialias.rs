@@ -65,6 +65,12 @@ pub struct AntialiasSettings {
     /// [`FOCUS_TEST_LEVELS`]) is in focus whatever the depth map says: the plain sum with the
     /// cells' weights, no footprint. Off: the depth map alone decides.
     pub focus_test: bool,
+    /// A pixel whose own surface is in focus ([`AntialiasPlan::focused_reach`]) reads its
+    /// sub-samples whose footprint is under half a pixel with Catmull-Rom instead of the
+    /// bilinear fetch (with the bilinear filters only: `hardware`, `shader`), so that a focus
+    /// plane that cuts the views between their pixels (a tilted plane) stays as sharp as the
+    /// views. Off: every sub-sample is bilinear.
+    pub focused_bicubic: bool,
 }
 
 impl Default for AntialiasSettings {
@@ -73,6 +79,7 @@ impl Default for AntialiasSettings {
             max_samples: 4,
             prefilter: true,
             focus_test: true,
+            focused_bicubic: true,
         }
     }
 }
@@ -87,12 +94,18 @@ pub const FOCUS_TEST_LEVELS: f64 = 2.0;
 
 impl AntialiasSettings {
     /// The settings of a request (`--antialias-samples`, `--antialias-prefilter`,
-    /// `--antialias-focus-test`), checked.
-    pub fn checked(max_samples: u32, prefilter: bool, focus_test: bool) -> Result<Self> {
+    /// `--antialias-focus-test`, `--antialias-focused-bicubic`), checked.
+    pub fn checked(
+        max_samples: u32,
+        prefilter: bool,
+        focus_test: bool,
+        focused_bicubic: bool,
+    ) -> Result<Self> {
         let s = AntialiasSettings {
             max_samples,
             prefilter,
             focus_test,
+            focused_bicubic,
         };
         s.validate()?;
         Ok(s)
@@ -548,6 +561,49 @@ impl AntialiasPlan {
     }
 }
 
+/// Most footprint, in pixels, a sub-sample may stand for and still read Catmull-Rom in a pixel
+/// whose own surface is in focus ([`AntialiasSettings::focused_bicubic`]): under half a pixel
+/// the sub-sample's box is narrower than the interpolator's own support, so a sharp point
+/// sample is what it stands for.
+pub const FOCUSED_BLUR_PX: f64 = 0.5;
+
+impl AntialiasPlan {
+    /// The residual `|s − σ|` below which a pixel's own surface counts as in focus and its
+    /// sub-samples with footprints under [`FOCUSED_BLUR_PX`] read Catmull-Rom: the residual at
+    /// which the longest footprint span of any view (at unit homogeneous depth) reaches
+    /// [`FOCUSED_BLUR_PX`]. 0 when [`AntialiasSettings::focused_bicubic`] is off; infinite
+    /// without footprints (a pinhole's cells: everything is in focus).
+    pub fn focused_reach(&self) -> f64 {
+        if !self.settings.focused_bicubic {
+            return 0.0;
+        }
+        let longest = self
+            .footprints
+            .iter()
+            .flat_map(|f| [f.span_s, f.span_t])
+            .map(|span| span.truncate().length())
+            .fold(0.0, f64::max);
+        if longest > 0.0 {
+            FOCUSED_BLUR_PX / longest
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// Whether a sub-sample of a pixel whose surface is in focus reads Catmull-Rom: its footprint
+/// for residual `d` (the longer span, in pixels at homogeneous depth `yz`) is under
+/// [`FOCUSED_BLUR_PX`]. The shader decides the same in f32 (`sub_sample`).
+pub fn focused_sub_sample(fp: &Footprint, d: f64, yz: f64) -> bool {
+    yz > 0.0 && footprint_blur(fp, d, yz) < FOCUSED_BLUR_PX
+}
+
+/// The longer of a footprint's two spans for residual `d`, in pixels at homogeneous depth `yz`.
+pub fn footprint_blur(fp: &Footprint, d: f64, yz: f64) -> f64 {
+    let len = |span: DVec3| (span.truncate() * d).length() / yz;
+    len(fp.span_s).max(len(fp.span_t))
+}
+
 /// The spread of plain samples `(weight, colour)` (colour in the averaging space, 0–1): the
 /// largest over the channels of their weighted standard deviation in square-root units,
 /// `√(E[c] − E[√c]²)`; `None` without samples. The focus test compares it with
@@ -855,6 +911,8 @@ pub fn antialias_json(
             "used": true,
             "max_samples": aa.settings.max_samples,
             "prefilter": aa.settings.prefilter,
+            "focus_test": aa.settings.focus_test,
+            "focused_bicubic": aa.settings.focused_bicubic,
             "views_by_cell": aa.plan.views.len(),
             "depth_source": aa.depth.source,
             "depth_origin": depth_origin,
@@ -987,6 +1045,38 @@ mod tests {
         };
         let base = super::super::plan(lf, &req, &[]).unwrap();
         plan_for(lf, &base, aperture, &[], AntialiasSettings::default()).unwrap()
+    }
+
+    /// The focused reach is where the longest span (a whole cell of RIG: f·b = 4 px per unit
+    /// of inverse depth) reaches half a pixel; 0 when Catmull-Rom is off. A sub-sample reads
+    /// Catmull-Rom below half a pixel of footprint, not at it, and never behind the camera.
+    #[test]
+    fn the_focused_reach_is_half_a_pixel_of_the_longest_span() {
+        let lf = grid();
+        let mut aa = aa_plan(&lf, Aperture::default(), None);
+        let longest = 4.0;
+        assert!((aa.focused_reach() - FOCUSED_BLUR_PX / longest).abs() < 1e-9);
+        let fp = aa.footprints[0];
+        let at = |px: f64| {
+            px / fp
+                .span_s
+                .truncate()
+                .length()
+                .max(fp.span_t.truncate().length())
+        };
+        assert!(focused_sub_sample(&fp, at(0.49), 1.0));
+        assert!(!focused_sub_sample(&fp, at(0.51), 1.0));
+        assert!(focused_sub_sample(&fp, -at(0.49), 1.0));
+        assert!(!focused_sub_sample(&fp, 0.0, -1.0));
+        aa.settings.focused_bicubic = false;
+        assert_eq!(aa.focused_reach(), 0.0);
+        // Without footprints (a pinhole) everything is in focus.
+        aa.settings.focused_bicubic = true;
+        for f in &mut aa.footprints {
+            f.span_s = DVec3::ZERO;
+            f.span_t = DVec3::ZERO;
+        }
+        assert_eq!(aa.focused_reach(), f64::INFINITY);
     }
 
     #[test]

@@ -11,7 +11,8 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::antialias::{
-    cell_reach, focus_spread, footprint_lod, samples, sub_sample_residual, AntialiasPlan, Ties,
+    cell_reach, focus_spread, focused_sub_sample, footprint_blur, footprint_lod, samples,
+    sub_sample_residual, AntialiasPlan, Ties, FOCUSED_BLUR_PX,
 };
 use super::prefilter::Pyramid;
 use super::surface::SurfacePlan;
@@ -181,7 +182,9 @@ fn normalised(sum: [f64; 3], wsum: f64) -> [f32; 4] {
 /// per view, `n_s × n_t` stratified sub-samples of its aperture cell at
 /// `A_i x + b_i s + footprint(u, v)·(s − c)`, c what the sub-sample's ray hits
 /// ([`sub_sample_residual`]; dropped where the view cannot see it), each masked like a plain
-/// sample and weighing `weight / (n_s n_t)`; bilinear, as the GPU's default filter.
+/// sample and weighing `weight / (n_s n_t)`; bilinear, as the GPU's default filter, except
+/// in a pixel whose own surface is in focus, where sub-samples whose footprint is under half a
+/// pixel take the cell's Catmull-Rom value at its centre ([`AntialiasPlan::focused_reach`]).
 pub fn render_antialiased(
     lf: &LightField,
     aa: &AntialiasPlan,
@@ -268,11 +271,16 @@ fn antialiased_with(
         .map(|v| prefilter.then(|| view_pyramid(&lf.views[v.index].image, &table)))
         .collect();
     let threshold = aa.focus_threshold();
+    let focused_reach = aa.focused_reach();
     per_pixel(lf, averaging, (w, h), |px, table| {
         let s = s_of(px);
         let mut sum = [0f64; 3];
         let mut wsum = 0f64;
         let reach = cell_reach(&aa.depth, px, s);
+        let focused = aa
+            .depth
+            .at(px)
+            .is_some_and(|sigma| (s - sigma).abs() < focused_reach);
         // The focus test: views that agree at the surface see it in focus (the plain sum with
         // the cells' weights).
         if threshold > 0.0 && aa.depth.at(px).is_some() {
@@ -294,6 +302,15 @@ fn antialiased_with(
             let nt = samples(fp.span_t, reach, y0.z, max);
             let wk = v.weight / (ns * nt) as f64;
             let img = &lf.views[v.index].image;
+            // In a focused pixel one Catmull-Rom read at the cell's centre, at the pixel's own
+            // residual, serves every in-focus sub-sample of the cell (as the shader does).
+            let sharp = focused
+                .then(|| {
+                    let d0 = s - aa.depth.at(px).unwrap_or(s);
+                    let c = y0 + fp.offset(0.5, 0.5, d0);
+                    (c.z > 0.0).then(|| bicubic(img, table, DVec2::new(c.x / c.z, c.y / c.z)))
+                })
+                .flatten();
             for b in 0..nt {
                 let vv = (b as f64 + 0.5) / nt as f64;
                 for a in 0..ns {
@@ -306,8 +323,9 @@ fn antialiased_with(
                         continue;
                     };
                     let lod = footprint_lod((fp.span_s, fp.span_t), d, y0.z, (ns, nt), prefilter);
-                    let c = match pyramid {
-                        Some(pyr) if lod > 0.0 => pyr.trilinear(p, lod),
+                    let c = match (sharp, pyramid) {
+                        (Some(c), _) if focused_sub_sample(fp, d, y0.z) => c,
+                        (_, Some(pyr)) if lod > 0.0 => pyr.trilinear(p, lod),
                         _ => bilinear(img, table, p),
                     };
                     for k in 0..3 {
@@ -357,6 +375,7 @@ pub fn ambiguous_antialiased(
     let max = aa.settings.max_samples;
     let table = averaging_table(averaging);
     let threshold = aa.focus_threshold();
+    let focused_reach = aa.focused_reach();
     let near = |v: f64, edge: f64| (v - edge).abs() <= eps * edge.abs().max(1.0);
     (0..w as usize * h as usize)
         .into_par_iter()
@@ -372,6 +391,17 @@ pub fn ambiguous_antialiased(
                 }
             }
             let reach = cell_reach(&aa.depth, px, s);
+            // The pixel's own surface within f32's reach of the focused residual: f32 may
+            // take the other interpolator for its in-focus sub-samples.
+            let sigma = aa.depth.at(px);
+            let gate_px = |sigma: f64| (s - sigma).abs() * FOCUSED_BLUR_PX / focused_reach;
+            if focused_reach > 0.0
+                && focused_reach.is_finite()
+                && sigma.is_some_and(|sigma| near(gate_px(sigma), FOCUSED_BLUR_PX))
+            {
+                return true;
+            }
+            let focused = sigma.is_some_and(|sigma| (s - sigma).abs() < focused_reach);
             let views = plan.views.iter().zip(&aa.footprints).enumerate();
             views.into_iter().any(|(k, (v, fp))| {
                 let y0 = v.warp.apply(plan.m, px);
@@ -400,6 +430,9 @@ pub fn ambiguous_antialiased(
                         let Some(d) = d else {
                             return false;
                         };
+                        if focused && near(footprint_blur(fp, d, y0.z), FOCUSED_BLUR_PX) {
+                            return true;
+                        }
                         let q = y0 + fp.offset(u, vv, d);
                         let p = DVec2::new(q.x / q.z, q.y / q.z);
                         q.z <= eps

@@ -44,6 +44,10 @@ CASES = {
         ["--disparity", "0.5", "--antialias-focus-test", "off"],
         dict(disparity=0.5, antialias_focus_test=False),
     ),
+    "antialias-bilinear": (
+        ["--disparity", "0.5", "--antialias-focused-bicubic", "off"],
+        dict(disparity=0.5, antialias_focused_bicubic=False),
+    ),
     "encoded": (
         ["--disparity", "0.5", "--average", "encoded"],
         dict(disparity=0.5, average="encoded"),

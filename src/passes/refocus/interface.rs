@@ -92,13 +92,17 @@ pub struct RefocusPush {
     /// Warps of the whole uploaded plan (anti-aliasing's focus test reads every view whatever
     /// the draw's range).
     pub total_views: u32,
+    /// Anti-aliasing: the residual `|s − σ|` below which a pixel's own surface is in focus and
+    /// its sub-samples under half a pixel read Catmull-Rom
+    /// ([`crate::refocus::antialias::AntialiasPlan::focused_reach`]; 0: none).
+    pub focused_reach: f32,
 }
 
 // SAFETY: repr(C), only f32 arrays: no padding.
 unsafe impl Pod for GpuViewWarp {}
 // SAFETY: repr(C), only f32 arrays: no padding.
 unsafe impl Pod for GpuFootprint {}
-// SAFETY: repr(C), f32 arrays then u32s, 52 bytes: no padding.
+// SAFETY: repr(C), f32 arrays, u32s and an f32, all 4-byte aligned, 56 bytes: no padding.
 unsafe impl Pod for RefocusPush {}
 
 /// The focus surface's plane terms as the shaders read them (`Surface` in
@@ -178,6 +182,7 @@ mod tests {
             ("accumulate", offset_of!(RefocusPush, accumulate), 4),
             ("plane_count", offset_of!(RefocusPush, plane_count), 4),
             ("total_views", offset_of!(RefocusPush, total_views), 4),
+            ("focused_reach", offset_of!(RefocusPush, focused_reach), 4),
         ];
         let rust: Vec<_> = rust
             .iter()

@@ -385,6 +385,8 @@ pub struct RefocusPass {
     uploaded_visibility: Option<u64>,
     /// The uploaded plan's `AntialiasSettings::prefilter`.
     uploaded_prefilter: bool,
+    /// The uploaded plan's [`AntialiasPlan::focused_reach`], pushed with every draw.
+    uploaded_focused_reach: f32,
     /// The focus surface's plane terms (uniform buffer, binding 6).
     surface: Buffer,
     /// What [`RefocusPass::set_surface`] uploaded last: rule and plane count.
@@ -651,6 +653,7 @@ impl RefocusPass {
             scene_depth,
             uploaded_footprints: Vec::new(),
             uploaded_prefilter: false,
+            uploaded_focused_reach: 0.0,
             uploaded_depth: Vec::new(),
             visibility,
             uploaded_visibility: None,
@@ -814,6 +817,7 @@ impl RefocusPass {
             self.uploaded_footprints = records;
         }
         self.uploaded_prefilter = aa.settings.prefilter;
+        self.uploaded_focused_reach = aa.focused_reach() as f32;
         let interleaved = aa.depth.interleaved();
         if interleaved != self.uploaded_depth {
             let depth = as_bytes(&interleaved);
@@ -902,6 +906,7 @@ impl RefocusPass {
             || aa.visibility.as_ref().map(|v| v.id) != self.uploaded_visibility
             || aa.depth.interleaved() != self.uploaded_depth
             || aa.settings.prefilter != self.uploaded_prefilter
+            || aa.focused_reach() as f32 != self.uploaded_focused_reach
     }
 
     /// Whether [`RefocusPass::set_views`] would rewrite the warps for `plan`: a caller with
@@ -986,6 +991,12 @@ impl RefocusPass {
             accumulate: 0,
             plane_count,
             total_views: self.uploaded.len() as u32,
+            // Catmull-Rom for in-focus sub-samples refines the bilinear filters; bicubic has
+            // it everywhere and nearest is asked for as it is.
+            focused_reach: match filter {
+                Filter::Hardware | Filter::Shader if a.antialias > 0 => self.uploaded_focused_reach,
+                _ => 0.0,
+            },
         };
         // Whatever touched the accumulation image before (a previous accumulation, a resolve,
         // possibly in an earlier submission) finishes first.
