@@ -1,5 +1,10 @@
 //! Compiles the GLSL shaders in `shaders/` to SPIR-V in OUT_DIR with shaderc; the crate embeds
 //! them with `include_bytes!`. Shader stage comes from the file extension.
+//!
+//! Also digests the depth estimator's source (`src/depth/`, `shaders/depth_*`) into
+//! `TILTFIELD_DEPTH_SOURCE_DIGEST`, part of the depth cache's key: an estimate cached by a
+//! build whose estimator differed is never served (a hand-kept version number was once left
+//! unbumped, and caches served the old estimates).
 
 use std::path::{Path, PathBuf};
 // Linked for its libraries only (glslang and SPIRV-Tools beside a system shaderc, see
@@ -9,6 +14,11 @@ use tiltfield_shaderc_link as _;
 fn main() {
     let shader_dir = Path::new("shaders");
     println!("cargo:rerun-if-changed=shaders");
+    println!("cargo:rerun-if-changed=src/depth");
+    println!(
+        "cargo:rustc-env=TILTFIELD_DEPTH_SOURCE_DIGEST={:016x}",
+        depth_source_digest(shader_dir)
+    );
     let out = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
     let compiler = shaderc::Compiler::new().expect("shaderc compiler");
     let mut entries: Vec<_> = std::fs::read_dir(shader_dir)
@@ -48,4 +58,35 @@ fn main() {
         std::fs::write(out.join(format!("{name}.spv")), spirv.as_binary_u8())
             .expect("write SPIR-V");
     }
+}
+
+/// FNV-1a over the depth estimator's source files (name and bytes, in name order): anything
+/// that may change an estimate changes the digest. Comment edits do too, which only costs a
+/// fresh estimate.
+fn depth_source_digest(shader_dir: &Path) -> u64 {
+    let mut files: Vec<PathBuf> = std::fs::read_dir("src/depth")
+        .expect("src/depth folder")
+        .map(|e| e.expect("readable entry").path())
+        .collect();
+    files.extend(
+        std::fs::read_dir(shader_dir)
+            .expect("shaders/ folder")
+            .map(|e| e.expect("readable entry").path())
+            .filter(|p| {
+                p.file_name()
+                    .and_then(|n| n.to_str())
+                    .is_some_and(|n| n.starts_with("depth_"))
+            }),
+    );
+    files.sort();
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for path in files {
+        let name = path.to_string_lossy().into_owned();
+        let bytes = std::fs::read(&path).expect("readable source");
+        for b in name.bytes().chain(bytes) {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    h
 }

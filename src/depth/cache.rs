@@ -4,16 +4,17 @@
 //! Estimates are cached in the user's cache folder — `$TILTFIELD_CACHE_DIR`, else
 //! `$XDG_CACHE_HOME/tiltfield/depth`, else `~/.cache/tiltfield/depth` — not next to the light
 //! field, since data folders are often shared or read-only. The key is a 128-bit xxh3 hash of
-//! everything the estimate depends on: an algorithm version, the grid, every view's pixels and
-//! camera, the rig, the dataset's disparity range, the sweep convention and the options. Any
-//! change of content gives another key, so a stale estimate is never reused. Per key two
-//! files: `KEY.json` (what was estimated, how, on which device, and a content hash of the key,
-//! the metadata and the data) and `KEY.pfm` (three channels: the sweep parameter, the
-//! confidence, 0). Both are written through [`crate::io`]: temporary files created exclusively
-//! (never through a link planted in the folder), checked writes, then renamed, so a crash
-//! leaves no half file. Reading takes only regular files in the folder itself and checks the
-//! hash first; a damaged, edited, older or planted entry is estimated again (with a warning)
-//! and replaced, and a cache folder that cannot be written only costs the reuse.
+//! everything the estimate depends on: an algorithm version and a digest of the estimator's
+//! source (build.rs), the grid, every view's pixels and camera, the rig, the dataset's
+//! disparity range, the sweep convention and the options. Any change of content gives another
+//! key, so a stale estimate is never reused. Per key two files: `KEY.json` (what was estimated,
+//! how, on which device, and a content hash of the key, the metadata and the data) and
+//! `KEY.pfm` (three channels: the sweep parameter, the confidence, 0). Both are written through
+//! [`crate::io`]: temporary files created exclusively (never through a link planted in the
+//! folder), checked writes, then renamed, so a crash leaves no half file. Reading takes only
+//! regular files in the folder itself and checks the hash first; a damaged, edited, older or
+//! planted entry is estimated again (with a warning) and replaced, and a cache folder that
+//! cannot be written only costs the reuse.
 //!
 //! Trust model: the cache may be shared. Whatever others put in it cannot make tiltfield write
 //! or read outside it, block on a FIFO or device, or use an entry whose content does not match
@@ -28,8 +29,12 @@ use crate::error::{Error, Result};
 use crate::lightfield::pfm::{decode_pfm, encode_pfm};
 use crate::lightfield::LightField;
 
-/// Bumped whenever the estimator's output for the same input changes.
+/// Bumped whenever the estimator's output for the same input changes. The key also holds
+/// [`SOURCE_DIGEST`], so a change of the estimator's code alone already misses the cache.
 const ALGORITHM_VERSION: &str = "tiltfield-depth-8";
+
+/// A digest of the estimator's source (`src/depth/`, `shaders/depth_*`; build.rs).
+const SOURCE_DIGEST: &str = env!("TILTFIELD_DEPTH_SOURCE_DIGEST");
 
 /// Pixels whose confidence is below this are left out of the map installed by
 /// [`ensure_depth`] (NaN: a click there is refused naming the cause; the cloud skips them).
@@ -78,12 +83,18 @@ pub fn cache_dir() -> Option<PathBuf> {
 
 /// The content key of estimating `lf` with `options` (32 hex digits).
 pub fn cache_key(lf: &LightField, options: &DepthOptions) -> String {
+    key_of(lf, options, SOURCE_DIGEST)
+}
+
+/// [`cache_key`] with the estimator's source digest given.
+fn key_of(lf: &LightField, options: &DepthOptions, source_digest: &str) -> String {
     let mut h = xxhash_rust::xxh3::Xxh3::new();
     let mut text = |s: &str| {
         h.update(&(s.len() as u64).to_le_bytes());
         h.update(s.as_bytes());
     };
     text(ALGORITHM_VERSION);
+    text(source_digest);
     let meta = serde_json::json!({
         "grid": [lf.grid.cols, lf.grid.rows],
         "size": [lf.width, lf.height],
@@ -453,6 +464,30 @@ mod tests {
             .values
             .iter()
             .all(|v| v.is_finite() && *v > 0.0));
+    }
+
+    /// The key follows the estimator's source: another build's estimator misses the cache
+    /// even where nobody bumped the version; the same source keeps the key.
+    #[test]
+    fn the_key_changes_with_the_estimators_source() {
+        use crate::lightfield::{grid_folder, GridCameraOptions, GridSize};
+        let grid = GridSize { cols: 3, rows: 3 };
+        let opts = GridCameraOptions {
+            focal_px: Some(100.0),
+            baseline: 0.5,
+        };
+        let lf = grid_folder::from_images("t", grid, vec![image::RgbaImage::new(4, 2); 9], &opts)
+            .unwrap();
+        let options = DepthOptions::default();
+        assert_eq!(SOURCE_DIGEST.len(), 16, "{SOURCE_DIGEST}");
+        assert_eq!(
+            cache_key(&lf, &options),
+            key_of(&lf, &options, SOURCE_DIGEST)
+        );
+        assert_ne!(
+            key_of(&lf, &options, "0000000000000000"),
+            key_of(&lf, &options, "0000000000000001")
+        );
     }
 
     #[test]
