@@ -65,11 +65,11 @@ pub struct AntialiasSettings {
     /// [`FOCUS_TEST_LEVELS`]) is in focus whatever the depth map says: the plain sum with the
     /// cells' weights, no footprint. Off: the depth map alone decides.
     pub focus_test: bool,
-    /// A pixel whose own surface is in focus ([`AntialiasPlan::focused_reach`]) reads its
-    /// sub-samples whose footprint is under half a pixel with Catmull-Rom instead of the
-    /// bilinear fetch (with the bilinear filters only: `hardware`, `shader`), so that a focus
-    /// plane that cuts the views between their pixels (a tilted plane) stays as sharp as the
-    /// views. Off: every sub-sample is bilinear.
+    /// In a pixel whose own surface is in focus ([`AntialiasPlan::focused_reach`]) the
+    /// sub-samples whose footprint is under half a pixel take the view's Catmull-Rom value at
+    /// their cell's centre instead of their bilinear fetch (with the bilinear filters only:
+    /// `hardware`, `shader`), so that a focus plane that cuts the views between their pixels
+    /// (a tilted plane) stays as sharp as the views. Off: every sub-sample is bilinear.
     pub focused_bicubic: bool,
 }
 
@@ -559,15 +559,7 @@ impl AntialiasPlan {
             0.0
         }
     }
-}
 
-/// Most footprint, in pixels, a sub-sample may stand for and still read Catmull-Rom in a pixel
-/// whose own surface is in focus ([`AntialiasSettings::focused_bicubic`]): under half a pixel
-/// the sub-sample's box is narrower than the interpolator's own support, so a sharp point
-/// sample is what it stands for.
-pub const FOCUSED_BLUR_PX: f64 = 0.5;
-
-impl AntialiasPlan {
     /// The residual `|s − σ|` below which a pixel's own surface counts as in focus and its
     /// sub-samples with footprints under [`FOCUSED_BLUR_PX`] read Catmull-Rom: the residual at
     /// which the longest footprint span of any view (at unit homogeneous depth) reaches
@@ -590,6 +582,12 @@ impl AntialiasPlan {
         }
     }
 }
+
+/// Most footprint, in pixels, a sub-sample may stand for and still read Catmull-Rom in a pixel
+/// whose own surface is in focus ([`AntialiasSettings::focused_bicubic`]): under half a pixel
+/// the sub-sample's box is narrower than the interpolator's own support, so a sharp point
+/// sample is what it stands for.
+pub const FOCUSED_BLUR_PX: f64 = 0.5;
 
 /// Whether a sub-sample of a pixel whose surface is in focus reads Catmull-Rom: its footprint
 /// for residual `d` (the longer span, in pixels at homogeneous depth `yz`) is under
