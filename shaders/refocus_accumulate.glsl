@@ -300,19 +300,21 @@ void sub_sample(vec3 x, vec3 y0, uint k, float s, float sigma, float front, vec2
     if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
         return;
     }
+    // The spans' lengths at this residual (refocus::antialias::span_px, before the division
+    // by y0.z) serve the level and the Catmull-Rom choice alike.
+    float len_s = length(footprints[k].span_s.xy * d);
+    float len_t = length(footprints[k].span_t.xy * d);
     // The prefilter level of the larger sub-sample spacing at this sub-sample's residual
     // (refocus::antialias::footprint_lod).
     float lod = 0.0;
     if (PREFILTER != 0u && y0.z > 0.0) {
-        float spacing = max(length(footprints[k].span_s.xy * d) / (y0.z * float(ns)),
-                            length(footprints[k].span_t.xy * d) / (y0.z * float(nt)));
+        float spacing = max(len_s / (y0.z * float(ns)), len_t / (y0.z * float(nt)));
         lod = spacing > 0.0 ? max(log2(spacing) - LOD_BIAS, 0.0) : 0.0;
     }
     // With the hardware filter every sub-sample goes through the trilinear sampler (at level 0
     // it is the bilinear fetch): a branch between the two fetches made llvmpipe run both for
     // every lane (cap 4 measured 1.5x slower).
-    float blur = y0.z > 0.0 ? max(length(footprints[k].span_s.xy * d),
-                                  length(footprints[k].span_t.xy * d)) / y0.z : 1.0;
+    float blur = y0.z > 0.0 ? max(len_s, len_t) / y0.z : 1.0;
     vec3 c = focused && y0.z > 0.0 && blur < FOCUSED_BLUR_PX
         ? sharp
         : PREFILTER != 0u && (FILTER == 0u || lod > 0.0) ? fetch_lod(p, layer, lod)

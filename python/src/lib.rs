@@ -38,6 +38,7 @@ use tiltfield::jobs::refocus::GpuImage;
 use tiltfield::jobs::render::{self, ReadOptions, RenderOptions, Session};
 use tiltfield::lightfield::{self, GridSize};
 use tiltfield::passes::refocus::OutputFormat;
+use tiltfield::refocus::antialias::AntialiasSettings;
 use tiltfield::refocus::options::{numbers, plane_of, FocusOptions};
 
 /// The process's Vulkan context (see the module docs).
@@ -487,10 +488,12 @@ impl LightField {
             averaging: choice(Some(average))?.unwrap_or_default(),
             include_dark,
             antialias,
-            antialias_samples,
-            antialias_prefilter,
-            antialias_focus_test,
-            antialias_focused_bicubic,
+            antialias_sampling: AntialiasSettings {
+                max_samples: antialias_samples,
+                prefilter: antialias_prefilter,
+                focus_test: antialias_focus_test,
+                focused_bicubic: antialias_focused_bicubic,
+            },
             strategy: choice(strategy)?,
             views_per_draw,
             filter: choice(filter)?,

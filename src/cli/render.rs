@@ -95,7 +95,6 @@ pub use crate::refocus::plan_json;
 /// The library request of `args` for an output of `kind` (parsing only: the library checks
 /// and decides, [`crate::jobs::render`]).
 pub fn options(args: &RenderArgs, kind: OutputKind) -> Result<RenderOptions> {
-    let aa = args.antialias.settings()?;
     let size = args
         .size
         .as_deref()
@@ -110,10 +109,7 @@ pub fn options(args: &RenderArgs, kind: OutputKind) -> Result<RenderOptions> {
         averaging: args.aperture.average,
         include_dark: args.aperture.include_dark,
         antialias: args.antialias.requested(),
-        antialias_samples: aa.max_samples,
-        antialias_prefilter: aa.prefilter,
-        antialias_focus_test: aa.focus_test,
-        antialias_focused_bicubic: aa.focused_bicubic,
+        antialias_sampling: args.antialias.settings()?,
         strategy: args.strategy,
         views_per_draw: args.views_per_draw,
         filter: args.filter,

@@ -144,13 +144,9 @@ pub struct RenderOptions {
     /// `Some(on)`: anti-aliasing asked for or refused; `None`: on exactly when the light
     /// field ships depth.
     pub antialias: Option<bool>,
-    pub antialias_samples: u32,
-    /// Long footprints read the views' prefilter pyramid (`refocus::prefilter`).
-    pub antialias_prefilter: bool,
-    /// Pixels whose views agree at the focus surface are in focus (`AntialiasSettings::focus_test`).
-    pub antialias_focus_test: bool,
-    /// In-focus sub-samples read Catmull-Rom (`AntialiasSettings::focused_bicubic`).
-    pub antialias_focused_bicubic: bool,
+    /// How anti-aliasing samples the footprints, as given (checked by
+    /// [`RenderOptions::antialias_settings`]).
+    pub antialias_sampling: AntialiasSettings,
     pub strategy: Option<Strategy>,
     /// `batched:N` when no strategy is given (0: one draw).
     pub views_per_draw: usize,
@@ -176,10 +172,7 @@ impl Default for RenderOptions {
             averaging: Averaging::Linear,
             include_dark: false,
             antialias: None,
-            antialias_samples: AntialiasSettings::default().max_samples,
-            antialias_prefilter: AntialiasSettings::default().prefilter,
-            antialias_focus_test: AntialiasSettings::default().focus_test,
-            antialias_focused_bicubic: AntialiasSettings::default().focused_bicubic,
+            antialias_sampling: AntialiasSettings::default(),
             strategy: None,
             views_per_draw: 0,
             filter: None,
@@ -222,12 +215,8 @@ impl RenderOptions {
 
     /// The anti-aliasing sample settings (validated).
     pub fn antialias_settings(&self) -> Result<AntialiasSettings> {
-        AntialiasSettings::checked(
-            self.antialias_samples,
-            self.antialias_prefilter,
-            self.antialias_focus_test,
-            self.antialias_focused_bicubic,
-        )
+        self.antialias_sampling.validate()?;
+        Ok(self.antialias_sampling)
     }
 
     /// The focus surface as asked for (validated; the plane alone unless several planes, a

@@ -598,8 +598,14 @@ pub fn focused_sub_sample(fp: &Footprint, d: f64, yz: f64) -> bool {
 
 /// The longer of a footprint's two spans for residual `d`, in pixels at homogeneous depth `yz`.
 pub fn footprint_blur(fp: &Footprint, d: f64, yz: f64) -> f64 {
-    let len = |span: DVec3| (span.truncate() * d).length() / yz;
-    len(fp.span_s).max(len(fp.span_t))
+    span_px(fp.span_s, d, yz).max(span_px(fp.span_t, d, yz))
+}
+
+/// The length in pixels of a footprint span for residual `d` at a plain sample with
+/// homogeneous depth `yz` (the sub-sample count, the pyramid level and the Catmull-Rom choice
+/// all follow it).
+pub fn span_px(span: DVec3, d: f64, yz: f64) -> f64 {
+    (span.truncate() * d).length() / yz
 }
 
 /// The spread of plain samples `(weight, colour)` (colour in the averaging space, 0–1): the
@@ -876,8 +882,7 @@ pub fn samples(span: DVec3, d: f64, yz: f64, max: u32) -> u32 {
     if yz <= 0.0 {
         return 1;
     }
-    let len = (span.truncate() * d).length() / yz;
-    len.ceil().clamp(1.0, max as f64) as u32
+    span_px(span, d, yz).ceil().clamp(1.0, max as f64) as u32
 }
 
 /// The pyramid level every sub-sample of a footprint reads with the prefilter on: that of the
@@ -893,8 +898,7 @@ pub fn footprint_lod(
     if !prefilter || yz <= 0.0 {
         return 0.0;
     }
-    let len = |span: DVec3| (span.truncate() * d).length() / yz;
-    let spacing = (len(span_s) / ns as f64).max(len(span_t) / nt as f64);
+    let spacing = (span_px(span_s, d, yz) / ns as f64).max(span_px(span_t, d, yz) / nt as f64);
     super::prefilter::lod(spacing)
 }
 

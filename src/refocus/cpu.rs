@@ -11,7 +11,7 @@ use glam::{DVec2, DVec3};
 use rayon::prelude::*;
 
 use super::antialias::{
-    cell_reach, focus_spread, focused_sub_sample, footprint_blur, footprint_lod, samples,
+    cell_reach, focus_spread, focused_sub_sample, footprint_blur, footprint_lod, samples, span_px,
     sub_sample_residual, AntialiasPlan, Ties, FOCUSED_BLUR_PX,
 };
 use super::prefilter::Pyramid;
@@ -277,13 +277,12 @@ fn antialiased_with(
         let mut sum = [0f64; 3];
         let mut wsum = 0f64;
         let reach = cell_reach(&aa.depth, px, s);
-        let focused = aa
-            .depth
-            .at(px)
-            .is_some_and(|sigma| (s - sigma).abs() < focused_reach);
+        let sigma = aa.depth.at(px);
+        // The pixel's own inverse depth where its surface is in focus.
+        let focused = sigma.filter(|sigma| (s - sigma).abs() < focused_reach);
         // The focus test: views that agree at the surface see it in focus (the plain sum with
         // the cells' weights).
-        if threshold > 0.0 && aa.depth.at(px).is_some() {
+        if threshold > 0.0 && sigma.is_some() {
             let plain: Vec<(f64, [f64; 3])> = plain_samples(lf, plan, table, px, s).collect();
             if focus_spread(plain.iter().copied()).is_some_and(|v| v <= threshold) {
                 for (wk, c) in plain {
@@ -304,13 +303,10 @@ fn antialiased_with(
             let img = &lf.views[v.index].image;
             // In a focused pixel one Catmull-Rom read at the cell's centre, at the pixel's own
             // residual, serves every in-focus sub-sample of the cell (as the shader does).
-            let sharp = focused
-                .then(|| {
-                    let d0 = s - aa.depth.at(px).unwrap_or(s);
-                    let c = y0 + fp.offset(0.5, 0.5, d0);
-                    (c.z > 0.0).then(|| bicubic(img, table, DVec2::new(c.x / c.z, c.y / c.z)))
-                })
-                .flatten();
+            let sharp = focused.and_then(|sigma| {
+                let c = y0 + fp.offset(0.5, 0.5, s - sigma);
+                (c.z > 0.0).then(|| bicubic(img, table, DVec2::new(c.x / c.z, c.y / c.z)))
+            });
             for b in 0..nt {
                 let vv = (b as f64 + 0.5) / nt as f64;
                 for a in 0..ns {
@@ -408,8 +404,10 @@ pub fn ambiguous_antialiased(
                 if y0.z <= eps {
                     return true;
                 }
-                let len = |span: glam::DVec3| (span.truncate() * reach).length() / y0.z;
-                let (ls, lt) = (len(fp.span_s), len(fp.span_t));
+                let (ls, lt) = (
+                    span_px(fp.span_s, reach, y0.z),
+                    span_px(fp.span_t, reach, y0.z),
+                );
                 let step = |l: f64| l > 0.5 && l < max as f64 + 0.5 && near(l, l.round());
                 if step(ls) || step(lt) {
                     return true;
