@@ -7,7 +7,7 @@ tools/setup.sh
 . tools/env.sh
 # Build in a step of its own with cargo's progress visible: on a fresh machine the first build
 # compiles every dependency and would otherwise look like a hang.
-echo "demo: building tiltfield in $CARGO_TARGET_DIR (the first build takes about 3 minutes on" \
+echo "demo: building tiltfield in $CARGO_TARGET_DIR (the first build takes 3 to 7 minutes on" \
   "2 cores; later builds take seconds)" >&2
 cargo build --bin tiltfield
 echo "demo: rendering the built-in demo scene" >&2
