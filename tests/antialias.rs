@@ -383,12 +383,7 @@ fn gpu_antialiasing_matches_the_f64_model() {
     // Off the layers' depths, so footprint lengths are not whole pixels (where f32 and f64
     // may round a sub-sample count differently).
     let front = Plane::new(DVec3::new(0.0, 0.0, 2.1), DVec3::new(0.0, 0.0, -1.0)).unwrap();
-    let settings = AntialiasSettings {
-        max_samples: 4,
-        prefilter: true,
-        focus_test: true,
-        focused_bicubic: true,
-    };
+    let settings = AntialiasSettings::default();
     let (_, aa) = plain_and_aa(&lf, front, None, settings);
     gpu_matches_model(&lf, &aa, "grid centre");
     // Focused a hair behind the 0-px panel (its views shift by at most 0.01 px and agree): the
@@ -460,7 +455,7 @@ fn gpu_antialiasing_matches_the_f64_model() {
         max_samples: 2,
         prefilter: false,
         focus_test: false,
-        focused_bicubic: true,
+        ..settings
     };
     let (_, aa2) = plain_and_aa(&lf, front, Some(DVec2::new(1.5, 2.25)), sharp);
     gpu_matches_model(&lf, &aa2, "virtual view, sharp 2 x 2");
@@ -470,6 +465,28 @@ fn gpu_antialiasing_matches_the_f64_model() {
     assert!(blind.visibility.is_some());
     blind.visibility = None;
     gpu_matches_model(&lf, &blind, "grid centre without visibility maps");
+    // Without the occlusion tests no front is searched and no visibility map is built: every
+    // sub-sample takes its pixel's own residual, on the GPU as in the model.
+    let open = AntialiasSettings {
+        occlusion: false,
+        ..settings
+    };
+    let (_, open) = plain_and_aa(&lf, front, None, open);
+    assert!(open.visibility.is_none());
+    assert_eq!(open.depth.front, open.depth.inverse_depth);
+    gpu_matches_model(&lf, &open, "grid centre without the occlusion tests");
+    let (_, tested_front) = plain_and_aa(&lf, front, None, settings);
+    let changed = model(&tested_front)
+        .iter()
+        .zip(&model(&open))
+        .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 1e-4))
+        .count();
+    assert!(
+        changed > 100,
+        "the occlusion tests changed {changed} pixels"
+    );
+    let (_, fastest) = plain_and_aa(&lf, front, None, AntialiasSettings::FASTEST);
+    gpu_matches_model(&lf, &fastest, "grid centre, the fastest setting");
     // On an estimated depth sub-samples within the guard of the plain sample skip the test.
     let (_, mut guarded) = plain_and_aa(&lf, front, None, settings);
     guarded.guard_px = tiltfield::refocus::antialias::ESTIMATED_DEPTH_GUARD_PX;
@@ -526,6 +543,10 @@ fn antialiasing_on_a_rotated_rig_approaches_the_lens() {
 /// in focus), so the occluder is not smeared over the focused wall. Out of focus,
 /// anti-aliasing wins by far (37.5 vs 25.8 dB). With the half-pixel guard an estimated depth
 /// gets, the edges score 33.9 dB: the given map is trusted to the pixel for that.
+/// What the occlusion tests must add at the focused edges of
+/// `occlusion_edges_keep_the_focused_background` (measured 40.8 against 27.8 dB without them).
+const OCCLUSION_GAIN_DB: f64 = 8.0;
+
 #[test]
 fn occlusion_edges_keep_the_focused_background() {
     let mut r = rasterizer();
@@ -558,6 +579,14 @@ fn occlusion_edges_keep_the_focused_background() {
     let mut guarded = aa.clone();
     guarded.guard_px = tiltfield::refocus::antialias::ESTIMATED_DEPTH_GUARD_PX;
     let guarded = encoded(&float(h.render_antialiased(&guarded, &settings).unwrap().0));
+    // Without the occlusion tests every sub-sample takes its pixel's own residual: the
+    // focused wall's sub-samples stay on the wall where an occluder's blur should cover it.
+    let open = AntialiasSettings {
+        occlusion: false,
+        ..AntialiasSettings::default()
+    };
+    let (_, open) = plain_and_aa(&lf, back, None, open);
+    let open = encoded(&float(h.render_antialiased(&open, &settings).unwrap().0));
     let res = residual_px(&lf, &plan);
     // Focused wall pixels within 6 px of a nearer layer (an occlusion edge), and the rest.
     let focused = mask_where(&res, SIZE, 4, 0, |d| d.abs() <= 0.5);
@@ -569,18 +598,23 @@ fn occlusion_edges_keep_the_focused_background() {
         psnr_rgb(&anti, &truth, &edge),
     );
     let ge = psnr_rgb(&guarded, &truth, &edge);
+    let oe = psnr_rgb(&open, &truth, &edge);
     let (po, ao) = (
         psnr_rgb(&plain, &truth, &out),
         psnr_rgb(&anti, &truth, &out),
     );
     eprintln!(
         "focused on the wall: at occlusion edges ({} px) plain {pe:.1} dB, anti-aliased \
-         {ae:.1} dB ({ge:.1} dB with an estimate's guard); out of focus plain {po:.1} dB, \
-         anti-aliased {ao:.1} dB",
+         {ae:.1} dB ({ge:.1} dB with an estimate's guard, {oe:.1} dB without the occlusion \
+         tests); out of focus plain {po:.1} dB, anti-aliased {ao:.1} dB",
         edge.iter().filter(|&&e| e).count()
     );
     assert!(ae >= pe + 10.0, "{ae} vs {pe}");
     assert!(ge >= pe + 5.0 && ae >= ge + 4.0, "{ae} and {ge} vs {pe}");
+    assert!(
+        ae >= oe + OCCLUSION_GAIN_DB,
+        "{ae} vs {oe} without the tests"
+    );
     assert!(ao >= po + 6.0, "{ao} vs {po}");
     assert_no_validation_errors(&h);
     assert_raster_clean(&r);
@@ -782,6 +816,9 @@ fn render_reports_antialiasing_and_its_depth() {
         "eight.png",
     );
     assert_eq!(eight["antialias"]["max_samples"], 8);
+    assert_eq!(on["antialias"]["occlusion"], true, "{on}");
+    let (open, _) = run(&["--antialias-occlusion", "off"], "open.png");
+    assert_eq!(open["antialias"]["occlusion"], false, "{open}");
     fails_with(
         &[
             "render",

@@ -406,7 +406,9 @@ impl LightField {
     /// (True/False: pixels whose views agree at the focus surface stay the plain sum whatever
     /// the depth says; default True), ``antialias_focused_bicubic`` (True/False: where the
     /// pixel's own surface is in focus, sub-samples under half a pixel read Catmull-Rom;
-    /// default True), ``strategy`` ("fragment", "batched:N", "compute"),
+    /// default True), ``antialias_occlusion`` (True/False: sub-samples near a nearer surface
+    /// follow their own rays and are tested against what their view sees; default True),
+    /// ``strategy`` ("fragment", "batched:N", "compute"),
     /// ``views_per_draw``, ``filter`` ("hardware", "shader", "bicubic", "nearest"),
     /// ``accumulation`` ("rgba32f", "rgba16f"), ``warps`` ("ubo", "ssbo"), ``storage``
     /// ("srgb8", "linear16").
@@ -424,7 +426,8 @@ impl LightField {
         normal_window=None, normal_method="inverse-depth", slab=None, all_in_focus=false,
         aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
         include_dark=false, antialias=None, antialias_samples=4, antialias_prefilter=true,
-        antialias_focus_test=true, antialias_focused_bicubic=true, strategy=None,
+        antialias_focus_test=true, antialias_focused_bicubic=true, antialias_occlusion=true,
+        strategy=None,
         views_per_draw=0, filter=None, accumulation=None, warps=None, storage=None,
         linear=false
     ))]
@@ -458,6 +461,7 @@ impl LightField {
         antialias_prefilter: bool,
         antialias_focus_test: bool,
         antialias_focused_bicubic: bool,
+        antialias_occlusion: bool,
         strategy: Option<&str>,
         views_per_draw: usize,
         filter: Option<&str>,
@@ -493,6 +497,7 @@ impl LightField {
                 prefilter: antialias_prefilter,
                 focus_test: antialias_focus_test,
                 focused_bicubic: antialias_focused_bicubic,
+                occlusion: antialias_occlusion,
             },
             strategy: choice(strategy)?,
             views_per_draw,

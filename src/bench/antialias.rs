@@ -24,9 +24,10 @@ use crate::refocus::{RefocusImage, RefocusPlan};
 
 /// The settings the study measures: sub-sample caps per axis with the prefiltered lookup
 /// (`aaN`), without it (`aaN-sharp`: every sub-sample a full-resolution fetch), the default
-/// without the focus test (`aa4-untested`: the depth alone decides every pixel) and without
-/// Catmull-Rom for in-focus sub-samples (`aa4-bilinear`).
-pub const VARIANTS: [AntialiasSettings; 9] = [
+/// without the focus test (`aa4-untested`: the depth alone decides every pixel), without
+/// Catmull-Rom for in-focus sub-samples (`aa4-bilinear`) and without the occlusion tests
+/// (`aa4-open`), and the cheapest setting, [`AntialiasSettings::FASTEST`] (`aa1-fastest`).
+pub const VARIANTS: [AntialiasSettings; 11] = [
     aa(1, true),
     aa(2, true),
     aa(4, true),
@@ -42,6 +43,11 @@ pub const VARIANTS: [AntialiasSettings; 9] = [
         focused_bicubic: false,
         ..aa(4, true)
     },
+    AntialiasSettings {
+        occlusion: false,
+        ..aa(4, true)
+    },
+    AntialiasSettings::FASTEST,
 ];
 
 const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
@@ -50,11 +56,15 @@ const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
         prefilter,
         focus_test: true,
         focused_bicubic: true,
+        occlusion: true,
     }
 }
 
 /// The study's name for `s`.
 fn variant_name(s: &AntialiasSettings) -> String {
+    if *s == AntialiasSettings::FASTEST {
+        return format!("aa{}-fastest", s.max_samples);
+    }
     let base = if s.prefilter {
         format!("aa{}", s.max_samples)
     } else {
@@ -65,10 +75,15 @@ fn variant_name(s: &AntialiasSettings) -> String {
     } else {
         format!("{base}-bilinear")
     };
-    if s.focus_test {
+    let base = if s.focus_test {
         base
     } else {
         format!("{base}-untested")
+    };
+    if s.occlusion {
+        base
+    } else {
+        format!("{base}-open")
     }
 }
 
@@ -85,6 +100,8 @@ pub struct AntialiasPoint {
     pub focus_test: bool,
     /// Whether in-focus sub-samples read Catmull-Rom.
     pub focused_bicubic: bool,
+    /// Whether sub-samples near a nearer surface were tested for occlusion.
+    pub occlusion: bool,
     pub views: usize,
     pub gpu_ms_median: f64,
     /// GPU time over the plain sum's, same run.
@@ -256,6 +273,7 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
             prefilter: k > 0 && VARIANTS[k - 1].prefilter,
             focus_test: k > 0 && VARIANTS[k - 1].focus_test,
             focused_bicubic: k > 0 && VARIANTS[k - 1].focused_bicubic,
+            occlusion: k > 0 && VARIANTS[k - 1].occlusion,
             views: if k == 0 {
                 plan.views.len()
             } else {

@@ -372,7 +372,10 @@ where
             .iter()
             .filter(|p| {
                 p.max_samples.is_none()
-                    || (p.prefilter == prefilter && p.focus_test && p.focused_bicubic)
+                    || (p.prefilter == prefilter
+                        && p.focus_test
+                        && p.focused_bicubic
+                        && p.occlusion)
             })
             .collect();
         f.sort_by_key(|p| p.max_samples.unwrap_or(0));

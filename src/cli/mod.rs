@@ -193,6 +193,11 @@ pub struct AntialiasSamplingArgs {
     /// stays sharp: on (default) or off (every sub-sample bilinear).
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub antialias_focused_bicubic: Switch,
+    /// Anti-aliasing: sub-samples near a nearer surface follow their own rays and are tested
+    /// against what their view sees, on (default) or off (every sub-sample takes the pixel's
+    /// own depth: faster, and wrong at occlusion edges).
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub antialias_occlusion: Switch,
 }
 
 impl AntialiasArgs {
@@ -210,12 +215,15 @@ impl AntialiasArgs {
 impl AntialiasSamplingArgs {
     /// The sampling settings (validated).
     pub fn settings(&self) -> Result<crate::refocus::antialias::AntialiasSettings> {
-        crate::refocus::antialias::AntialiasSettings::checked(
-            self.antialias_samples,
-            self.antialias_prefilter == Switch::On,
-            self.antialias_focus_test == Switch::On,
-            self.antialias_focused_bicubic == Switch::On,
-        )
+        let s = crate::refocus::antialias::AntialiasSettings {
+            max_samples: self.antialias_samples,
+            prefilter: self.antialias_prefilter == Switch::On,
+            focus_test: self.antialias_focus_test == Switch::On,
+            focused_bicubic: self.antialias_focused_bicubic == Switch::On,
+            occlusion: self.antialias_occlusion == Switch::On,
+        };
+        s.validate()?;
+        Ok(s)
     }
 }
 

@@ -71,6 +71,12 @@ pub struct AntialiasSettings {
     /// `hardware`, `shader`), so that a focus plane that cuts the views between their pixels
     /// (a tilted plane) stays as sharp as the views. Off: every sub-sample is bilinear.
     pub focused_bicubic: bool,
+    /// Each sub-sample follows its own ray past a nearer surface around the pixel and is
+    /// tested against its view's visibility map ([`sub_sample_residual`]). Off: no front is
+    /// searched and no map is built, so every sub-sample takes the pixel's own residual, as on
+    /// a scene without occluders: cheaper, and wrong at occlusion edges (a nearer surface's
+    /// blur does not spread over the focused background, a focused edge gathers the blur).
+    pub occlusion: bool,
 }
 
 impl Default for AntialiasSettings {
@@ -80,6 +86,7 @@ impl Default for AntialiasSettings {
             prefilter: true,
             focus_test: true,
             focused_bicubic: true,
+            occlusion: true,
         }
     }
 }
@@ -93,25 +100,19 @@ impl Default for AntialiasSettings {
 pub const FOCUS_TEST_LEVELS: f64 = 2.0;
 
 impl AntialiasSettings {
-    /// The settings of a request (`--antialias-samples`, `--antialias-prefilter`,
-    /// `--antialias-focus-test`, `--antialias-focused-bicubic`), checked.
-    pub fn checked(
-        max_samples: u32,
-        prefilter: bool,
-        focus_test: bool,
-        focused_bicubic: bool,
-    ) -> Result<Self> {
-        let s = AntialiasSettings {
-            max_samples,
-            prefilter,
-            focus_test,
-            focused_bicubic,
-        };
-        s.validate()?;
-        Ok(s)
-    }
+    /// The cheapest footprint integral: one prefiltered fetch per cell at its footprint's
+    /// level, and none of the refinements (no focus test, no Catmull-Rom in focus, no
+    /// occlusion tests). The lattice is gone, but occlusion edges and a wrong depth go
+    /// uncorrected (README, "Anti-aliased refocus": its cost and scores against the default).
+    pub const FASTEST: AntialiasSettings = AntialiasSettings {
+        max_samples: 1,
+        prefilter: true,
+        focus_test: false,
+        focused_bicubic: false,
+        occlusion: false,
+    };
 
-    /// Checks the sample cap.
+    /// Checks the settings of a request (the sample cap; the switches take any value).
     pub fn validate(&self) -> Result<()> {
         if !(1..=MAX_SAMPLES_LIMIT).contains(&self.max_samples) {
             return Err(Error::Invalid(format!(
@@ -806,7 +807,9 @@ pub fn plan_antialias_reusing(
     let mut scene = scene;
     let valid = scene.inverse_depth.iter().filter(|&&v| v >= 0.0);
     let (lo, hi) = valid.fold((f32::INFINITY, -1f32), |(a, b), &v| (a.min(v), b.max(v)));
-    if hi > lo {
+    // Without the occlusion tests the front stays the pixel's own σ: nothing is nearer, and
+    // the shader's and the model's tests never run.
+    if hi > lo && settings.occlusion {
         let reach = footprints
             .iter()
             .map(|f| f.parallax.truncate().length())
@@ -840,7 +843,8 @@ pub fn plan_antialias_reusing(
         {
             p.visibility.clone()
         }
-        _ => (views.len() * scene.inverse_depth.len() * 4 <= MAX_VISIBILITY_BYTES)
+        _ => (settings.occlusion
+            && views.len() * scene.inverse_depth.len() * 4 <= MAX_VISIBILITY_BYTES)
             .then(|| std::sync::Arc::new(ViewVisibility::new(&scene, &views))),
     };
     Ok(AntialiasPlan {
@@ -915,6 +919,7 @@ pub fn antialias_json(
             "prefilter": aa.settings.prefilter,
             "focus_test": aa.settings.focus_test,
             "focused_bicubic": aa.settings.focused_bicubic,
+            "occlusion": aa.settings.occlusion,
             "views_by_cell": aa.plan.views.len(),
             "depth_source": aa.depth.source,
             "depth_origin": depth_origin,

@@ -48,6 +48,10 @@ CASES = {
         ["--disparity", "0.5", "--antialias-focused-bicubic", "off"],
         dict(disparity=0.5, antialias_focused_bicubic=False),
     ),
+    "antialias-open": (
+        ["--disparity", "0.5", "--antialias-occlusion", "off"],
+        dict(disparity=0.5, antialias_occlusion=False),
+    ),
     "encoded": (
         ["--disparity", "0.5", "--average", "encoded"],
         dict(disparity=0.5, average="encoded"),

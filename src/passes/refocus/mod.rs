@@ -343,6 +343,8 @@ struct AccumKey {
     antialias: u32,
     /// Anti-aliasing reads the views' pyramid (`refocus::prefilter`, binding 7).
     prefilter: bool,
+    /// Anti-aliasing's occlusion tests are compiled in (`AntialiasSettings::occlusion`).
+    occlusion: bool,
     /// `SurfaceRule` code (0: the plane alone).
     surface: u32,
 }
@@ -385,6 +387,8 @@ pub struct RefocusPass {
     uploaded_visibility: Option<u64>,
     /// The uploaded plan's `AntialiasSettings::prefilter`.
     uploaded_prefilter: bool,
+    /// The uploaded plan's `AntialiasSettings::occlusion`.
+    uploaded_occlusion: bool,
     /// The uploaded plan's [`AntialiasPlan::focused_reach`], pushed with every draw.
     uploaded_focused_reach: f32,
     /// The focus surface's plane terms (uniform buffer, binding 6).
@@ -653,6 +657,7 @@ impl RefocusPass {
             scene_depth,
             uploaded_footprints: Vec::new(),
             uploaded_prefilter: false,
+            uploaded_occlusion: false,
             uploaded_focused_reach: 0.0,
             uploaded_depth: Vec::new(),
             visibility,
@@ -817,6 +822,7 @@ impl RefocusPass {
             self.uploaded_footprints = records;
         }
         self.uploaded_prefilter = aa.settings.prefilter;
+        self.uploaded_occlusion = aa.settings.occlusion;
         self.uploaded_focused_reach = aa.focused_reach() as f32;
         let interleaved = aa.depth.interleaved();
         if interleaved != self.uploaded_depth {
@@ -906,6 +912,7 @@ impl RefocusPass {
             || aa.visibility.as_ref().map(|v| v.id) != self.uploaded_visibility
             || aa.depth.interleaved() != self.uploaded_depth
             || aa.settings.prefilter != self.uploaded_prefilter
+            || aa.settings.occlusion != self.uploaded_occlusion
             || aa.focused_reach() as f32 != self.uploaded_focused_reach
     }
 
@@ -975,6 +982,7 @@ impl RefocusPass {
             uniform_warps: self.warp_memory == WarpMemory::Uniform,
             antialias: a.antialias,
             prefilter: a.antialias > 0 && self.uploaded_prefilter,
+            occlusion: a.antialias > 0 && self.uploaded_occlusion,
             surface: rule as u32,
         };
         let pipeline = self.accum_pipeline(ctx, key)?;
@@ -1194,9 +1202,10 @@ impl RefocusPass {
             key.antialias,
             key.surface,
             u32::from(key.prefilter),
+            u32::from(key.occlusion),
         ];
         let name = format!(
-            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}{}, surface {})",
+            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}{}{}, surface {})",
             if key.compute { "compute" } else { "fragment" },
             key.filter,
             key.texel,
@@ -1207,6 +1216,11 @@ impl RefocusPass {
             },
             key.antialias,
             if key.prefilter { " prefiltered" } else { "" },
+            if key.occlusion {
+                " occlusion-tested"
+            } else {
+                ""
+            },
             key.surface
         );
         let pipeline = if key.compute {
