@@ -46,6 +46,10 @@ const float LOD_BIAS = 0.7924812503605781; // refocus::prefilter::LOD_BIAS, log2
 // run time alone left llvmpipe 1.3-1.6x slower than without their code (the fastest setting
 // 14.1 vs 10.8 ms, cap 4 50.5 vs 32.9 ms, one bench run).
 layout(constant_id = 6) const uint OCCLUSION = 1;
+// DEFOCUS 1 (with ANTIALIAS > 0; refocus::defocus): every view of the draw was box-filtered
+// over its footprints by defocus.comp into binding 9, and the sum reads it once per view at the
+// cell's centroid instead of sub-sampling the footprint; no occlusion tests.
+layout(constant_id = 7) const uint DEFOCUS = 0;
 const float FOCUSED_BLUR_PX = 0.5; // refocus::antialias::FOCUSED_BLUR_PX
 
 layout(set = 0, binding = 0) uniform sampler2DArray views;
@@ -73,6 +77,9 @@ layout(set = 0, binding = 7) uniform sampler2DArray views_mip;
 // per view pixel, view after view in the order of the footprints; -1 where nothing landed.
 // Read only for views whose footprint's vis.x is 1; vis.y is the view's map.
 layout(std430, set = 0, binding = 8) readonly buffer Visibility { float view_sigma[]; };
+// The defocused views (DEFOCUS 1), one layer per view of the plan in the order of the
+// footprints (their vis.y), written by defocus.comp; kept in GENERAL layout.
+layout(set = 0, binding = 9) uniform sampler2DArray defocused;
 
 // Index of the reference pixel nearest position p (clamped to the views).
 int depth_index(vec2 p) {
@@ -435,6 +442,32 @@ ViewWarp warp_of(uint k) {
     return w;
 }
 
+// View k's contribution with defocused views (refocus::cpu::defocused_with): one read of the
+// defocused view at the cell's centroid for the pixel's residual s - sigma; in a `focused`
+// pixel a footprint under half a pixel reads the view itself with Catmull-Rom there.
+void defocused_sample(vec3 y0, uint k, float s, float sigma, float layer, float wk, vec2 lo,
+                      vec2 hi, bool focused, inout vec3 sum, inout float wsum) {
+    vec3 centre = footprints[k].origin.xyz
+                + 0.5 * (footprints[k].span_s.xyz + footprints[k].span_t.xyz);
+    float d = s - sigma;
+    vec3 y = y0 + centre * d;
+    if (y.z <= 0.0) {
+        return;
+    }
+    vec2 p = y.xy / y.z;
+    if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
+        return;
+    }
+    float blur = y0.z > 0.0
+        ? max(length(footprints[k].span_s.xy * d), length(footprints[k].span_t.xy * d)) / y0.z
+        : 1.0;
+    vec3 c = focused && y0.z > 0.0 && blur < FOCUSED_BLUR_PX
+        ? bicubic(p, int(layer))
+        : textureLod(defocused, vec3((p + 0.5) / pc.view_size, footprints[k].vis.y), 0.0).rgb;
+    sum += wk * c;
+    wsum += wk;
+}
+
 // frag: the output pixel's centre in output pixels (gl_FragCoord.xy, or id + 0.5).
 vec4 accumulate(vec2 frag) {
     // Pixel-index coordinates of the reference view: pixel (i, j)'s centre is at (i, j).
@@ -488,7 +521,21 @@ vec4 accumulate(vec2 frag) {
     // bilinear sub-samples, where a choice per sub-sample in one loop took about 2.5x).
     bool focused = ANTIALIAS != 0u && sigma >= 0.0 && abs(s - sigma) < pc.focused_reach;
     uint k_end = pc.first_view + pc.view_count;
-    if (ANTIALIAS != 0u) {
+    if (ANTIALIAS != 0u && DEFOCUS != 0u && sigma >= 0.0) {
+        // As for sub-samples, focused pixels take a loop of their own (the Catmull-Rom reads).
+        for (uint k = pc.first_view; k < (focused ? k_end : pc.first_view); ++k) {
+            ViewWarp w = warp_of(k);
+            vec3 y = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz) * x + w.b_weight.xyz * s;
+            defocused_sample(y, k, s, sigma, w.a0.w, w.b_weight.w, lo, hi, true, sum, wsum);
+        }
+        for (uint k = pc.first_view; k < (focused ? pc.first_view : k_end); ++k) {
+            ViewWarp w = warp_of(k);
+            vec3 y = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz) * x + w.b_weight.xyz * s;
+            defocused_sample(y, k, s, sigma, w.a0.w, w.b_weight.w, lo, hi, false, sum, wsum);
+        }
+        return vec4(sum, wsum);
+    }
+    if (ANTIALIAS != 0u && DEFOCUS == 0u) {
         for (uint k = pc.first_view; k < (focused ? k_end : pc.first_view); ++k) {
             ViewWarp w = warp_of(k);
             vec3 y = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz) * x + w.b_weight.xyz * s;
@@ -501,7 +548,7 @@ vec4 accumulate(vec2 frag) {
     for (uint k = pc.first_view; k < k_end; ++k) {
         ViewWarp w = warp_of(k);
         vec3 y = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz) * x + w.b_weight.xyz * s;
-        if (ANTIALIAS != 0u) {
+        if (ANTIALIAS != 0u && DEFOCUS == 0u) {
             footprint(x, y, k, s, sigma, front, reach, w, lo, hi, false, sum, wsum);
             continue;
         }

@@ -408,7 +408,9 @@ impl LightField {
     /// pixel's own surface is in focus, sub-samples under half a pixel read Catmull-Rom;
     /// default True), ``antialias_occlusion`` (True/False: sub-samples near a nearer surface
     /// follow their own rays and are tested against what their view sees; default True),
-    /// ``strategy`` ("fragment", "batched:N", "compute"),
+    /// ``antialias_defocus`` (True/False: defocus each view once with a summed-area table and
+    /// read it once per view, constant cost whatever the blur, no occlusion tests; default
+    /// False), ``strategy`` ("fragment", "batched:N", "compute"),
     /// ``views_per_draw``, ``filter`` ("hardware", "shader", "bicubic", "nearest"),
     /// ``accumulation`` ("rgba32f", "rgba16f"), ``warps`` ("ubo", "ssbo"), ``storage``
     /// ("srgb8", "linear16").
@@ -427,7 +429,7 @@ impl LightField {
         aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
         include_dark=false, antialias=None, antialias_samples=4, antialias_prefilter=true,
         antialias_focus_test=true, antialias_focused_bicubic=true, antialias_occlusion=true,
-        strategy=None,
+        antialias_defocus=false, strategy=None,
         views_per_draw=0, filter=None, accumulation=None, warps=None, storage=None,
         linear=false
     ))]
@@ -462,6 +464,7 @@ impl LightField {
         antialias_focus_test: bool,
         antialias_focused_bicubic: bool,
         antialias_occlusion: bool,
+        antialias_defocus: bool,
         strategy: Option<&str>,
         views_per_draw: usize,
         filter: Option<&str>,
@@ -498,6 +501,7 @@ impl LightField {
                 focus_test: antialias_focus_test,
                 focused_bicubic: antialias_focused_bicubic,
                 occlusion: antialias_occlusion,
+                defocus: antialias_defocus,
             },
             strategy: choice(strategy)?,
             views_per_draw,

@@ -26,8 +26,10 @@ use crate::refocus::{RefocusImage, RefocusPlan};
 /// (`aaN`), without it (`aaN-sharp`: every sub-sample a full-resolution fetch), the default
 /// without the focus test (`aa4-untested`: the depth alone decides every pixel), without
 /// Catmull-Rom for in-focus sub-samples (`aa4-bilinear`) and without the occlusion tests
-/// (`aa4-open`), and the cheapest setting, [`AntialiasSettings::FASTEST`] (`aa1-fastest`).
-pub const VARIANTS: [AntialiasSettings; 11] = [
+/// (`aa4-open`), the cheapest sub-sampling setting, [`AntialiasSettings::FASTEST`]
+/// (`aa1-fastest`), and defocused views (`defocus`: constant cost per view, no occlusion
+/// tests).
+pub const VARIANTS: [AntialiasSettings; 12] = [
     aa(1, true),
     aa(2, true),
     aa(4, true),
@@ -48,6 +50,10 @@ pub const VARIANTS: [AntialiasSettings; 11] = [
         ..aa(4, true)
     },
     AntialiasSettings::FASTEST,
+    AntialiasSettings {
+        defocus: true,
+        ..aa(4, true)
+    },
 ];
 
 const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
@@ -57,6 +63,7 @@ const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
         focus_test: true,
         focused_bicubic: true,
         occlusion: true,
+        defocus: false,
     }
 }
 
@@ -64,6 +71,14 @@ const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
 fn variant_name(s: &AntialiasSettings) -> String {
     if *s == AntialiasSettings::FASTEST {
         return format!("aa{}-fastest", s.max_samples);
+    }
+    if s.defocus {
+        let base = "defocus".to_string();
+        return if s.focus_test {
+            base
+        } else {
+            format!("{base}-untested")
+        };
     }
     let base = if s.prefilter {
         format!("aa{}", s.max_samples)

@@ -198,6 +198,12 @@ pub struct AntialiasSamplingArgs {
     /// own depth: faster, and wrong at occlusion edges).
     #[arg(long, value_name = "on|off", default_value = "on")]
     pub antialias_occlusion: Switch,
+    /// Anti-aliasing: defocus each view once, box-filtering it over its footprints with a
+    /// summed-area table, and read it once per view (constant cost whatever the blur; the
+    /// occlusion tests do not run, each aperture cell takes the depth its view sees): on, or
+    /// off (default: sub-samples of every footprint at every pixel).
+    #[arg(long, value_name = "on|off", default_value = "off")]
+    pub antialias_defocus: Switch,
 }
 
 impl AntialiasArgs {
@@ -221,6 +227,7 @@ impl AntialiasSamplingArgs {
             focus_test: self.antialias_focus_test == Switch::On,
             focused_bicubic: self.antialias_focused_bicubic == Switch::On,
             occlusion: self.antialias_occlusion == Switch::On,
+            defocus: self.antialias_defocus == Switch::On,
         };
         s.validate()?;
         Ok(s)

@@ -15,6 +15,7 @@ pub const FULLSCREEN_VERT: &[u8] = spirv!("fullscreen.vert");
 pub const REFOCUS_FRAG: &[u8] = spirv!("refocus.frag");
 pub const REFOCUS_COMP: &[u8] = spirv!("refocus.comp");
 pub const REFOCUS_HALF_COMP: &[u8] = spirv!("refocus_half.comp");
+pub const DEFOCUS_COMP: &[u8] = spirv!("defocus.comp");
 pub const RESOLVE_FRAG: &[u8] = spirv!("resolve.frag");
 pub const MESH_VERT: &[u8] = spirv!("mesh.vert");
 pub const MESH_ACCUM_FRAG: &[u8] = spirv!("mesh_accum.frag");

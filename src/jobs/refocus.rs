@@ -168,7 +168,11 @@ impl HeadlessRenderer {
         let Some(staging) = self.staging.as_mut() else {
             return Err(Error::Vulkan("no staging buffer".into()));
         };
-        texture.reupload(&self.ctx, lf, staging)
+        texture.reupload(&self.ctx, lf, staging)?;
+        if let Some(pass) = self.pass.as_mut() {
+            pass.views_reuploaded();
+        }
+        Ok(())
     }
 
     /// Renders `plan` and reads the image back.

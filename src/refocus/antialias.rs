@@ -77,6 +77,12 @@ pub struct AntialiasSettings {
     /// a scene without occluders: cheaper, and wrong at occlusion edges (a nearer surface's
     /// blur does not spread over the focused background, a focused edge gathers the blur).
     pub occlusion: bool,
+    /// Defocused views ([`super::defocus`]): every view box-filtered once over the footprints
+    /// of its own pixels (a summed-area table: constant cost whatever the footprint's length),
+    /// then one fetch per view at the cell's centroid. `max_samples`, `prefilter` and
+    /// `occlusion` then do not apply: each cell takes the depth its view sees at its sample.
+    /// Off: sub-samples of every footprint at every output pixel.
+    pub defocus: bool,
 }
 
 impl Default for AntialiasSettings {
@@ -87,6 +93,7 @@ impl Default for AntialiasSettings {
             focus_test: true,
             focused_bicubic: true,
             occlusion: true,
+            defocus: false,
         }
     }
 }
@@ -110,6 +117,7 @@ impl AntialiasSettings {
         focus_test: false,
         focused_bicubic: false,
         occlusion: false,
+        defocus: false,
     };
 
     /// Checks the settings of a request (the sample cap; the switches take any value).
@@ -362,6 +370,20 @@ impl ViewVisibility {
             sigma,
             id: NEXT_VISIBILITY_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         }
+    }
+
+    /// [`ViewVisibility::new`] with every hole filled ([`super::defocus::fill_holes`]): the
+    /// depth each view sees at every pixel, which sizes its defocus box. A hole is where
+    /// nothing of the reference landed (a disocclusion), so it takes the farthest surface
+    /// around it.
+    pub fn filled(depth: &SceneDepth, views: &[PlannedView]) -> Self {
+        use rayon::prelude::*;
+        let mut v = Self::new(depth, views);
+        let (w, h) = (v.width as usize, v.height as usize);
+        v.sigma
+            .par_chunks_mut((w * h).max(1))
+            .for_each(|map| super::defocus::fill_holes(map, (w, h)));
+        v
     }
 
     /// σ that planned view `k` sees at image position `p` (nearest pixel, as the shader's
@@ -809,7 +831,7 @@ pub fn plan_antialias_reusing(
     let (lo, hi) = valid.fold((f32::INFINITY, -1f32), |(a, b), &v| (a.min(v), b.max(v)));
     // Without the occlusion tests the front stays the pixel's own σ: nothing is nearer, and
     // the shader's and the model's tests never run.
-    if hi > lo && settings.occlusion {
+    if hi > lo && settings.occlusion && !settings.defocus {
         let reach = footprints
             .iter()
             .map(|f| f.parallax.truncate().length())
@@ -831,9 +853,20 @@ pub fn plan_antialias_reusing(
             views.len()
         )));
     }
+    let map_bytes = views.len() * scene.inverse_depth.len() * 4;
+    if settings.defocus && map_bytes > MAX_VISIBILITY_BYTES {
+        return Err(Error::Invalid(format!(
+            "defocused views need every view's depth map: {} MiB for {} views, over the {} MiB \
+             budget; use a smaller --aperture-radius or --antialias-defocus off",
+            map_bytes >> 20,
+            views.len(),
+            MAX_VISIBILITY_BYTES >> 20
+        )));
+    }
     let visibility = match previous {
         Some(p)
-            if p.depth.inverse_depth == scene.inverse_depth
+            if p.settings.defocus == settings.defocus
+                && p.depth.inverse_depth == scene.inverse_depth
                 && p.plan.views.len() == views.len()
                 && p.plan
                     .views
@@ -843,8 +876,8 @@ pub fn plan_antialias_reusing(
         {
             p.visibility.clone()
         }
-        _ => (settings.occlusion
-            && views.len() * scene.inverse_depth.len() * 4 <= MAX_VISIBILITY_BYTES)
+        _ if settings.defocus => Some(std::sync::Arc::new(ViewVisibility::filled(&scene, &views))),
+        _ => (settings.occlusion && map_bytes <= MAX_VISIBILITY_BYTES)
             .then(|| std::sync::Arc::new(ViewVisibility::new(&scene, &views))),
     };
     Ok(AntialiasPlan {
@@ -919,7 +952,8 @@ pub fn antialias_json(
             "prefilter": aa.settings.prefilter,
             "focus_test": aa.settings.focus_test,
             "focused_bicubic": aa.settings.focused_bicubic,
-            "occlusion": aa.settings.occlusion,
+            "occlusion": aa.settings.occlusion && !aa.settings.defocus,
+            "defocus": aa.settings.defocus,
             "views_by_cell": aa.plan.views.len(),
             "depth_source": aa.depth.source,
             "depth_origin": depth_origin,

@@ -260,6 +260,9 @@ fn antialiased_with(
     (w, h): (u32, u32),
     s_of: impl Fn(DVec2) -> f64 + Sync,
 ) -> RefocusImage {
+    if aa.settings.defocus {
+        return defocused_with(lf, aa, averaging, (w, h), s_of);
+    }
     let plan = &aa.plan;
     let max = aa.settings.max_samples;
     let prefilter = aa.settings.prefilter;
@@ -332,6 +335,86 @@ fn antialiased_with(
             }
         }
         (sum, wsum)
+    })
+}
+
+/// The f64 model of anti-aliasing by defocused views ([`super::defocus`]): every view
+/// defocused once (its texels box-filtered over their footprints), then per output pixel the
+/// focus test as in [`render_antialiased`], and per view one bilinear read of the defocused
+/// view at the cell's centroid for the pixel's own residual (Catmull-Rom of the view itself
+/// where the pixel's surface is in focus and the footprint is under half a pixel; the plain
+/// sample where the pixel has no depth), masked like a plain sample.
+fn defocused_with(
+    lf: &LightField,
+    aa: &AntialiasPlan,
+    averaging: Averaging,
+    (w, h): (u32, u32),
+    s_of: impl Fn(DVec2) -> f64 + Sync,
+) -> RefocusImage {
+    let plan = &aa.plan;
+    let table = averaging_table(averaging);
+    let defocused = super::defocus::defocus_views(lf, aa, &table, &s_of);
+    let threshold = aa.focus_threshold();
+    let focused_reach = aa.focused_reach();
+    per_pixel(lf, averaging, (w, h), |px, table| {
+        let s = s_of(px);
+        let mut sum = [0f64; 3];
+        let mut wsum = 0f64;
+        let mut add = |wk: f64, c: [f64; 3]| {
+            for k in 0..3 {
+                sum[k] += wk * c[k];
+            }
+            wsum += wk;
+        };
+        let mut sigma = aa.depth.at(px);
+        if threshold > 0.0 && sigma.is_some() {
+            let plain: Vec<(f64, [f64; 3])> = plain_samples(lf, plan, table, px, s).collect();
+            if focus_spread(plain.iter().copied()).is_some_and(|v| v <= threshold) {
+                sigma = None;
+            }
+        }
+        let focused = sigma.is_some_and(|sigma| (s - sigma).abs() < focused_reach);
+        for ((v, fp), dv) in plan.views.iter().zip(&aa.footprints).zip(&defocused) {
+            let y0 = v.warp.a * px.extend(1.0) + v.warp.b * s;
+            let img = &lf.views[v.index].image;
+            let Some(sigma) = sigma else {
+                if let Some(p) = inside(lf, y0) {
+                    add(v.weight, bilinear(img, table, p));
+                }
+                continue;
+            };
+            let d = s - sigma;
+            let Some(p) = inside(lf, y0 + fp.offset(0.5, 0.5, d)) else {
+                continue;
+            };
+            let c = if focused && focused_sub_sample(fp, d, y0.z) {
+                bicubic(img, table, p)
+            } else {
+                bilinear_texels(&dv.texels, (dv.width, dv.height), p)
+            };
+            add(v.weight, c);
+        }
+        (sum, wsum)
+    })
+}
+
+/// Exact bilinear interpolation of f64 texels (`w × h`, row-major) at `p`, clamp-to-edge.
+fn bilinear_texels(t: &[[f64; 3]], (w, h): (u32, u32), p: DVec2) -> [f64; 3] {
+    let (x0, y0) = (p.x.floor(), p.y.floor());
+    let (fx, fy) = (p.x - x0, p.y - y0);
+    let at = |x: f64, y: f64| {
+        let i = (x as i64).clamp(0, w as i64 - 1) as usize;
+        let j = (y as i64).clamp(0, h as i64 - 1) as usize;
+        t[j * w as usize + i]
+    };
+    let (a, b, c, d) = (
+        at(x0, y0),
+        at(x0 + 1.0, y0),
+        at(x0, y0 + 1.0),
+        at(x0 + 1.0, y0 + 1.0),
+    );
+    std::array::from_fn(|k| {
+        (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
     })
 }
 

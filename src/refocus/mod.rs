@@ -4,6 +4,7 @@
 
 pub mod antialias;
 pub mod cpu;
+pub mod defocus;
 pub mod focus;
 pub mod options;
 pub mod plan;

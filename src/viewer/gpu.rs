@@ -261,9 +261,13 @@ impl ViewerGpu {
             )?);
         }
         match self.staging.as_mut() {
-            Some(staging) => texture.reupload(&ctx, lf, staging),
-            None => Err(Error::Vulkan("no staging buffer".into())),
+            Some(staging) => texture.reupload(&ctx, lf, staging)?,
+            None => return Err(Error::Vulkan("no staging buffer".into())),
         }
+        if let Some(pass) = self.pass.as_mut() {
+            pass.views_reuploaded();
+        }
+        Ok(())
     }
 
     /// Waits for every frame in flight.

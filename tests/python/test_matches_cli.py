@@ -52,6 +52,10 @@ CASES = {
         ["--disparity", "0.5", "--antialias-occlusion", "off"],
         dict(disparity=0.5, antialias_occlusion=False),
     ),
+    "antialias-defocus": (
+        ["--disparity", "0.5", "--antialias-defocus", "on"],
+        dict(disparity=0.5, antialias_defocus=True),
+    ),
     "encoded": (
         ["--disparity", "0.5", "--average", "encoded"],
         dict(disparity=0.5, average="encoded"),

@@ -31,14 +31,18 @@
 //! - [`RefocusPass::set_antialias`] uploads an anti-aliasing plan (views by aperture cell,
 //!   their footprints, the scene's inverse depth per reference pixel); accumulations with
 //!   `antialias > 0` integrate each view over its footprint (docs/conventions.md §11).
+//!   With defocused views ([`crate::refocus::defocus`]) a compute stage of its own
+//!   ([`defocus`]) box-filters the views first and the accumulation reads them at binding 9.
 //! - [`RefocusPass::set_surface`] uploads a focus surface (its plane terms, binding 6, and the
 //!   scene depth it shares with anti-aliasing, binding 5); accumulations with `surface` pick
 //!   the focus's inverse depth per pixel by its rule (the `SURFACE` specialisation constant,
 //!   docs/conventions.md §12). Without it the shader is the single-plane path.
 //!
 //! Destruction order: pipelines → pipeline layouts → descriptor pool (frees the sets) → set
-//! layouts → samplers → warp buffer → decode table → anti-aliasing buffers → surface buffer. Targets are the caller's and destroyed by it.
+//! layouts → samplers → warp buffer → decode table → anti-aliasing buffers → surface buffer →
+//! defocus stage. Targets are the caller's and destroyed by it.
 
+mod defocus;
 mod interface;
 mod target;
 
@@ -47,6 +51,7 @@ use std::ops::Range;
 use ash::vk;
 
 use crate::gpu::pod::as_bytes;
+use defocus::{DefocusKey, DefocusStage};
 pub use interface::{GpuFootprint, GpuSurface, GpuViewWarp, RefocusPush};
 pub use target::{OutputFormat, RefocusTarget};
 
@@ -347,6 +352,8 @@ struct AccumKey {
     occlusion: bool,
     /// `SurfaceRule` code (0: the plane alone).
     surface: u32,
+    /// Anti-aliasing reads the defocused views (binding 9) instead of sub-sampling.
+    defocus: bool,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -389,6 +396,10 @@ pub struct RefocusPass {
     uploaded_prefilter: bool,
     /// The uploaded plan's `AntialiasSettings::occlusion`.
     uploaded_occlusion: bool,
+    /// The uploaded plan's `AntialiasSettings::defocus`.
+    uploaded_defocus: bool,
+    /// Box-filters the views before an accumulation with defocused views.
+    defocus: Option<DefocusStage>,
     /// The uploaded plan's [`AntialiasPlan::focused_reach`], pushed with every draw.
     uploaded_focused_reach: f32,
     /// The focus surface's plane terms (uniform buffer, binding 6).
@@ -642,7 +653,7 @@ impl RefocusPass {
         }
         // SAFETY: new, unused sets; the infos reference live objects.
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
-        Ok(RefocusPass {
+        let mut pass = RefocusPass {
             objects: b,
             input_sets: sets,
             storage: texture.storage,
@@ -658,6 +669,8 @@ impl RefocusPass {
             uploaded_footprints: Vec::new(),
             uploaded_prefilter: false,
             uploaded_occlusion: false,
+            uploaded_defocus: false,
+            defocus: None,
             uploaded_focused_reach: 0.0,
             uploaded_depth: Vec::new(),
             visibility,
@@ -666,7 +679,50 @@ impl RefocusPass {
             uploaded_surface: None,
             accum_pipelines: Vec::new(),
             resolve_pipelines: Vec::new(),
-        })
+        };
+        // Binding 9 needs an image from the start: the stage's one-view placeholder.
+        let size = (texture.width, texture.height);
+        match DefocusStage::new(ctx, pass.objects.input_set_layout, size) {
+            Ok(stage) => {
+                pass.defocus = Some(stage);
+                pass.write_defocused_binding(ctx);
+                Ok(pass)
+            }
+            Err(e) => {
+                pass.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    /// Tells the pass that the texture's views were uploaded again (the next frame of a
+    /// video): what it derived from their texels is rebuilt on next use.
+    pub fn views_reuploaded(&mut self) {
+        if let Some(stage) = &mut self.defocus {
+            stage.invalidate_tables();
+        }
+    }
+
+    /// Points binding 9 of every input set at the defocus stage's current image. The GPU must
+    /// not be using the sets.
+    fn write_defocused_binding(&self, ctx: &GpuContext) {
+        let Some(stage) = &self.defocus else {
+            return;
+        };
+        let info = [stage.sampled_info(self.objects.sampler_linear)];
+        let writes: Vec<_> = self
+            .input_sets
+            .iter()
+            .map(|&set| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(9)
+                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                    .image_info(&info)
+            })
+            .collect();
+        // SAFETY: the caller guarantees the sets are unused; the info references a live image.
+        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
     }
 
     /// Where the shaders read the warps from: `None` picks the default for this light field
@@ -815,6 +871,13 @@ impl RefocusPass {
         }
         let changed = self.set_views(&aa.plan)?;
         self.set_visibility(ctx, aa)?;
+        if aa.settings.defocus {
+            let stage = self.defocus.as_mut().expect("made with the pass");
+            if stage.reserve(ctx, aa.plan.views.len() as u32)? {
+                self.write_defocused_binding(ctx);
+            }
+        }
+        self.uploaded_defocus = aa.settings.defocus;
         let records = footprint_records(aa);
         if records != self.uploaded_footprints {
             let bytes = as_bytes(&records);
@@ -913,6 +976,7 @@ impl RefocusPass {
             || aa.depth.interleaved() != self.uploaded_depth
             || aa.settings.prefilter != self.uploaded_prefilter
             || aa.settings.occlusion != self.uploaded_occlusion
+            || aa.settings.defocus != self.uploaded_defocus
             || aa.focused_reach() as f32 != self.uploaded_focused_reach
     }
 
@@ -982,8 +1046,9 @@ impl RefocusPass {
             uniform_warps: self.warp_memory == WarpMemory::Uniform,
             antialias: a.antialias,
             prefilter: a.antialias > 0 && self.uploaded_prefilter,
-            occlusion: a.antialias > 0 && self.uploaded_occlusion,
+            occlusion: a.antialias > 0 && self.uploaded_occlusion && !self.uploaded_defocus,
             surface: rule as u32,
+            defocus: a.antialias > 0 && self.uploaded_defocus,
         };
         let pipeline = self.accum_pipeline(ctx, key)?;
         let d = &ctx.device;
@@ -1006,6 +1071,33 @@ impl RefocusPass {
                 _ => 0.0,
             },
         };
+        let input_set = self.input_sets[set_index];
+        if key.defocus {
+            let stage_key = DefocusKey {
+                filter: key.filter,
+                texel: key.texel,
+                uniform_warps: key.uniform_warps,
+                surface: key.surface,
+            };
+            let layers: Vec<(u32, u32)> = a
+                .views
+                .clone()
+                .map(|k| {
+                    let (w, f) = (&self.uploaded[k], &self.uploaded_footprints[k]);
+                    (w.a0[3] as u32, f.vis[1] as u32)
+                })
+                .collect();
+            let stage = self.defocus.as_mut().expect("made with the pass");
+            stage.record(
+                ctx,
+                cmd,
+                input_set,
+                stage_key,
+                push,
+                a.views.clone(),
+                &layers,
+            )?;
+        }
         // Whatever touched the accumulation image before (a previous accumulation, a resolve,
         // possibly in an earlier submission) finishes first.
         let from = if target.accum_ready {
@@ -1025,7 +1117,6 @@ impl RefocusPass {
             },
         );
         target.accum_ready = true;
-        let input_set = self.input_sets[set_index];
         let extent = vk::Extent2D {
             width: target.width,
             height: target.height,
@@ -1203,9 +1294,10 @@ impl RefocusPass {
             key.surface,
             u32::from(key.prefilter),
             u32::from(key.occlusion),
+            u32::from(key.defocus),
         ];
         let name = format!(
-            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}{}{}, surface {})",
+            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}{}{}{}, surface {})",
             if key.compute { "compute" } else { "fragment" },
             key.filter,
             key.texel,
@@ -1221,6 +1313,7 @@ impl RefocusPass {
             } else {
                 ""
             },
+            if key.defocus { " defocused" } else { "" },
             key.surface
         );
         let pipeline = if key.compute {
@@ -1292,6 +1385,9 @@ impl RefocusPass {
         self.scene_depth.destroy(ctx);
         self.visibility.destroy(ctx);
         self.surface.destroy(ctx);
+        if let Some(stage) = self.defocus {
+            stage.destroy(ctx);
+        }
     }
 }
 
@@ -1430,6 +1526,7 @@ impl PassObjects {
             binding(6, T::UNIFORM_BUFFER, shading),
             binding(7, T::COMBINED_IMAGE_SAMPLER, shading),
             binding(8, T::STORAGE_BUFFER, shading),
+            binding(9, T::COMBINED_IMAGE_SAMPLER, shading),
         ])?;
         self.resolve_set_layout = set_layout(&[binding(
             0,
@@ -1450,7 +1547,7 @@ impl PassObjects {
         let sizes = [
             vk::DescriptorPoolSize {
                 ty: T::COMBINED_IMAGE_SAMPLER,
-                descriptor_count: 2 * n,
+                descriptor_count: 3 * n,
             },
             vk::DescriptorPoolSize {
                 ty: T::STORAGE_BUFFER,
