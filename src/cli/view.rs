@@ -153,6 +153,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             "antialias": {
                 "used": state.antialias() && depth_origin.is_some(),
                 "max_samples": antialias.max_samples,
+                "defocus": antialias.defocus,
                 "depth_origin": depth_origin.map(super::depth::origin_json),
             },
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},
