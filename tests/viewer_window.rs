@@ -1034,3 +1034,100 @@ fn the_strip_reads_the_depth_under_the_cursor() {
     let off = json_file(&d.join("off.json"));
     assert!(off["cursor_depth"].is_null(), "{off}");
 }
+
+/// Ctrl+Z takes a click's plane back and Ctrl+Shift+Z brings it again (the screenshots' JSON
+/// records the plane in effect); with nothing left to undo the strip says so and the plane
+/// stays.
+#[test]
+fn undo_and_redo_take_a_click_back_and_bring_it_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let script = format!(
+        "screenshot {d}/before\n\
+         click refocus 32 40\n\
+         screenshot {d}/clicked\n\
+         key ctrl+Z\n\
+         screenshot {d}/undone\n\
+         key ctrl+shift+Z\n\
+         screenshot {d}/redone\n\
+         key ctrl+Z 3\n\
+         screenshot {d}/exhausted\n\
+         quit\n",
+        d = d.display()
+    );
+    let (_, _) = run_script(
+        d,
+        "undo.txt",
+        &script,
+        &["builtin:tilted", "--antialias", "off"],
+    );
+    let plane = |name: &str| {
+        let s = json_file(&d.join(format!("{name}.json")));
+        let p = &s["plane"];
+        let mut v = numbers(&p["point"]);
+        v.extend(numbers(&p["normal"]));
+        v
+    };
+    let close = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-9);
+    let (before, clicked) = (plane("before"), plane("clicked"));
+    assert!(!close(&before, &clicked), "the click moved the plane");
+    assert!(
+        close(&plane("undone"), &before),
+        "undo: {:?}",
+        plane("undone")
+    );
+    assert!(
+        close(&plane("redone"), &clicked),
+        "redo: {:?}",
+        plane("redone")
+    );
+    assert!(close(&plane("exhausted"), &before));
+}
+
+/// P says where its screenshot went, in the strip (the next screenshot's JSON records the
+/// notice), and the notice goes after a few seconds; three clicks along one image row are
+/// refused in the user's terms.
+#[test]
+fn p_says_where_the_screenshot_went_and_collinear_clicks_are_explained() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let prefix = d.join("shot");
+    let script = format!(
+        "key P\n\
+         screenshot {d}/after_p\n\
+         wait 4.5\n\
+         screenshot {d}/later\n\
+         shift-click refocus 10 30\n\
+         shift-click refocus 20 30\n\
+         shift-click refocus 30 30\n\
+         screenshot {d}/collinear\n\
+         quit\n",
+        d = d.display()
+    );
+    run_script(
+        d,
+        "notice.txt",
+        &script,
+        &[
+            "builtin:tilted",
+            "--antialias",
+            "off",
+            "--screenshot-prefix",
+            prefix.to_str().unwrap(),
+        ],
+    );
+    assert!(d.join("shot-1_window.png").is_file(), "P wrote its files");
+    let after = json_file(&d.join("after_p.json"));
+    let notice = after["notice"].as_str().unwrap_or("");
+    assert!(
+        notice.starts_with("saved ") && notice.contains("shot-1_window.png"),
+        "{after}"
+    );
+    assert!(json_file(&d.join("later.json"))["notice"].is_null());
+    let c = json_file(&d.join("collinear.json"));
+    let message = c["message"].as_str().unwrap_or("");
+    assert!(
+        message.contains("one line in the image") && message.contains("off that line"),
+        "{c}"
+    );
+}

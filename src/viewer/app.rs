@@ -18,7 +18,7 @@ use ash::vk::Handle;
 use glam::DVec2;
 use glfw::{Action as KeyAction, Key, Modifiers, MouseButton, WindowEvent};
 
-use super::controls::{action_for_key, video_step_for_key, FINE};
+use super::controls::{action_for_chord, video_step_for_key, FINE};
 use super::gpu::ViewerGpu;
 use super::layout::Layout;
 use super::panel::Hit;
@@ -120,8 +120,9 @@ struct Press {
 /// Input in progress.
 #[derive(Debug, Default)]
 struct Input {
-    /// Key presses (key, Shift) waiting for their frame: from the keyboard or a script.
-    pending: VecDeque<(Key, bool)>,
+    /// Key presses (key, Shift, Control) waiting for their frame: from the keyboard or a
+    /// script.
+    pending: VecDeque<(Key, bool, bool)>,
     press: Option<Press>,
     cursor: DVec2,
     shift: bool,
@@ -371,9 +372,14 @@ impl Viewer {
     fn run_command(&mut self, command: Command) {
         let s = &mut self.session;
         match command {
-            Command::Key { key, shift, count } => {
+            Command::Key {
+                key,
+                shift,
+                ctrl,
+                count,
+            } => {
                 for _ in 0..count {
-                    self.input.pending.push_back((key, shift));
+                    self.input.pending.push_back((key, shift, ctrl));
                 }
             }
             // Script clicks give depth-view pixels directly.
@@ -474,7 +480,8 @@ impl Viewer {
             WindowEvent::Refresh => self.session.dirty.window = true,
             WindowEvent::Key(key, _, KeyAction::Press | KeyAction::Repeat, mods) => {
                 self.input.shift = mods.contains(Modifiers::Shift);
-                self.input.pending.push_back((key, self.input.shift));
+                let ctrl = mods.contains(Modifiers::Control);
+                self.input.pending.push_back((key, self.input.shift, ctrl));
             }
             WindowEvent::Key(_, _, KeyAction::Release, mods) => {
                 self.input.shift = mods.contains(Modifiers::Shift);
@@ -579,15 +586,15 @@ impl Viewer {
 
     /// One key press per frame, so a held key (or a script's COUNT) is a run of frames.
     fn press_next_key(&mut self) {
-        let Some((key, shift)) = self.input.pending.pop_front() else {
+        let Some((key, shift, ctrl)) = self.input.pending.pop_front() else {
             return;
         };
         let s = &mut self.session;
-        if let Some(step) = video_step_for_key(key) {
+        if let Some(step) = video_step_for_key(key).filter(|_| !ctrl) {
             s.video_key(step);
             return;
         }
-        let Some(action) = action_for_key(key, shift) else {
+        let Some(action) = action_for_chord(key, shift, ctrl) else {
             return;
         };
         // Screenshots, quitting and help leave the image as it is: no interaction.

@@ -1,5 +1,6 @@
 //! Key bindings: which key does what, the names scripts use for keys (GLFW's names: `UP`, `W`,
-//! `LEFT_BRACKET`, …, with an optional `shift+`), and the help text listing every control.
+//! `LEFT_BRACKET`, …, with optional `shift+` and `ctrl+`), and the help text listing every
+//! control.
 
 use glam::DVec2;
 use glfw::Key;
@@ -57,11 +58,27 @@ pub const CONTROLS: &[(&str, &str)] = &[
     ("G", "all in focus on/off (needs depth)"),
     ("F", "frame the cloud and the cameras"),
     ("R", "reset focus and scene view"),
+    ("Ctrl+Z / Ctrl+Shift+Z", "undo / redo a focus change"),
     ("P", "screenshot"),
     ("Tab", "control panel: sliders and buttons"),
     ("H", "this help"),
     ("Q or Esc", "quit"),
 ];
+
+/// The action of `key` pressed with Shift and Control as given: with Control only undo
+/// (Ctrl+Z), redo (Ctrl+Shift+Z, also Ctrl+Y) and nothing else, so that a held Control never
+/// turns a shortcut into a nudge.
+pub fn action_for_chord(key: Key, shift: bool, ctrl: bool) -> Option<Action> {
+    if !ctrl {
+        return action_for_key(key, shift);
+    }
+    match key {
+        Key::Z if shift => Some(Action::Redo),
+        Key::Z => Some(Action::Undo),
+        Key::Y => Some(Action::Redo),
+        _ => None,
+    }
+}
 
 /// The action of `key` pressed with or without Shift, if it has one.
 pub fn action_for_key(key: Key, shift: bool) -> Option<Action> {
@@ -215,6 +232,13 @@ mod tests {
         assert_eq!(
             action_for_key(Key::Minus, true),
             Some(Action::Slab(-SLAB_STEP * FINE))
+        );
+        assert_eq!(action_for_chord(Key::Z, false, true), Some(Action::Undo));
+        assert_eq!(action_for_chord(Key::Z, true, true), Some(Action::Redo));
+        assert_eq!(action_for_chord(Key::W, false, true), None);
+        assert_eq!(
+            action_for_chord(Key::W, false, false),
+            Some(Action::Distance(0.01))
         );
         // Every control the help lists fits the help box's key column.
         assert!(CONTROLS.iter().all(|(k, _)| k.len() <= 26));

@@ -5,7 +5,8 @@
 //! wait-converged                  until refinement reached the full aperture at full size
 //!                                 (and depth being estimated in the background arrived)
 //! key NAME [COUNT]                press and release a key COUNT times, one press per frame
-//!                                 (GLFW names: UP, W, LEFT_BRACKET, …; shift+UP for Shift)
+//!                                 (GLFW names: UP, W, LEFT_BRACKET, …; shift+UP for Shift,
+//!                                 ctrl+Z for Control: ctrl+Z undo, ctrl+shift+Z redo)
 //! click refocus U V               single-click plane at pixel (U, V) of the depth view — the
 //!                                 pixels `render --click U,V` takes, not window pixels; clicks
 //!                                 wait for depth being estimated in the background
@@ -64,6 +65,8 @@ pub enum Command {
     Key {
         key: Key,
         shift: bool,
+        /// Control held (`ctrl+Z`: undo).
+        ctrl: bool,
         count: u32,
     },
     /// Refocus panel: depth-view pixels; scene panel: panel pixels.
@@ -286,10 +289,20 @@ fn parse_line(line: &str) -> std::result::Result<Command, String> {
         "wait-converged" => Command::WaitConverged,
         "key" => {
             let spec = words.next().ok_or("missing key name")?;
-            let (shift, name) = match spec.to_ascii_lowercase().strip_prefix("shift+") {
-                Some(_) => (true, &spec[6..]),
-                None => (false, spec),
-            };
+            // Modifiers in any order before the key: shift+, ctrl+ (ctrl+shift+Z: redo).
+            let (mut shift, mut ctrl, mut name) = (false, false, spec);
+            loop {
+                let lower = name.to_ascii_lowercase();
+                if lower.starts_with("shift+") && !shift {
+                    shift = true;
+                    name = &name[6..];
+                } else if lower.starts_with("ctrl+") && !ctrl {
+                    ctrl = true;
+                    name = &name[5..];
+                } else {
+                    break;
+                }
+            }
             let key = key_from_name(name).ok_or_else(|| format!("unknown key '{name}'"))?;
             let count = match words.next() {
                 Some(w) => whole(Some(w), "count")?,
@@ -298,7 +311,12 @@ fn parse_line(line: &str) -> std::result::Result<Command, String> {
             if count == 0 || count > MAX_COUNT {
                 return Err(format!("count must be 1 to {MAX_COUNT}, got {count}"));
             }
-            Command::Key { key, shift, count }
+            Command::Key {
+                key,
+                shift,
+                ctrl,
+                count,
+            }
         }
         "click" | "drag" if line.split_whitespace().nth(1) == Some("window") => {
             words.next();
@@ -499,6 +517,7 @@ mod tests {
     fn parses_every_command() {
         let text =
             "# a comment\n\nwait 0.5\nwait-converged\nkey UP\nkey shift+LEFT_BRACKET 3 # fine\n\
+                    key ctrl+shift+Z\nkey Shift+Ctrl+z 2\n\
                     click refocus 10 20\nshift-click refocus 1.5 2\nclick scene 3 4\n\
                     drag scene 1 2 3 4\nscroll refocus -2\nscroll scene 1.5\nresize 800 600\n\
                     screenshot out/a\nquit\n";
@@ -513,12 +532,26 @@ mod tests {
                 Command::Key {
                     key: Key::Up,
                     shift: false,
+                    ctrl: false,
                     count: 1
                 },
                 Command::Key {
                     key: Key::LeftBracket,
                     shift: true,
+                    ctrl: false,
                     count: 3
+                },
+                Command::Key {
+                    key: Key::Z,
+                    shift: true,
+                    ctrl: true,
+                    count: 1
+                },
+                Command::Key {
+                    key: Key::Z,
+                    shift: true,
+                    ctrl: true,
+                    count: 2
                 },
                 Command::Click {
                     panel: Panel::Refocus,

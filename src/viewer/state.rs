@@ -13,6 +13,10 @@
 //!   (a focus given relative to the reference camera is first turned into its world plane);
 //! - keyboard adjustments (tilt, swing, distance) act on the plane as seen from the current
 //!   reference camera, exactly as `render`'s `--nudge-*` options, and leave a world plane;
+//! - every change of the focus, the aperture, the viewpoint, the averaging, anti-aliasing or
+//!   the focus surface made by the user (keys, clicks, picks, R) can be undone and redone,
+//!   [`UNDO_STEPS`] deep ([`Action::Undo`], [`Action::Redo`]); a new change drops what could
+//!   be redone. Depth arriving in the background is not a step of its own;
 //! - every change of what is rendered (a new plan, or new views: the next video frame)
 //!   increments [`ViewerState::version`]; changes that only affect markers increment
 //!   [`ViewerState::marks_version`]; moving the scene camera and messages change neither.
@@ -68,8 +72,13 @@ pub enum Action {
     Slab(f64),
     /// All in focus on/off (the kept planes or the slab come back when it goes off).
     ToggleAllInFocus,
-    /// Back to the state the viewer started in.
+    /// Back to the state the viewer started in (keeping the user's anti-aliasing choice).
     Reset,
+    /// Undo the last change of the focus, aperture, viewpoint, averaging, anti-aliasing or
+    /// focus surface.
+    Undo,
+    /// Redo the change undone last.
+    Redo,
     /// The scene camera back to a view of the whole cloud and camera array.
     Frame,
     /// Single-click plane at a pixel of the depth view (as `render --click`).
@@ -219,11 +228,30 @@ struct Core {
     surface: SurfaceChoice,
 }
 
+/// The refusal of three clicks on one line of the image.
+pub const COLLINEAR_CLICKS: &str =
+    "the three points lie on one line in the image (collinear), so their plane would pass \
+     through the camera; pick the third point off that line";
+
+/// Whether three image points lie on one line (within a tenth of a pixel of it).
+fn image_collinear(p: &[DVec2]) -> bool {
+    let (a, b) = (p[1] - p[0], p[2] - p[0]);
+    let longest = a.length().max(b.length()).max((p[2] - p[1]).length());
+    longest == 0.0 || a.perp_dot(b).abs() / longest <= 0.1
+}
+
+/// How many changes [`Action::Undo`] can take back (the oldest are forgotten first).
+pub const UNDO_STEPS: usize = 256;
+
 /// The viewer's state.
 #[derive(Debug, Clone)]
 pub struct ViewerState {
     core: Core,
     initial: Core,
+    /// What undo restores, the latest last (at most [`UNDO_STEPS`]).
+    undo: Vec<Core>,
+    /// What redo restores, the next last; emptied by any new change.
+    redo: Vec<Core>,
     excluded: Vec<bool>,
     /// The current focus, resolved.
     pub resolved: ResolvedFocus,
@@ -318,6 +346,8 @@ impl ViewerState {
         Ok(ViewerState {
             core,
             initial: core,
+            undo: Vec::new(),
+            redo: Vec::new(),
             excluded,
             resolved,
             plan,
@@ -531,8 +561,13 @@ impl ViewerState {
                 self.placed_clicks.clear();
                 let moved = self.orbit != self.initial_orbit;
                 self.orbit = self.initial_orbit;
-                let initial = self.initial;
-                match self.change(lf, |_, core| {
+                // Anti-aliasing is the user's choice of how to look (X), not a focus: R
+                // keeps it.
+                let initial = Core {
+                    antialias: self.core.antialias,
+                    ..self.initial
+                };
+                match self.change_recorded(lf, |_, core| {
                     *core = initial;
                     Ok(())
                 }) {
@@ -542,6 +577,8 @@ impl ViewerState {
                 }
             }
             Action::Quit => return Effect::Quit,
+            Action::Undo => self.step_history(lf, false),
+            Action::Redo => self.step_history(lf, true),
             Action::ThreeClick(pixel) => {
                 self.pending_points.clear();
                 self.placed_clicks.clear();
@@ -550,17 +587,27 @@ impl ViewerState {
                     return self.mark_pending(self.pending_clicks.len(), "Shift+click");
                 }
                 let p: Vec<DVec2> = std::mem::take(&mut self.pending_clicks);
-                let effect = self.change(lf, |_, core| {
+                let effect = self.change_recorded(lf, |_, core| {
                     core.focus = FocusRequest {
                         target: FocusTarget::ThreeClicks([p[0], p[1], p[2]]),
                         nudge: None,
                     };
                     Ok(())
                 });
-                if !matches!(effect, Effect::Refused(_)) {
-                    self.placed_clicks = p;
+                match effect {
+                    Effect::Refused(_) if image_collinear(&p) => {
+                        // Back-projected, points on one image line span a plane through the
+                        // camera: say so in the user's terms, not as a plane distance of 1e-16.
+                        let why = COLLINEAR_CLICKS.to_string();
+                        self.message = Some(why.clone());
+                        Effect::Refused(why)
+                    }
+                    Effect::Refused(_) => effect,
+                    _ => {
+                        self.placed_clicks = p;
+                        effect
+                    }
                 }
-                effect
             }
             Action::ScenePick(point) => {
                 self.pending_clicks.clear();
@@ -570,7 +617,7 @@ impl ViewerState {
                     return self.mark_pending(self.pending_points.len(), "click in the scene");
                 }
                 let p: Vec<DVec3> = std::mem::take(&mut self.pending_points);
-                self.change(lf, |_, core| {
+                self.change_recorded(lf, |_, core| {
                     core.focus = FocusRequest {
                         target: FocusTarget::ThreePoints([p[0], p[1], p[2]]),
                         nudge: None,
@@ -583,7 +630,7 @@ impl ViewerState {
                 self.placed_clicks.clear();
                 self.pending_points.clear();
                 let normals = self.normals;
-                self.change(lf, |_, core| {
+                self.change_recorded(lf, |_, core| {
                     core.focus = FocusRequest {
                         target: FocusTarget::Click { pixel, normals },
                         nudge: None,
@@ -594,7 +641,7 @@ impl ViewerState {
             action => {
                 let resolved = self.resolved.clone();
                 let plan = self.plan.clone();
-                self.change(lf, |lf, core| modify(lf, core, action, &resolved, &plan))
+                self.change_recorded(lf, |lf, core| modify(lf, core, action, &resolved, &plan))
             }
         };
         if matches!(effect, Effect::Changed) {
@@ -610,6 +657,61 @@ impl ViewerState {
         ));
         self.marks_version += 1;
         Effect::Marked
+    }
+
+    /// [`ViewerState::change`], and a step that undo can take back when the core changed.
+    fn change_recorded(
+        &mut self,
+        lf: &LightField,
+        f: impl FnOnce(&LightField, &mut Core) -> Result<()>,
+    ) -> Effect {
+        let before = self.core;
+        let effect = self.change(lf, f);
+        if self.core != before {
+            if self.undo.len() == UNDO_STEPS {
+                self.undo.remove(0);
+            }
+            self.undo.push(before);
+            self.redo.clear();
+        }
+        effect
+    }
+
+    /// Undo (`forward` false) or redo: back to the core the history holds, the current one
+    /// moving to the other history. The picks in progress and the marks of the last clicks go.
+    fn step_history(&mut self, lf: &LightField, forward: bool) -> Effect {
+        let (from, what) = if forward {
+            (&mut self.redo, "redo")
+        } else {
+            (&mut self.undo, "undo")
+        };
+        let Some(target) = from.pop() else {
+            let why = format!("nothing to {what}");
+            self.message = Some(why.clone());
+            self.marks_version += 1;
+            return Effect::Refused(why);
+        };
+        self.pending_clicks.clear();
+        self.pending_points.clear();
+        self.placed_clicks.clear();
+        let current = self.core;
+        let effect = self.change(lf, |_, core| {
+            *core = target;
+            Ok(())
+        });
+        if matches!(effect, Effect::Refused(_)) {
+            // It no longer resolves (the depth it was picked on changed): keep it where it was.
+            if forward {
+                self.redo.push(target);
+            } else {
+                self.undo.push(target);
+            }
+        } else if forward {
+            self.undo.push(current);
+        } else {
+            self.redo.push(current);
+        }
+        effect
     }
 
     /// Applies `f` to a copy of the core; commits when the result resolves, else keeps the
@@ -959,6 +1061,51 @@ mod tests {
     }
 
     #[test]
+    fn undo_and_redo_step_through_the_focus_changes() {
+        let lf = lf("planes");
+        let mut s = state(&lf, FocusSpec::Disparity(0.0));
+        let start = s.resolved.plane;
+        assert!(matches!(s.apply(&lf, Action::Undo), Effect::Refused(_)));
+        assert_eq!(s.message.as_deref(), Some("nothing to undo"));
+        s.apply(&lf, Action::Tilt(3.0));
+        let tilted = s.resolved.plane;
+        s.apply(&lf, Action::ApertureRadius(0.5));
+        let wider = s.aperture();
+        assert_ne!(tilted, start);
+        // Back two steps, forward one: the tilt without the wider aperture.
+        assert_eq!(s.apply(&lf, Action::Undo), Effect::Changed);
+        assert_eq!(s.resolved.plane, tilted);
+        assert_ne!(s.aperture(), wider);
+        assert_eq!(s.apply(&lf, Action::Undo), Effect::Changed);
+        assert_eq!(s.resolved.plane, start);
+        assert_eq!(s.apply(&lf, Action::Redo), Effect::Changed);
+        assert_eq!(s.resolved.plane, tilted);
+        // A new change drops what could be redone.
+        s.apply(&lf, Action::Swing(1.0));
+        assert!(matches!(s.apply(&lf, Action::Redo), Effect::Refused(_)));
+        // A refused action is no step.
+        let before = s.resolved.plane;
+        let refused = s.apply(&lf, Action::Click(DVec2::new(500.0, 3.0)));
+        assert!(matches!(refused, Effect::Refused(_)), "{refused:?}");
+        assert_eq!(s.apply(&lf, Action::Undo), Effect::Changed);
+        assert_eq!(s.resolved.plane, tilted, "undo skipped the refused change");
+        assert_ne!(s.resolved.plane, before);
+        // R is a step too, and the history keeps the last UNDO_STEPS of them.
+        s.apply(&lf, Action::Reset);
+        assert_eq!(s.resolved.plane, start);
+        s.apply(&lf, Action::Undo);
+        assert_eq!(s.resolved.plane, tilted);
+        for _ in 0..UNDO_STEPS + 10 {
+            s.apply(&lf, Action::Tilt(0.01));
+        }
+        let mut undone = 0;
+        while s.apply(&lf, Action::Undo) == Effect::Changed {
+            undone += 1;
+        }
+        assert_eq!(undone, UNDO_STEPS);
+    }
+
+    #[test]
     fn moving_the_viewpoint_keeps_the_plane_fixed_in_the_world() {
         let lf = lf("planes");
         let mut s = state(
@@ -1024,6 +1171,7 @@ mod tests {
         }
         let e = s.apply(&lf, Action::ThreeClick(DVec2::new(30.0, 30.0)));
         assert!(matches!(e, Effect::Refused(_)), "{e:?}");
+        assert_eq!(s.message.as_deref(), Some(COLLINEAR_CLICKS));
         assert_eq!(s.version, 0);
         assert!(s.pending_clicks.is_empty());
         assert!(
@@ -1115,9 +1263,12 @@ mod tests {
         assert_eq!(s.apply(&lf, arrived.clone()), Effect::Changed);
         assert!(s.antialias());
         assert_eq!(s.normals.window, 31);
-        // R returns to anti-aliasing on: it is the start state with depth.
+        // R keeps the user's anti-aliasing choice (X), and restores the focus.
         s.apply(&lf, Action::ToggleAntialias);
+        s.apply(&lf, Action::Tilt(2.0));
         s.apply(&lf, Action::Reset);
+        assert!(!s.antialias());
+        s.apply(&lf, Action::ToggleAntialias);
         assert!(s.antialias());
         // Toggled off before depth came: it stays off, and so does the user's focus.
         let mut t = state(&lf, FocusSpec::Disparity(0.0));

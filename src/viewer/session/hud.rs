@@ -116,6 +116,8 @@ pub struct Status<'a> {
     pub panel: Option<&'a ControlPanel>,
     /// The depth under the cursor over the refocus image (`DepthCache::reading`).
     pub cursor: Option<&'a str>,
+    /// A passing notice (where a screenshot went), after the refinement progress.
+    pub notice: Option<&'a str>,
 }
 
 impl Status<'_> {
@@ -128,15 +130,17 @@ impl Status<'_> {
                 let kb = KeyboardPlane::of(&p, &plan.reference_camera).ok();
                 format!(
                     "plane p=({:.3},{:.3},{:.3}) n=({:.3},{:.3},{:.3}){}",
-                    p.point.x,
-                    p.point.y,
-                    p.point.z,
-                    p.normal.x,
-                    p.normal.y,
-                    p.normal.z,
+                    shown(p.point.x, 3),
+                    shown(p.point.y, 3),
+                    shown(p.point.z, 3),
+                    shown(p.normal.x, 3),
+                    shown(p.normal.y, 3),
+                    shown(p.normal.z, 3),
                     kb.map_or(String::new(), |k| format!(
                         "  distance {:.4}  tilt {:.1}°  swing {:.1}°",
-                        k.distance, k.tilt_deg, k.swing_deg
+                        shown(k.distance, 4),
+                        shown(k.tilt_deg, 1),
+                        shown(k.swing_deg, 1)
                     ))
                 )
             }
@@ -176,6 +180,7 @@ impl Status<'_> {
             state.reference().y,
             state.averaging(),
             match aa {
+                Some(a) if a.settings.defocus => "aa defocused".to_string(),
                 Some(a) => format!("aa {}x{}", a.settings.max_samples, a.settings.max_samples),
                 None => "aa off".to_string(),
             },
@@ -201,7 +206,11 @@ impl Status<'_> {
 
     /// The status strip's two lines.
     pub fn lines(&self) -> (String, String) {
-        (self.focus_line(), self.render_line())
+        let render = match self.notice {
+            Some(n) => format!("{}  {n}", self.render_line()),
+            None => self.render_line(),
+        };
+        (self.focus_line(), render)
     }
 }
 
@@ -435,32 +444,89 @@ impl Hud {
         }
     }
 
-    /// Every control, over the scene panel.
+    /// Every control ([`help_box`]).
     fn help(&mut self, layout: &Layout) {
-        let sc = layout.scene;
-        let (x0, y0) = (sc.x as i64 + 10, sc.y as i64 + 10);
-        let rows = CONTROLS.len() as i64 + 1;
-        // 18-pixel rows where the panel is tall enough, closer (down to 10) where not, so
-        // every control stays listed in a short window.
-        let row = ((sc.height as i64 - 32) / rows).clamp(10, 18);
-        let key_w = CONTROLS.iter().map(|(k, _)| k.len()).max().unwrap_or(0) as i64 * 8 + 16;
-        let what_w = CONTROLS.iter().map(|(_, w)| w.len()).max().unwrap_or(0) as i64 * 8;
-        self.canvas
-            .fill(x0, y0, key_w + what_w + 16, rows * row + 12, PANEL_BG);
+        let h = help_box(layout);
+        self.canvas.fill(h.x, h.y, h.width, h.height, PANEL_BG);
         self.parts.push(Rect::new(
-            x0 as f32,
-            y0 as f32,
-            (key_w + what_w + 16) as f32,
-            (rows * row + 12) as f32,
+            h.x as f32,
+            h.y as f32,
+            h.width as f32,
+            h.height as f32,
         ));
         self.canvas
-            .text(x0 + 8, y0 + 6, 1, "controls (H hides)", WARN);
-        for (i, (key, what)) in CONTROLS.iter().enumerate() {
-            let y = y0 + 6 + (i as i64 + 1) * row;
-            self.canvas.text(x0 + 8, y, 1, key, TEXT);
-            self.canvas.text(x0 + 8 + key_w, y, 1, what, TEXT);
+            .text(h.x + 8, h.y + 6, 1, "controls (H hides)", WARN);
+        let mut y = h.y + 6;
+        for (key, what) in &h.lines {
+            y += h.row;
+            self.canvas.text(h.x + 8, y, 1, key, TEXT);
+            for (i, line) in what.iter().enumerate() {
+                if i > 0 {
+                    y += h.row;
+                }
+                self.canvas.text(h.x + 8 + h.key_width, y, 1, line, TEXT);
+            }
         }
     }
+}
+
+/// Where the help goes and its lines: over the scene panel, or over the whole window above the
+/// strip where the panel leaves descriptions under [`HELP_MIN_CHARS`]; descriptions wrap
+/// between words to the room there is, so no control is cut off at any window size (800 × 600
+/// and up).
+struct HelpBox {
+    x: i64,
+    y: i64,
+    width: i64,
+    height: i64,
+    row: i64,
+    key_width: i64,
+    lines: Vec<(&'static str, Vec<String>)>,
+}
+
+fn help_box(layout: &Layout) -> HelpBox {
+    let sc = layout.scene;
+    let key_width = CONTROLS.iter().map(|(k, _)| k.len()).max().unwrap_or(0) as i64 * 8 + 16;
+    let (area_x, area_w) = if (sc.width as i64 - 36 - key_width) / 8 >= HELP_MIN_CHARS {
+        (sc.x as i64, sc.width as i64)
+    } else {
+        (0, layout.window.0 as i64)
+    };
+    let chars = ((area_w - 36 - key_width) / 8).max(8) as usize;
+    let lines: Vec<(&'static str, Vec<String>)> = CONTROLS
+        .iter()
+        .map(|(k, w)| (*k, wrap_words(w, chars)))
+        .collect();
+    let what_w = lines
+        .iter()
+        .flat_map(|(_, w)| w.iter().map(|l| l.chars().count()))
+        .max()
+        .unwrap_or(0) as i64
+        * 8;
+    let rows = lines.iter().map(|(_, w)| w.len().max(1)).sum::<usize>() as i64 + 1;
+    // 18-pixel rows where the panel is tall enough, closer (down to 10) where not, so every
+    // control stays listed in a short window.
+    let row = ((sc.height as i64 - 32) / rows).clamp(10, 18);
+    HelpBox {
+        x: area_x + 10,
+        y: sc.y as i64 + 10,
+        width: key_width + what_w + 16,
+        height: rows * row + 12,
+        row,
+        key_width,
+        lines,
+    }
+}
+
+/// The narrowest column of descriptions the help wraps into over the scene panel (characters);
+/// a narrower panel gets the help over the whole window.
+const HELP_MIN_CHARS: i64 = 32;
+
+/// `v` as the strip shows it to `decimals` places, without a negative zero ("swing -0.0°"
+/// for a swing of -1e-17): rounded first, then `+ 0.0`, which turns -0.0 into 0.0.
+fn shown(v: f64, decimals: i32) -> f64 {
+    let f = 10f64.powi(decimals);
+    (v * f).round() / f + 0.0
 }
 
 #[cfg(test)]
@@ -468,6 +534,42 @@ mod tests {
     use super::*;
     use crate::viewer::refine::Refiner;
     use crate::viewer::state::Action;
+
+    #[test]
+    fn the_help_fits_every_window_from_800_by_600() {
+        for (w, h) in [
+            (800, 600),
+            (1024, 768),
+            (1280, 720),
+            (1920, 1080),
+            (3000, 900),
+        ] {
+            let layout = Layout::new(w, h, (512, 512));
+            let b = help_box(&layout);
+            assert!(
+                b.x >= 0 && b.x + b.width <= w as i64,
+                "{w}x{h}: {} + {}",
+                b.x,
+                b.width
+            );
+            assert!(
+                b.y + b.height <= layout.status.y as i64,
+                "{w}x{h}: the help runs into the strip"
+            );
+            let words: usize = b.lines.iter().map(|(_, l)| l.join(" ").len()).sum();
+            let want: usize = CONTROLS.iter().map(|(_, w)| w.len()).sum();
+            assert_eq!(words, want, "{w}x{h}: every description, whole");
+        }
+    }
+
+    #[test]
+    fn the_strip_shows_no_negative_zero() {
+        assert_eq!(format!("{:.1}", shown(-0.0, 1)), "0.0");
+        assert_eq!(format!("{:.1}", shown(-0.04, 1)), "0.0");
+        assert_eq!(format!("{:.1}", shown(-0.06, 1)), "-0.1");
+        assert_eq!(format!("{:.3}", shown(-1e-17, 3)), "0.000");
+        assert_eq!(format!("{:.4}", shown(2.5, 4)), "2.5000");
+    }
 
     #[test]
     fn the_changed_field_is_found_in_the_strip_and_messages_wrap_between_words() {
@@ -521,6 +623,7 @@ mod tests {
                 message_at: None,
                 panel: None,
                 cursor: Some("cursor: z 2.000 (given)"),
+                notice: None,
             };
             hud.draw(&layout, &status);
             hud.parts.clone()

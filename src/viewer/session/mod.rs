@@ -53,6 +53,8 @@ use video::{Video, VideoStep};
 const STATUS_PERIOD: Duration = Duration::from_millis(250);
 /// How long the field a control changed stays highlighted in the status strip.
 pub const HIGHLIGHT_FOR: Duration = Duration::from_millis(1200);
+/// How long a notice (where a `P` screenshot went) stays in the status strip.
+pub const NOTICE_FOR: Duration = Duration::from_secs(4);
 /// Size of the pick markers in the scene panel, pixels.
 const MARKER_SIZE: f32 = 11.0;
 
@@ -143,6 +145,8 @@ pub struct Session {
     launched: Instant,
     /// The strip's field the last control changed, and when.
     highlight: Option<(Field, Instant)>,
+    /// A notice for the status strip and when it came (display only: no part of the state).
+    notice: Option<(String, Instant)>,
     /// Where the user clicked when the state's message is about that click (window pixels).
     message_at: Option<DVec2>,
     pub milestones: Milestones,
@@ -205,6 +209,7 @@ impl Session {
             launched,
             milestones,
             highlight: None,
+            notice: None,
             message_at: None,
             panel,
         }
@@ -237,10 +242,20 @@ impl Session {
         self.interact(b.action());
     }
 
-    /// How long the highlighted field has left (the event loop wakes to clear it).
+    /// How long the highlighted field or the notice has left, the sooner of the two (the
+    /// event loop wakes to clear it).
     pub fn highlight_left(&self) -> Option<Duration> {
-        self.highlight
-            .map(|(_, at)| HIGHLIGHT_FOR.saturating_sub(at.elapsed()))
+        let highlight = self
+            .highlight
+            .map(|(_, at)| HIGHLIGHT_FOR.saturating_sub(at.elapsed()));
+        let notice = self
+            .notice
+            .as_ref()
+            .map(|(_, at)| NOTICE_FOR.saturating_sub(at.elapsed()));
+        match (highlight, notice) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
     }
 
     /// The light field's depth comes from `origin` (its own map, given).
@@ -602,8 +617,19 @@ impl Session {
     /// Restarts refinement after a change (full size once the input stops) and plans the next
     /// frame; `None` when there is nothing to draw.
     pub fn next_frame(&mut self, interactive: bool) -> Option<FramePlan> {
-        if self.highlight_left() == Some(Duration::ZERO) {
+        if self
+            .highlight
+            .is_some_and(|(_, at)| at.elapsed() >= HIGHLIGHT_FOR)
+        {
             self.highlight = None;
+            self.dirty.text = true;
+        }
+        if self
+            .notice
+            .as_ref()
+            .is_some_and(|(_, at)| at.elapsed() >= NOTICE_FOR)
+        {
+            self.notice = None;
             self.dirty.text = true;
         }
         if self.aa_version != self.state.version {
@@ -700,6 +726,7 @@ impl Session {
             message_at: self.message_at,
             panel: self.state.show_panel.then_some(&self.panel),
             cursor: self.cursor_depth.as_deref(),
+            notice: self.notice.as_ref().map(|(n, _)| n.as_str()),
         };
         let line = self.hud.draw(&self.layout, &status);
         self.dirty.text = false;
@@ -776,8 +803,21 @@ impl Session {
                 &prefix,
                 result.window.as_ref(),
                 self.stats.frames,
-                self.cursor_depth.as_deref(),
+                (
+                    self.cursor_depth.as_deref(),
+                    self.notice.as_ref().map(|(n, _)| n.as_str()),
+                ),
             )?;
+            if std::mem::take(&mut self.screenshots.announce) {
+                self.notice = Some((
+                    format!(
+                        "saved {}_window.png (+ refocus, scene, json)",
+                        prefix.display()
+                    ),
+                    Instant::now(),
+                ));
+                self.dirty.text = true;
+            }
         }
         Ok(())
     }

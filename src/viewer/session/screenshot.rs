@@ -22,6 +22,9 @@ pub struct Screenshots {
     taken: u32,
     /// The prefix of the screenshot the next frame takes.
     pub next: Option<PathBuf>,
+    /// The next screenshot is a `P` press: the strip says where it went (a script's
+    /// screenshots are the script's business).
+    pub announce: bool,
 }
 
 impl Screenshots {
@@ -30,6 +33,7 @@ impl Screenshots {
             prefix,
             taken: 0,
             next: None,
+            announce: false,
         }
     }
 
@@ -37,6 +41,7 @@ impl Screenshots {
     pub fn numbered(&mut self) {
         self.taken += 1;
         self.next = Some(with_suffix(&self.prefix, &format!("-{}", self.taken)));
+        self.announce = true;
     }
 }
 
@@ -126,7 +131,7 @@ pub fn save(
     prefix: &Path,
     window: Option<&RgbaImage>,
     frames: usize,
-    cursor: Option<&str>,
+    (cursor, notice): (Option<&str>, Option<&str>),
 ) -> Result<()> {
     let full = state.plan.clone();
     let refocus =
@@ -147,6 +152,8 @@ pub fn save(
         obj.insert("frames_presented".into(), frames.into());
         // The status strip's reading of the depth under the cursor (null off the image).
         obj.insert("cursor_depth".into(), cursor.into());
+        // The notice in the strip (where the last `P` screenshot went), null without one.
+        obj.insert("notice".into(), notice.into());
     }
     let path = with_suffix(prefix, ".json");
     crate::io::write_bytes(&path, "JSON", format!("{json:#}\n").as_bytes())?;
