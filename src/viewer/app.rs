@@ -443,6 +443,7 @@ impl Viewer {
             self.glfw.poll_events();
             return;
         }
+        self.session.stats.idle();
         let mut timeout: Option<f64> = self.script.wakes_at().map(|t| {
             t.saturating_duration_since(std::time::Instant::now())
                 .as_secs_f64()
