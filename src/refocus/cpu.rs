@@ -273,7 +273,6 @@ fn antialiased_with(
         .par_iter()
         .map(|v| prefilter.then(|| view_pyramid(&lf.views[v.index].image, &table)))
         .collect();
-    let threshold = aa.focus_threshold();
     let focused_reach = aa.focused_reach();
     per_pixel(lf, averaging, (w, h), |px, table| {
         let s = s_of(px);
@@ -283,19 +282,8 @@ fn antialiased_with(
         let sigma = aa.depth.at(px);
         // The pixel's own inverse depth where its surface is in focus.
         let focused = sigma.filter(|sigma| (s - sigma).abs() < focused_reach);
-        // The focus test: views that agree at the surface see it in focus (the plain sum with
-        // the cells' weights).
-        if threshold > 0.0 && sigma.is_some() {
-            let plain: Vec<(f64, [f64; 3])> = plain_samples(lf, plan, table, px, s).collect();
-            if focus_spread(plain.iter().copied()).is_some_and(|v| v <= threshold) {
-                for (wk, c) in plain {
-                    for k in 0..3 {
-                        sum[k] += wk * c[k];
-                    }
-                    wsum += wk;
-                }
-                return (sum, wsum);
-            }
+        if let Some(agreed) = focus_test(lf, aa, table, px, s) {
+            return agreed;
         }
         let views = plan.views.iter().zip(&aa.footprints).zip(&pyramids);
         for (k, ((v, fp), pyramid)) in views.enumerate() {
@@ -354,7 +342,6 @@ fn defocused_with(
     let plan = &aa.plan;
     let table = averaging_table(averaging);
     let defocused = super::defocus::defocus_views(lf, aa, &table, &s_of);
-    let threshold = aa.focus_threshold();
     let focused_reach = aa.focused_reach();
     per_pixel(lf, averaging, (w, h), |px, table| {
         let s = s_of(px);
@@ -366,13 +353,10 @@ fn defocused_with(
             }
             wsum += wk;
         };
-        let mut sigma = aa.depth.at(px);
-        if threshold > 0.0 && sigma.is_some() {
-            let plain: Vec<(f64, [f64; 3])> = plain_samples(lf, plan, table, px, s).collect();
-            if focus_spread(plain.iter().copied()).is_some_and(|v| v <= threshold) {
-                sigma = None;
-            }
+        if let Some(agreed) = focus_test(lf, aa, table, px, s) {
+            return agreed;
         }
+        let sigma = aa.depth.at(px);
         let focused = sigma.is_some_and(|sigma| (s - sigma).abs() < focused_reach);
         for ((v, fp), dv) in plan.views.iter().zip(&aa.footprints).zip(&defocused) {
             let y0 = v.warp.a * px.extend(1.0) + v.warp.b * s;
@@ -416,6 +400,33 @@ fn bilinear_texels(t: &[[f64; 3]], (w, h): (u32, u32), p: DVec2) -> [f64; 3] {
     std::array::from_fn(|k| {
         (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
     })
+}
+
+/// The focus test of anti-aliasing at output pixel `px` (focus-surface inverse depth `s`): where
+/// the pixel has depth and the views' plain samples agree ([`focus_spread`] at most the plan's
+/// threshold), they see the surface in focus and the pixel is their plain sum with the cells'
+/// weights (sum, weight); `None` where the test is off or fails.
+fn focus_test(
+    lf: &LightField,
+    aa: &AntialiasPlan,
+    table: &[f64; 256],
+    px: DVec2,
+    s: f64,
+) -> Option<([f64; 3], f64)> {
+    let threshold = aa.focus_threshold();
+    if threshold <= 0.0 || aa.depth.at(px).is_none() {
+        return None;
+    }
+    let plain: Vec<(f64, [f64; 3])> = plain_samples(lf, &aa.plan, table, px, s).collect();
+    focus_spread(plain.iter().copied())
+        .is_some_and(|v| v <= threshold)
+        .then(|| {
+            plain
+                .iter()
+                .fold(([0f64; 3], 0f64), |(sum, wsum), (wk, c)| {
+                    (std::array::from_fn(|k| sum[k] + wk * c[k]), wsum + wk)
+                })
+        })
 }
 
 /// Every view's plain sample at the focus surface's inverse depth `s` (weight, colour),
