@@ -1131,3 +1131,37 @@ fn p_says_where_the_screenshot_went_and_collinear_clicks_are_explained() {
         "{c}"
     );
 }
+
+/// With defocused views (`--antialias-defocus on`) the viewer's refinement, batch by batch,
+/// converges to exactly what `render --antialias-defocus on` writes.
+#[test]
+fn defocused_views_converge_to_render() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lf = "builtin:tilted";
+    let script = format!("wait-converged\nscreenshot {d}/a\nquit\n", d = d.display());
+    run_script(
+        d,
+        "defocus.txt",
+        &script,
+        &[lf, "--antialias-defocus", "on"],
+    );
+    let a = json_file(&d.join("a.json"));
+    assert_eq!(a["antialias"]["defocus"], true, "{a}");
+    let out = d.join("render.png");
+    let o = tiltfield(&[
+        "render",
+        lf,
+        "-o",
+        out.to_str().unwrap(),
+        "--disparity=0",
+        "--antialias-defocus",
+        "on",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read(d.join("a_refocus.png")).unwrap(),
+        std::fs::read(&out).unwrap(),
+        "viewer ≠ render"
+    );
+}
