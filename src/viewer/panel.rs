@@ -19,9 +19,11 @@ use glam::DVec2;
 
 use super::controls::SLAB_STEP;
 use super::state::{effective_radius, Action, ViewerState};
+use crate::geometry::aperture::ApertureShape;
 use crate::geometry::picking::KeyboardPlane;
 use crate::lightfield::LightField;
 use crate::passes::panel::Rect;
+use crate::refocus::Averaging;
 
 /// Row height and the panel's margins, pixels.
 pub const ROW: f32 = 18.0;
@@ -92,18 +94,29 @@ impl Button {
         &[Button::SlabNarrow, Button::SlabWiden, Button::AllInFocus],
     ];
 
-    /// Its label for `state` (the toggles name their current setting).
+    /// Its label for `state`: what pressing it does (the setting it leads to), at most 12
+    /// characters; a toggle that is on is lit ([`Button::on`]), so the state shows too.
     pub fn label(self, state: &ViewerState) -> String {
+        let on = self.on(state);
         match self {
-            Button::Shape => format!("{:?}", state.aperture().shape).to_lowercase(),
-            Button::Averaging => format!("{:?}", state.averaging()).to_lowercase(),
-            Button::Antialias => if state.antialias() { "aa on" } else { "aa off" }.into(),
+            Button::Shape => match state.aperture().shape {
+                ApertureShape::Disk => "to square",
+                ApertureShape::Square => "to gaussian",
+                ApertureShape::Gaussian => "to disk",
+            }
+            .into(),
+            Button::Averaging => match state.averaging() {
+                Averaging::Linear => "to encoded",
+                Averaging::Encoded => "to linear",
+            }
+            .into(),
+            Button::Antialias => if on { "turn aa off" } else { "turn aa on" }.into(),
             Button::Keep => "keep plane".into(),
-            Button::Drop => "drop".into(),
-            Button::Clear => "clear".into(),
-            Button::SlabNarrow => "slab -".into(),
-            Button::SlabWiden => "slab +".into(),
-            Button::AllInFocus => "all focus".into(),
+            Button::Drop => "drop kept".into(),
+            Button::Clear => "one plane".into(),
+            Button::SlabNarrow => "narrow slab".into(),
+            Button::SlabWiden => "widen slab".into(),
+            Button::AllInFocus => if on { "plane focus" } else { "all in focus" }.into(),
         }
     }
 
@@ -361,8 +374,16 @@ mod tests {
         }
         // Buttons are the keys' actions.
         assert_eq!(Button::Antialias.action(), Action::ToggleAntialias);
-        assert_eq!(Button::Shape.label(&s), "disk");
+        // Labels say what a press does.
+        assert_eq!(Button::Shape.label(&s), "to square");
         s.apply(&lf, Button::Shape.action());
-        assert_eq!(Button::Shape.label(&s), "square");
+        assert_eq!(s.aperture().shape, ApertureShape::Square);
+        assert_eq!(Button::Shape.label(&s), "to gaussian");
+        let aa = Button::Antialias.label(&s);
+        s.apply(&lf, Button::Antialias.action());
+        assert_ne!(Button::Antialias.label(&s), aa);
+        for b in Button::ROWS.iter().flat_map(|r| r.iter()) {
+            assert!(b.label(&s).chars().count() <= 12, "{b:?}");
+        }
     }
 }

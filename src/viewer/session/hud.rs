@@ -417,9 +417,9 @@ impl Hud {
             }
             let text = match (s, value) {
                 (_, None) => "-".to_string(),
-                (Slider::Distance, Some(v)) => format!("{v:.3}"),
-                (Slider::Tilt | Slider::Swing, Some(v)) => format!("{v:.1}°"),
-                (_, Some(v)) => format!("{v:.2}"),
+                (Slider::Distance, Some(v)) => format!("{:.3}", shown(v, 3)),
+                (Slider::Tilt | Slider::Swing, Some(v)) => format!("{:.1}°", shown(v, 1)),
+                (_, Some(v)) => format!("{:.2}", shown(v, 2)),
             };
             self.canvas
                 .text(tx + t.width as i64 + 12, ty, 1, &text, TEXT);
