@@ -1165,3 +1165,41 @@ fn defocused_views_converge_to_render() {
         "viewer ≠ render"
     );
 }
+
+/// O after a click tints what is in focus: a share of the refocus panel between 2 % and 60 %
+/// (the screenshot's JSON reports it; the window shows the magenta tint there), and O again
+/// takes it away.
+#[test]
+fn focus_peaking_tints_part_of_the_refocus_panel() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let script = format!(
+        "click refocus 32 40\n\
+         key O\n\
+         wait-converged\n\
+         screenshot {d}/on\n\
+         key O\n\
+         wait-converged\n\
+         screenshot {d}/off\n\
+         quit\n",
+        d = d.display()
+    );
+    run_script(d, "peaking.txt", &script, &["builtin:tilted"]);
+    let on = json_file(&d.join("on.json"));
+    let f = on["peaking"]["tinted_fraction"].as_f64().unwrap_or(-1.0);
+    assert!((0.02..=0.6).contains(&f), "tinted {f}: {on}");
+    let magenta = |name: &str| {
+        decoded(&d.join(name))
+            .pixels()
+            .filter(|p| p.0[0] > 200 && p.0[1] < 140 && p.0[2] > 200)
+            .count()
+    };
+    let (tinted, plain) = (magenta("on_window.png"), magenta("off_window.png"));
+    assert!(
+        tinted > plain + 1000,
+        "magenta pixels {tinted} on, {plain} off"
+    );
+    let off = json_file(&d.join("off.json"));
+    assert_eq!(off["peaking"]["on"], false);
+    assert!(off["peaking"]["tinted_fraction"].is_null());
+}

@@ -12,7 +12,7 @@ use rayon::prelude::*;
 
 use super::antialias::{
     cell_reach, focus_spread, focused_sub_sample, footprint_blur, footprint_lod, samples, span_px,
-    sub_sample_residual, AntialiasPlan, Ties, FOCUSED_BLUR_PX,
+    sub_sample_residual, AntialiasPlan, Ties, FOCUSED_BLUR_PX, FOCUS_TEST_LEVELS,
 };
 use super::prefilter::Pyramid;
 use super::surface::SurfacePlan;
@@ -428,6 +428,63 @@ fn focus_test(
                 })
         })
 }
+
+/// Focus peaking at the views' resolution: which reference pixels are in focus *and show it*.
+/// In focus by the focus test's measure (the plain samples of `plan`'s views at the focus
+/// surface `s_of(x)` agree: [`focus_spread`] at most [`FOCUS_TEST_LEVELS`] levels), and with
+/// detail: the mean of those samples (square-root units, as the spread) differs from a
+/// 4-neighbour's by at least [`PEAK_CONTRAST_LEVELS`]. Views agree trivially on a uniform
+/// area, in focus or not, so without the second test peaking would tint every flat wall.
+/// Row-major, `W × H`.
+pub fn focus_peaks(
+    lf: &LightField,
+    plan: &RefocusPlan,
+    averaging: Averaging,
+    s_of: impl Fn(DVec2) -> f64 + Sync,
+) -> Vec<bool> {
+    let table = averaging_table(averaging);
+    let (w, h) = (lf.width as usize, lf.height as usize);
+    let threshold = FOCUS_TEST_LEVELS / 255.0;
+    let agree_mean: Vec<(bool, f64)> = (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let px = DVec2::new((i % w) as f64, (i / w) as f64);
+            let samples: Vec<(f64, [f64; 3])> =
+                plain_samples(lf, plan, &table, px, s_of(px)).collect();
+            let agree = focus_spread(samples.iter().copied()).is_some_and(|v| v <= threshold);
+            let wsum: f64 = samples.iter().map(|(wk, _)| wk).sum();
+            let mean = samples
+                .iter()
+                .map(|(wk, c)| wk * c.iter().map(|v| v.max(0.0).sqrt()).sum::<f64>() / 3.0)
+                .sum::<f64>()
+                / wsum.max(1e-12);
+            (agree, mean)
+        })
+        .collect();
+    let contrast = PEAK_CONTRAST_LEVELS / 255.0;
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (agree, m) = agree_mean[i];
+            let (x, y) = (i % w, i / w);
+            let near = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < w).then(|| i + 1),
+                (y > 0).then(|| i - w),
+                (y + 1 < h).then(|| i + w),
+            ];
+            agree
+                && near
+                    .iter()
+                    .flatten()
+                    .any(|&n| (agree_mean[n].1 - m).abs() >= contrast)
+        })
+        .collect()
+}
+
+/// How far (square-root levels of 255) a pixel's plain mean must differ from a neighbour's for
+/// focus peaking to count it as detail.
+pub const PEAK_CONTRAST_LEVELS: f64 = 6.0;
 
 /// Every view's plain sample at the focus surface's inverse depth `s` (weight, colour),
 /// masked as §4 masks them (bilinear, the averaging space of `table`).

@@ -601,7 +601,7 @@ impl Viewer {
         // Screenshots, quitting and help leave the image as it is: no interaction.
         let effect = if matches!(
             action,
-            Action::Screenshot | Action::Quit | Action::ToggleHelp
+            Action::Screenshot | Action::Quit | Action::ToggleHelp | Action::TogglePeaking
         ) {
             s.act(action)
         } else {

@@ -61,6 +61,7 @@ pub const CONTROLS: &[(&str, &str)] = &[
     ("Ctrl+Z / Ctrl+Shift+Z", "undo / redo a focus change"),
     ("P", "screenshot"),
     ("Tab", "control panel: sliders and buttons"),
+    ("O", "focus peaking: tint what is in focus"),
     ("H", "this help"),
     ("Q or Esc", "quit"),
 ];
@@ -110,6 +111,7 @@ pub fn action_for_key(key: Key, shift: bool) -> Option<Action> {
         Key::R => Action::Reset,
         Key::P => Action::Screenshot,
         Key::H => Action::ToggleHelp,
+        Key::O => Action::TogglePeaking,
         Key::Tab => Action::TogglePanel,
         Key::Q | Key::Escape => Action::Quit,
         _ => return None,

@@ -113,6 +113,8 @@ pub enum Action {
     /// a video, a frame that failed to decode).
     Refuse(String),
     ToggleHelp,
+    /// Focus peaking on/off: tint the refocus image where the views agree (in focus).
+    TogglePeaking,
     /// Show or hide the control panel (sliders and buttons).
     TogglePanel,
     Screenshot,
@@ -265,6 +267,8 @@ pub struct ViewerState {
     /// World points of the three-pick plane in progress.
     pub pending_points: Vec<DVec3>,
     pub show_help: bool,
+    /// Focus peaking is shown (a way of looking, not a focus: no undo step).
+    pub show_peaking: bool,
     /// The control panel is shown.
     pub show_panel: bool,
     /// Why the last action was refused, or a hint about a pick in progress.
@@ -355,6 +359,7 @@ impl ViewerState {
             placed_clicks: Vec::new(),
             pending_points: Vec::new(),
             show_help: false,
+            show_peaking: false,
             show_panel: false,
             message: None,
             version: 0,
@@ -512,6 +517,11 @@ impl ViewerState {
             }
             Action::TogglePanel => {
                 self.show_panel = !self.show_panel;
+                self.marks_version += 1;
+                return Effect::Marked;
+            }
+            Action::TogglePeaking => {
+                self.show_peaking = !self.show_peaking;
                 self.marks_version += 1;
                 return Effect::Marked;
             }

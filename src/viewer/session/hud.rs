@@ -118,6 +118,8 @@ pub struct Status<'a> {
     pub cursor: Option<&'a str>,
     /// A passing notice (where a screenshot went), after the refinement progress.
     pub notice: Option<&'a str>,
+    /// Focus peaking's mask over the refocus panel, while shown.
+    pub peaks: Option<&'a super::Peaks>,
 }
 
 impl Status<'_> {
@@ -337,6 +339,20 @@ impl Hud {
                 None => self.message(layout, msg),
             }
         }
+        // Focus peaking: what is in focus tinted magenta, half transparent (a colour that
+        // photographs rarely have, readable over light and dark alike).
+        if let Some(p) = status.peaks {
+            let r = layout.refocus;
+            let (x0, y0) = (r.x as i64, r.y as i64);
+            for (i, _) in p.mask.iter().enumerate().filter(|(_, &b)| b) {
+                let (x, y) = (
+                    (i % p.size.0 as usize) as i64,
+                    (i / p.size.0 as usize) as i64,
+                );
+                self.canvas.fill(x0 + x, y0 + y, 1, 1, PEAK);
+            }
+            self.parts.push(r);
+        }
         // Marks of the three-click plane in progress (red), and of the one in effect (green).
         let size = (status.lf.width, status.lf.height);
         let pending = state.pending_clicks.iter().map(|p| (p, [255, 60, 40, 255]));
@@ -518,6 +534,9 @@ fn help_box(layout: &Layout) -> HelpBox {
     }
 }
 
+/// Focus peaking's tint.
+const PEAK: [u8; 4] = [255, 0, 255, 150];
+
 /// The narrowest column of descriptions the help wraps into over the scene panel (characters);
 /// a narrower panel gets the help over the whole window.
 const HELP_MIN_CHARS: i64 = 32;
@@ -624,6 +643,7 @@ mod tests {
                 panel: None,
                 cursor: Some("cursor: z 2.000 (given)"),
                 notice: None,
+                peaks: None,
             };
             hud.draw(&layout, &status);
             hud.parts.clone()

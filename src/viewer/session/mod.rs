@@ -55,6 +55,25 @@ const STATUS_PERIOD: Duration = Duration::from_millis(250);
 pub const HIGHLIGHT_FOR: Duration = Duration::from_millis(1200);
 /// How long a notice (where a `P` screenshot went) stays in the status strip.
 pub const NOTICE_FOR: Duration = Duration::from_secs(4);
+/// Focus peaking follows a change once input has paused this long (it samples every view at
+/// every pixel of the refocus panel on the CPU: not per frame of a held key).
+const PEAKS_AFTER_INPUT: Duration = Duration::from_millis(150);
+
+/// The focus-peaking mask of the refocus panel for one state.
+pub struct Peaks {
+    /// The state version it was computed for.
+    version: u64,
+    /// The refocus panel's size in window pixels: one mask value each, row-major.
+    pub size: (u32, u32),
+    pub mask: Vec<bool>,
+}
+
+impl Peaks {
+    /// The share of the panel tinted (in focus).
+    pub fn fraction(&self) -> f64 {
+        self.mask.iter().filter(|&&b| b).count() as f64 / self.mask.len().max(1) as f64
+    }
+}
 /// Size of the pick markers in the scene panel, pixels.
 const MARKER_SIZE: f32 = 11.0;
 
@@ -147,6 +166,8 @@ pub struct Session {
     highlight: Option<(Field, Instant)>,
     /// A notice for the status strip and when it came (display only: no part of the state).
     notice: Option<(String, Instant)>,
+    /// Focus peaking's mask, while O shows it and it matches the state.
+    peaks: Option<Peaks>,
     /// Where the user clicked when the state's message is about that click (window pixels).
     message_at: Option<DVec2>,
     pub milestones: Milestones,
@@ -210,6 +231,7 @@ impl Session {
             milestones,
             highlight: None,
             notice: None,
+            peaks: None,
             message_at: None,
             panel,
         }
@@ -711,11 +733,57 @@ impl Session {
         }
     }
 
+    /// Brings focus peaking's mask up to date with the state (once input pauses), or drops it
+    /// while peaking is off or the mask belongs to an earlier state.
+    fn update_peaks(&mut self) {
+        let r = self.layout.refocus;
+        let size = (r.width.max(0.0) as u32, r.height.max(0.0) as u32);
+        let current = |p: &Peaks| p.version == self.state.version && p.size == size;
+        if !self.state.show_peaking || size.0 == 0 || size.1 == 0 {
+            self.peaks = None;
+            return;
+        }
+        if self.peaks.as_ref().is_some_and(current) {
+            return;
+        }
+        self.peaks = None;
+        if self.last_input.elapsed() < PEAKS_AFTER_INPUT {
+            return;
+        }
+        let plan = &self.state.plan;
+        let m = plan.m;
+        let averaging = self.state.averaging();
+        let at_views = match &self.surface {
+            Some(surface) => crate::refocus::cpu::focus_peaks(&self.lf, plan, averaging, |px| {
+                surface.inverse_depth(px)
+            }),
+            None => crate::refocus::cpu::focus_peaks(&self.lf, plan, averaging, |px| {
+                m.dot(px.extend(1.0)).max(0.0)
+            }),
+        };
+        // The panel's pixels take their nearest reference pixel's value.
+        let (vw, vh) = (self.lf.width as usize, self.lf.height as usize);
+        let mask = (0..size.0 as usize * size.1 as usize)
+            .map(|i| {
+                let (x, y) = (i % size.0 as usize, i / size.0 as usize);
+                let vx = ((x as f64 + 0.5) / size.0 as f64 * vw as f64) as usize;
+                let vy = ((y as f64 + 0.5) / size.1 as f64 * vh as f64) as usize;
+                at_views[vy.min(vh - 1) * vw + vx.min(vw - 1)]
+            })
+            .collect();
+        self.peaks = Some(Peaks {
+            version: self.state.version,
+            size,
+            mask,
+        });
+    }
+
     /// Redraws the on-screen text if it changed; returns the new status line (for the title).
     pub fn redraw_text(&mut self) -> Option<String> {
         if !self.dirty.text {
             return None;
         }
+        self.update_peaks();
         let status = Status {
             lf: &self.lf,
             state: &self.state,
@@ -727,6 +795,7 @@ impl Session {
             panel: self.state.show_panel.then_some(&self.panel),
             cursor: self.cursor_depth.as_deref(),
             notice: self.notice.as_ref().map(|(n, _)| n.as_str()),
+            peaks: self.peaks.as_ref(),
         };
         let line = self.hud.draw(&self.layout, &status);
         self.dirty.text = false;
@@ -806,6 +875,10 @@ impl Session {
                 (
                     self.cursor_depth.as_deref(),
                     self.notice.as_ref().map(|(n, _)| n.as_str()),
+                    serde_json::json!({
+                        "on": self.state.show_peaking,
+                        "tinted_fraction": self.peaks.as_ref().map(Peaks::fraction),
+                    }),
                 ),
             )?;
             if std::mem::take(&mut self.screenshots.announce) {

@@ -131,7 +131,7 @@ pub fn save(
     prefix: &Path,
     window: Option<&RgbaImage>,
     frames: usize,
-    (cursor, notice): (Option<&str>, Option<&str>),
+    (cursor, notice, peaking): (Option<&str>, Option<&str>, serde_json::Value),
 ) -> Result<()> {
     let full = state.plan.clone();
     let refocus =
@@ -154,6 +154,9 @@ pub fn save(
         obj.insert("cursor_depth".into(), cursor.into());
         // The notice in the strip (where the last `P` screenshot went), null without one.
         obj.insert("notice".into(), notice.into());
+        // Focus peaking: shown or not, and the share of the refocus panel it tints (null
+        // while its mask is not up to date).
+        obj.insert("peaking".into(), peaking);
     }
     let path = with_suffix(prefix, ".json");
     crate::io::write_bytes(&path, "JSON", format!("{json:#}\n").as_bytes())?;
