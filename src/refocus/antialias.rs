@@ -289,8 +289,15 @@ pub fn scene_depth(
 /// background shows.
 fn fill_cracks(sigma: &mut [f32], w: usize, h: usize) {
     let holes: Vec<usize> = (0..w * h).filter(|&k| sigma[k] < 0.0).collect();
+    fill_ring(sigma, (w, h), &holes);
+}
+
+/// One ring of hole filling: each of `holes` (−1 in `sigma`, `w × h`) with a valid 4-neighbour
+/// takes the farthest of them (read before any is filled); returns the holes left.
+pub(super) fn fill_ring(sigma: &mut [f32], (w, h): (usize, usize), holes: &[usize]) -> Vec<usize> {
     let source = sigma.to_vec();
-    for k in holes {
+    let mut left = Vec::new();
+    for &k in holes {
         let (x, y) = ((k % w) as i64, (k / w) as i64);
         let mut far: Option<f32> = None;
         for (dx, dy) in [(-1, 0), (1, 0), (0, -1), (0, 1)] {
@@ -302,10 +309,12 @@ fn fill_cracks(sigma: &mut [f32], w: usize, h: usize) {
                 }
             }
         }
-        if let Some(v) = far {
-            sigma[k] = v;
+        match far {
+            Some(v) => sigma[k] = v,
+            None => left.push(k),
         }
     }
+    left
 }
 
 /// Most bytes the views' visibility maps may take (f32 per pixel per view in the aperture);

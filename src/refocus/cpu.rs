@@ -14,7 +14,7 @@ use super::antialias::{
     cell_reach, focus_spread, focused_sub_sample, footprint_blur, footprint_lod, samples, span_px,
     sub_sample_residual, AntialiasPlan, Ties, FOCUSED_BLUR_PX, FOCUS_TEST_LEVELS,
 };
-use super::prefilter::Pyramid;
+use super::prefilter::{bilinear_texels, Pyramid};
 use super::surface::SurfacePlan;
 use super::{Averaging, RefocusImage, RefocusPlan};
 use crate::color;
@@ -379,26 +379,6 @@ fn defocused_with(
             add(v.weight, c);
         }
         (sum, wsum)
-    })
-}
-
-/// Exact bilinear interpolation of f64 texels (`w × h`, row-major) at `p`, clamp-to-edge.
-fn bilinear_texels(t: &[[f64; 3]], (w, h): (u32, u32), p: DVec2) -> [f64; 3] {
-    let (x0, y0) = (p.x.floor(), p.y.floor());
-    let (fx, fy) = (p.x - x0, p.y - y0);
-    let at = |x: f64, y: f64| {
-        let i = (x as i64).clamp(0, w as i64 - 1) as usize;
-        let j = (y as i64).clamp(0, h as i64 - 1) as usize;
-        t[j * w as usize + i]
-    };
-    let (a, b, c, d) = (
-        at(x0, y0),
-        at(x0 + 1.0, y0),
-        at(x0, y0 + 1.0),
-        at(x0 + 1.0, y0 + 1.0),
-    );
-    std::array::from_fn(|k| {
-        (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy
     })
 }
 

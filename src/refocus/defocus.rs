@@ -17,10 +17,10 @@
 //! **The box.** The summed-area table integrates the view's texels as pixel-sized squares
 //! (nearest reconstruction), exactly for fractional bounds: bilinear interpolation of the
 //! table between its integer corners is the integral of that piecewise-constant image. A box
-//! of width w centred on a pixel centre gives its texel back up to w = 1, and its discrete
-//! weights have variance `(w² + 1)/12` for larger w; the refocus pass's bilinear fetch adds a
-//! tent as the plain sum's does. To keep the footprint's own variance `w²/12` the box is
-//! `√(w² − 1)` wide ([`box_width`]; [`FootprintBox`]).
+//! centred on a texel gives that texel back up to a width of one pixel, and its discrete
+//! weights do not have a continuous box's variance; the refocus pass's bilinear fetch adds a
+//! tent as the plain sum's does. So the box's width is solved for discrete weights of the
+//! footprint's own variance `extent²/12` ([`box_width`]; extent from [`footprint_extent`]).
 //!
 //! **Occlusion.** Each cell takes the depth of what its central ray meets (the view's depth
 //! at its sample), so an occluder's blur is drawn by the views whose rays meet it, a lattice
@@ -169,30 +169,12 @@ pub struct DefocusedView {
 /// valid pixel stays as it is.
 pub fn fill_holes(map: &mut [f32], (w, h): (usize, usize)) {
     let mut holes: Vec<usize> = (0..w * h).filter(|&k| map[k] < 0.0).collect();
-    while !holes.is_empty() && holes.len() < w * h {
-        let found: Vec<(usize, f32)> = holes
-            .iter()
-            .filter_map(|&k| {
-                let (x, y) = ((k % w) as i64, (k / w) as i64);
-                [(-1, 0), (1, 0), (0, -1), (0, 1)]
-                    .iter()
-                    .filter_map(|&(dx, dy)| {
-                        let (nx, ny) = (x + dx, y + dy);
-                        (nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64)
-                            .then(|| map[ny as usize * w + nx as usize])
-                            .filter(|&v| v >= 0.0)
-                    })
-                    .reduce(f32::min)
-                    .map(|v| (k, v))
-            })
-            .collect();
-        if found.is_empty() {
-            return;
+    while !holes.is_empty() {
+        let left = super::antialias::fill_ring(map, (w, h), &holes);
+        if left.len() == holes.len() {
+            return; // nothing valid to fill from
         }
-        for &(k, v) in &found {
-            map[k] = v;
-        }
-        holes.retain(|&k| map[k] < 0.0);
+        holes = left;
     }
 }
 

@@ -82,6 +82,26 @@ pub fn halve<T: Copy + Default, const N: usize>(
 /// One level of a [`Pyramid`]: its size and row-major texels.
 type Level = ((u32, u32), Vec<[f64; 3]>);
 
+/// Exact bilinear interpolation of f64 texels (`w × h`, row-major) at pixel position `p`
+/// (pixel centres at integers), clamp to edge.
+pub fn bilinear_texels(texels: &[[f64; 3]], (w, h): (u32, u32), p: DVec2) -> [f64; 3] {
+    let (wi, hi) = (w as i64, h as i64);
+    let (x0, y0) = (p.x.floor(), p.y.floor());
+    let (fx, fy) = (p.x - x0, p.y - y0);
+    let mut c = [0f64; 3];
+    for (dy, wy) in [(0, 1.0 - fy), (1, fy)] {
+        for (dx, wx) in [(0, 1.0 - fx), (1, fx)] {
+            let x = (x0 as i64 + dx).clamp(0, wi - 1);
+            let y = (y0 as i64 + dy).clamp(0, hi - 1);
+            let t = texels[(y * wi + x) as usize];
+            for k in 0..3 {
+                c[k] += wx * wy * t[k];
+            }
+        }
+    }
+    c
+}
+
 /// One view's pyramid in f64 (the model's copy of the GPU's levels).
 pub struct Pyramid {
     /// Finest first.
@@ -105,22 +125,8 @@ impl Pyramid {
     fn bilinear(&self, l: usize, p: DVec2) -> [f64; 3] {
         let ((w0, h0), _) = &self.levels[0];
         let ((w, h), texels) = &self.levels[l];
-        let (wi, hi) = (*w as i64, *h as i64);
         let q = (p + 0.5) * DVec2::new(*w as f64 / *w0 as f64, *h as f64 / *h0 as f64) - 0.5;
-        let (x0, y0) = (q.x.floor(), q.y.floor());
-        let (fx, fy) = (q.x - x0, q.y - y0);
-        let mut c = [0f64; 3];
-        for (dy, wy) in [(0, 1.0 - fy), (1, fy)] {
-            for (dx, wx) in [(0, 1.0 - fx), (1, fx)] {
-                let x = (x0 as i64 + dx).clamp(0, wi - 1);
-                let y = (y0 as i64 + dy).clamp(0, hi - 1);
-                let t = texels[(y * wi + x) as usize];
-                for k in 0..3 {
-                    c[k] += wx * wy * t[k];
-                }
-            }
-        }
-        c
+        bilinear_texels(texels, (*w, *h), q)
     }
 
     /// Trilinear lookup at level-0 position `p` and level `lod` ≥ 0: the two levels around it
