@@ -63,6 +63,8 @@ const PEAKS_AFTER_INPUT: Duration = Duration::from_millis(150);
 pub struct Peaks {
     /// The state version it was computed for.
     version: u64,
+    /// The mask at the views' resolution (`cpu::focus_peaks`), kept so a resize only maps it.
+    at_views: Vec<bool>,
     /// The refocus panel's size in window pixels: one mask value each, row-major.
     pub size: (u32, u32),
     pub mask: Vec<bool>,
@@ -734,32 +736,37 @@ impl Session {
     }
 
     /// Brings focus peaking's mask up to date with the state (once input pauses), or drops it
-    /// while peaking is off or the mask belongs to an earlier state.
+    /// while peaking is off or the mask belongs to an earlier state. A new panel size alone
+    /// only maps the views' mask again.
     fn update_peaks(&mut self) {
         let r = self.layout.refocus;
         let size = (r.width.max(0.0) as u32, r.height.max(0.0) as u32);
-        let current = |p: &Peaks| p.version == self.state.version && p.size == size;
         if !self.state.show_peaking || size.0 == 0 || size.1 == 0 {
             self.peaks = None;
             return;
         }
-        if self.peaks.as_ref().is_some_and(current) {
-            return;
-        }
-        self.peaks = None;
-        if self.last_input.elapsed() < PEAKS_AFTER_INPUT {
-            return;
-        }
-        let plan = &self.state.plan;
-        let m = plan.m;
-        let averaging = self.state.averaging();
-        let at_views = match &self.surface {
-            Some(surface) => crate::refocus::cpu::focus_peaks(&self.lf, plan, averaging, |px| {
-                surface.inverse_depth(px)
-            }),
-            None => crate::refocus::cpu::focus_peaks(&self.lf, plan, averaging, |px| {
-                m.dot(px.extend(1.0)).max(0.0)
-            }),
+        let at_views = match self.peaks.take() {
+            Some(p) if p.version == self.state.version && p.size == size => {
+                self.peaks = Some(p);
+                return;
+            }
+            Some(p) if p.version == self.state.version => p.at_views,
+            _ if self.last_input.elapsed() < PEAKS_AFTER_INPUT => return,
+            _ => {
+                let plan = &self.state.plan;
+                let m = plan.m;
+                let averaging = self.state.averaging();
+                match &self.surface {
+                    Some(surface) => {
+                        crate::refocus::cpu::focus_peaks(&self.lf, plan, averaging, |px| {
+                            surface.inverse_depth(px)
+                        })
+                    }
+                    None => crate::refocus::cpu::focus_peaks(&self.lf, plan, averaging, |px| {
+                        m.dot(px.extend(1.0)).max(0.0)
+                    }),
+                }
+            }
         };
         // The panel's pixels take their nearest reference pixel's value.
         let (vw, vh) = (self.lf.width as usize, self.lf.height as usize);
@@ -773,6 +780,7 @@ impl Session {
             .collect();
         self.peaks = Some(Peaks {
             version: self.state.version,
+            at_views,
             size,
             mask,
         });
