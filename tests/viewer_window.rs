@@ -143,6 +143,41 @@ fn decoded(path: &Path) -> image::RgbaImage {
         .to_rgba8()
 }
 
+/// The viewer sums with any strategy: progressive compute dispatches converge to render's
+/// compute image byte for byte (what a device whose fastest path is compute shows).
+#[test]
+fn the_viewer_converges_to_render_with_the_compute_strategy() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lf = "builtin:tilted";
+    let script = format!(
+        "wait-converged\n\
+         key UP 2\n\
+         wait-converged\n\
+         screenshot {d}/a\n\
+         quit\n",
+        d = d.display()
+    );
+    let (report, _) = run_script(d, "compute.txt", &script, &[lf, "--strategy", "compute"]);
+    assert_eq!(
+        (
+            report["strategy"].as_str(),
+            report["strategy_source"].as_str()
+        ),
+        (Some("compute"), Some("option")),
+        "{report}"
+    );
+    let a = json_file(&d.join("a.json"));
+    let mut focus = plane_args(&a);
+    focus.push("--strategy=compute".into());
+    let want = render_state(lf, &a, &focus, &d.join("ra.png"));
+    assert_eq!(
+        std::fs::read(d.join("a_refocus.png")).unwrap(),
+        want,
+        "viewer (compute) ≠ render --strategy compute"
+    );
+}
+
 #[test]
 fn scripted_session_matches_render_and_has_no_validation_errors() {
     let dir = tempfile::tempdir().unwrap();
@@ -183,6 +218,8 @@ fn scripted_session_matches_render_and_has_no_validation_errors() {
         &[lf, "--screenshot-prefix", prefix.to_str().unwrap()],
     );
     assert!(report["frames"]["count"].as_u64().unwrap() >= 4, "{report}");
+    // The strategy is the device's choice (render's default too, so the images below match).
+    assert_eq!(report["strategy_source"], "auto", "{report}");
     assert!(report["frames"]["full_quality_gpu_ms_median"]
         .as_f64()
         .is_some());

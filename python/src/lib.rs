@@ -36,6 +36,7 @@ use tiltfield::geometry::plane::Plane;
 use tiltfield::gpu::{GpuContext, GpuOptions};
 use tiltfield::jobs::refocus::GpuImage;
 use tiltfield::jobs::render::{self, ReadOptions, RenderOptions, Session};
+use tiltfield::jobs::strategy::{StrategyChoice, StrategySource};
 use tiltfield::lightfield::{self, GridSize};
 use tiltfield::passes::refocus::OutputFormat;
 use tiltfield::refocus::antialias::AntialiasSettings;
@@ -281,6 +282,8 @@ struct LightField {
     session: Mutex<SendSession>,
     /// GPU time of the last render's passes, ms (`None`: no render yet or no timer).
     last_gpu_ms: Mutex<Option<f64>>,
+    /// The strategy of the last refocus and whether it was chosen for the device.
+    last_strategy: Mutex<Option<(String, &'static str)>>,
     #[pyo3(get)]
     /// Short name of the light field (its folder, or "array").
     name: String,
@@ -292,6 +295,7 @@ impl LightField {
             name: session.0.light_field().name.clone(),
             session: Mutex::new(session),
             last_gpu_ms: Mutex::new(None),
+            last_strategy: Mutex::new(None),
         }
     }
 }
@@ -335,6 +339,15 @@ impl LightField {
     #[getter]
     fn last_gpu_ms(&self) -> Option<f64> {
         *lock(&self.last_gpu_ms)
+    }
+
+    /// How the last :meth:`refocus` call summed the views, as ``(strategy, source)``:
+    /// ``("compute", "auto")`` when ``strategy`` was left to the device (the fastest of
+    /// fragment, compute and batched:16, measured once per device and driver and cached),
+    /// ``(name, "option")`` when given; ``None`` before the first call.
+    #[getter]
+    fn last_strategy(&self) -> Option<(String, &'static str)> {
+        lock(&self.last_strategy).clone()
     }
 
     /// The views as loaded, a ``uint8`` array (rows, cols, H, W, 4) of sRGB RGBA: what
@@ -410,7 +423,8 @@ impl LightField {
     /// follow their own rays and are tested against what their view sees; default True),
     /// ``antialias_defocus`` (True/False: defocus each view once with a summed-area table and
     /// read it once per view, constant cost whatever the blur, no occlusion tests; default
-    /// False), ``strategy`` ("fragment", "batched:N", "compute"),
+    /// False), ``strategy`` ("auto", the default: the device's fastest, measured once and cached;
+    /// "fragment", "batched:N", "compute"),
     /// ``views_per_draw``, ``filter`` ("hardware", "shader", "bicubic", "nearest"),
     /// ``accumulation`` ("rgba32f", "rgba16f"), ``warps`` ("ubo", "ssbo"), ``storage``
     /// ("srgb8", "linear16").
@@ -503,7 +517,7 @@ impl LightField {
                 occlusion: antialias_occlusion,
                 defocus: antialias_defocus,
             },
-            strategy: choice(strategy)?,
+            strategy: choice::<StrategyChoice>(strategy)?.and_then(|c| c.0),
             views_per_draw,
             filter: choice(filter)?,
             accumulation: choice(accumulation)?,
@@ -523,8 +537,16 @@ impl LightField {
         let (image, timings) = gpu_work(py, "rendering", || {
             let session = &mut lock(&self.session).0;
             let progress = indicatif::ProgressBar::hidden();
-            let (image, timings, _) = session.render(&options, &progress)?;
-            Ok((image, timings))
+            let (image, timings, prepared) = session.render(&options, &progress)?;
+            Ok((image, timings, prepared))
+        })
+        .map(|(image, timings, prepared)| {
+            let source = match prepared.strategy_source {
+                StrategySource::Auto => "auto",
+                StrategySource::Option => "option",
+            };
+            *lock(&self.last_strategy) = Some((prepared.settings.strategy.name(), source));
+            (image, timings)
         })?;
         *lock(&self.last_gpu_ms) = timings.map(|t| t.refocus_ms + t.resolve_ms);
         image_to_numpy(py, image)

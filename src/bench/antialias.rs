@@ -236,8 +236,10 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
         .iter()
         .map(|&s| plan_for(&lf, &plan, aperture, &[], s))
         .collect::<Result<_>>()?;
+    // Timed with render's default strategy on this device (`--strategy auto`).
     let settings = RenderSettings {
         output: OutputFormat::Float,
+        strategy: crate::jobs::strategy::choose(&ctx, None)?.strategy,
         ..RenderSettings::default()
     };
     let mut h = HeadlessRenderer::with_context(Arc::clone(&ctx), &lf, Default::default())?;

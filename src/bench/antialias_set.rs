@@ -385,9 +385,11 @@ pub fn run_case(
         (size, options.truth_grid, options.supersamples),
         progress,
     )?;
+    // Timed with render's default strategy on this device (`--strategy auto`).
     let settings = RenderSettings {
         output: OutputFormat::Float,
         filter: options.filter,
+        strategy: crate::jobs::strategy::choose(ctx, None)?.strategy,
         ..RenderSettings::default()
     };
     let aa = plan_for(&lf, &plan, aperture, &[], options.antialias)?;

@@ -271,6 +271,9 @@ pub struct VariantReport {
     pub gpu_ms_max: f64,
     /// View-samples per second: views × output pixels / median time.
     pub samples_per_s: f64,
+    /// Minimum memory traffic (each used view read once, the accumulation written once) per
+    /// second, in GB/s.
+    pub gbps: f64,
     /// Texel fetches per second over the device's nominal texture rate (hardware bilinear
     /// and nearest: one fetch per sample; shader bilinear four; bicubic sixteen).
     pub texture_roof_fraction: Option<f64>,
@@ -325,6 +328,9 @@ pub struct BenchReport {
     pub variants: Vec<VariantReport>,
     /// The variant the sweep times (render's default).
     pub scaling_variant: String,
+    /// The strategy of render's default on this device (`--strategy auto`) and where it came
+    /// from ("auto"; "option" never here): the sweep's and the `default` variant's.
+    pub scaling_strategy: String,
     pub scaling: Vec<ScalingPoint>,
     pub scaling_fit: Option<CostModel>,
     /// The fastest variant that uses every view at full size and keeps the default's bound
@@ -690,6 +696,7 @@ fn measure_accuracy(
 /// The report of variant `v` from its frame times and accuracy, with its roofline fractions.
 fn variant_report(
     v: &Variant,
+    default: &Variant,
     lf: &LightField,
     plan: &RefocusPlan,
     frame_times: &[f64],
@@ -725,12 +732,13 @@ fn variant_report(
         views,
         width: w,
         height: h,
-        default: v.is_default(),
+        default: v == default,
         frames: frame_times.len(),
         gpu_ms_median: times.median,
         gpu_ms_min: times.min,
         gpu_ms_max: times.max,
         samples_per_s,
+        gbps: traffic / (times.median / 1e3) / 1e9,
         texture_roof_fraction: peak
             .gtexels
             .map(|g| samples_per_s * fetches(v.filter) / (g * 1e9)),
@@ -757,18 +765,17 @@ fn scaling_points(
     r: &mut HeadlessRenderer,
     lf: &LightField,
     prep: &Prepared,
-    warmup: usize,
-    frames: usize,
+    default: &Variant,
+    (warmup, frames): (usize, usize),
     bar: &ProgressBar,
 ) -> Result<Vec<ScalingPoint>> {
-    let default = Variant::default();
     let mut scaling = Vec::new();
     for plan in &prep.sweep_plans {
         for &(w, h) in &prep.sizes {
             bar.set_message(format!("scaling: {} views, {w}×{h}", plan.views.len()));
             let settings = RenderSettings {
                 size: Some((w, h)),
-                ..settings_of(&default, lf)
+                ..settings_of(default, lf)
             };
             let t = time_frames(r, plan, &settings, warmup, frames, bar)?;
             let samples = plan.views.len() as f64 * w as f64 * h as f64;
@@ -811,6 +818,11 @@ pub fn run(
     let prep = prepare(lf, options, (plans, (sweep_plans, sizes)), ref_keys, &bar);
     let mut renderers: Vec<(ViewStorage, HeadlessRenderer)> = Vec::new();
     let peak = roof::peak_of(&ctx.info.name, options.peak_gtexels, options.peak_gbps);
+    // Render's default is `--strategy auto`: the device's fastest, measured once and cached.
+    let default = Variant {
+        strategy: crate::jobs::strategy::choose(&ctx, None)?.strategy,
+        ..Variant::default()
+    };
     // Accuracy and warm-up of every variant first; then the timed frames round-robin, one
     // frame of each variant per round, so that a change of machine load (other processes on a
     // CPU driver, clocks on a GPU) affects every variant alike.
@@ -832,13 +844,22 @@ pub fn run(
     let mut variants = Vec::new();
     for (i, v) in options.variants.iter().enumerate() {
         let plan = &prep.plans[&radius_key(v.aperture_radius)];
-        variants.push(variant_report(v, lf, plan, &times[i], accuracy[i], &peak)?);
+        variants.push(variant_report(
+            v,
+            &default,
+            lf,
+            plan,
+            &times[i],
+            accuracy[i],
+            &peak,
+        )?);
     }
     // The sweep times render's default on the renderer of its storage.
     let mut scaling = Vec::new();
     if sweep_points > 0 {
-        let r = renderer_for(&mut renderers, &ctx, lf, Variant::default().storage)?;
-        scaling = scaling_points(r, lf, &prep, warmup, options.sweep_frames, &bar)?;
+        let r = renderer_for(&mut renderers, &ctx, lf, default.storage)?;
+        let frames = (warmup, options.sweep_frames);
+        scaling = scaling_points(r, lf, &prep, &default, frames, &bar)?;
     }
     bar.finish_and_clear();
     let errors = ctx.validation().errors();
@@ -848,22 +869,25 @@ pub fn run(
             "{errors} validation errors while benchmarking (see the log above)"
         )));
     }
-    Ok(report(&ctx, scene, &prep, warmup, peak, variants, scaling))
+    Ok(report(
+        &ctx, scene, &prep, &default, warmup, peak, variants, scaling,
+    ))
 }
 
 /// The report: device, light field, variants, the scaling sweep with its cost fit, and the
 /// fastest variant that meets render's default accuracy bound at full size.
+#[allow(clippy::too_many_arguments)]
 fn report(
     ctx: &GpuContext,
     scene: &BenchScene,
     prep: &Prepared,
+    default: &Variant,
     warmup: usize,
     peak: roof::Peak,
     variants: Vec<VariantReport>,
     scaling: Vec<ScalingPoint>,
 ) -> BenchReport {
     let lf = &scene.lf;
-    let default = Variant::default();
     let scaling_fit = stats::fit_cost(
         &scaling
             .iter()
@@ -910,6 +934,7 @@ fn report(
         warmup_frames: warmup,
         variants,
         scaling_variant: default.name(),
+        scaling_strategy: default.strategy.name(),
         scaling,
         scaling_fit,
         fastest_full_quality,

@@ -12,7 +12,7 @@ use crate::error::Result;
 pub const CSV_HEADER: &str = "kind,name,strategy,filter,storage,accumulation,views,width,height,\
 default,frames,gpu_ms_median,gpu_ms_min,gpu_ms_max,samples_per_s,psnr_vs_reference_db,\
 max_error_vs_reference,ambiguous_pixels,psnr_vs_model_db,max_error_vs_model,within_bound,psnr_vs_truth_db,\
-max_error_vs_truth";
+max_error_vs_truth,texture_roof_fraction,gbps,bandwidth_roof_fraction";
 
 fn quote(s: &str) -> String {
     format!("\"{}\"", s.replace('"', "\"\""))
@@ -33,7 +33,7 @@ pub fn csv(report: &BenchReport) -> String {
     for v in &report.variants {
         let _ = writeln!(
             out,
-            "variant,{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            "variant,{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
             quote(&v.name),
             quote(&v.strategy),
             v.filter.name(),
@@ -59,18 +59,21 @@ pub fn csv(report: &BenchReport) -> String {
             v.within_bound,
             num(v.psnr_vs_truth_db.flatten()),
             num(v.max_error_vs_truth.flatten()),
+            num(v.texture_roof_fraction),
+            num(Some(v.gbps)),
+            num(v.bandwidth_roof_fraction),
         );
     }
     let d = super::Variant::default();
     for p in &report.scaling {
         let _ = writeln!(
             out,
-            "scaling,{},{},{},linear16,{},{},{},{},true,{},{},{},{},{},,,,,,,,",
+            "scaling,{},{},{},linear16,{},{},{},{},true,{},{},{},{},{},,,,,,,,,,,",
             quote(&format!(
                 "scaling {} views {}x{}",
                 p.views, p.width, p.height
             )),
-            quote(&d.strategy.name()),
+            quote(&report.scaling_strategy),
             d.filter.name(),
             d.accumulation.name(),
             p.views,

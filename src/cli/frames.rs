@@ -32,9 +32,10 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         check_output(&pattern.path(f))?;
     }
     let options = super::render::options(args, kind)?;
-    let settings = options.check()?;
+    options.check()?;
     let storage = options.storage();
     let ctx = Arc::new(GpuContext::new(&args.gpu.options())?);
+    let (settings, strategy_source) = options.settings_on(&ctx)?;
     if let Some(size) = settings.size {
         check_output_fits(&ctx, size)?;
     }
@@ -115,6 +116,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
                 planner.depth_frames,
             ),
             "strategy": settings.strategy.name(),
+            "strategy_source": strategy_source,
             "filter": settings.filter,
             "storage": storage,
             "size": [out_w, out_h],

@@ -173,7 +173,24 @@ pub fn run(args: &InfoArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn devices() -> Result<()> {
+/// `tiltfield devices` options.
+#[derive(Debug, clap::Args)]
+pub struct DevicesArgs {
+    /// Time fragment, compute and batched:16 on the device (`--device`, else the default
+    /// one), print the medians and keep the fastest as `--strategy auto`'s choice there.
+    #[arg(long)]
+    pub calibrate: bool,
+    /// Print the calibration as JSON.
+    #[arg(long, requires = "calibrate")]
+    pub json: bool,
+    #[command(flatten)]
+    pub gpu: super::GpuArgs,
+}
+
+pub fn devices(args: &DevicesArgs) -> Result<()> {
+    if args.calibrate {
+        return calibrate(args);
+    }
     let devices = crate::gpu::context::list_devices()?;
     if devices.is_empty() {
         return Err(Error::Vulkan("no Vulkan devices found".into()));
@@ -190,6 +207,39 @@ pub fn devices() -> Result<()> {
                 .map(|why| format!(" — unusable: {why}"))
                 .unwrap_or_default()
         );
+    }
+    Ok(())
+}
+
+fn calibrate(args: &DevicesArgs) -> Result<()> {
+    let ctx = std::sync::Arc::new(crate::gpu::GpuContext::new(&args.gpu.options())?);
+    eprintln!("timing the refocus strategies on {} …", ctx.info.name);
+    let (c, path) = crate::jobs::strategy::recalibrate(&ctx)?;
+    let errors = ctx.validation().errors();
+    if errors > 0 {
+        return Err(Error::Vulkan(format!(
+            "{errors} validation errors while calibrating (see the log above)"
+        )));
+    }
+    if args.json {
+        let mut v = serde_json::to_value(&c).map_err(|e| Error::Invalid(e.to_string()))?;
+        if let Some(o) = v.as_object_mut() {
+            o.insert("cache_file".into(), serde_json::json!(path));
+        }
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&v).map_err(|e| Error::Invalid(e.to_string()))?
+        );
+        return Ok(());
+    }
+    println!("{} ({}, Vulkan {})", c.device, c.driver, c.api_version);
+    for (name, ms) in &c.medians_ms {
+        let mark = if *name == c.chosen { "  ← auto" } else { "" };
+        println!("  {name:<12} {ms:9.3} ms{mark}");
+    }
+    match path {
+        Some(p) => println!("kept in {}", p.display()),
+        None => println!("not kept (no writable cache folder)"),
     }
     Ok(())
 }

@@ -63,8 +63,9 @@ pub enum Command {
     AntialiasSet(Box<bench::AntialiasSetArgs>),
     /// Render refocus images of the built-in demo scene (no files needed).
     Demo(demo::DemoArgs),
-    /// List the Vulkan devices and whether tiltfield can use them.
-    Devices,
+    /// List the Vulkan devices and whether tiltfield can use them; --calibrate measures the
+    /// refocus strategies on one (what `--strategy auto` uses) and caches the choice again.
+    Devices(info::DevicesArgs),
 }
 
 /// Where the light field comes from and how to read camera-less folders.
@@ -290,7 +291,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::DepthSet(a) => depth::run_set(&a),
         Command::AntialiasSet(a) => bench::run_antialias_set(&a),
         Command::Demo(a) => demo::run(&a),
-        Command::Devices => info::devices(),
+        Command::Devices(args) => info::devices(&args),
     }
 }
 

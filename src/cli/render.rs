@@ -17,7 +17,8 @@ use crate::gpu::GpuContext;
 use crate::io::OutputKind;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer};
 use crate::jobs::render::{check_output_fits, prepare, render, render_timed, RenderOptions};
-use crate::passes::refocus::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
+use crate::jobs::strategy::StrategyChoice;
+use crate::passes::refocus::{Accumulation, Filter, OutputFormat, WarpMemory};
 use crate::passes::texture::ViewStorage;
 use crate::refocus;
 use crate::refocus::antialias::antialias_json;
@@ -48,9 +49,10 @@ pub struct RenderArgs {
     /// option is then the fallback where the depth is unknown).
     #[arg(long)]
     pub all_in_focus: bool,
-    /// How views are summed: fragment (one draw), batched[:N] (draws of N views) or compute.
-    #[arg(long, value_name = "STRATEGY")]
-    pub strategy: Option<Strategy>,
+    /// How views are summed: auto (the fastest on this device, measured on first use and
+    /// cached), fragment (one draw), batched[:N] (draws of N views) or compute.
+    #[arg(long, value_name = "STRATEGY", default_value = "auto")]
+    pub strategy: StrategyChoice,
     /// Same as --strategy batched:N (0: one draw).
     #[arg(
         long,
@@ -110,7 +112,7 @@ pub fn options(args: &RenderArgs, kind: OutputKind) -> Result<RenderOptions> {
         include_dark: args.aperture.include_dark,
         antialias: args.antialias.requested(),
         antialias_sampling: args.antialias.settings()?,
-        strategy: args.strategy,
+        strategy: args.strategy.0,
         views_per_draw: args.views_per_draw,
         filter: args.filter,
         accumulation: args.accumulation,
@@ -147,7 +149,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let settings = options.check()?;
     check_output(&args.output)?;
     // The device first, so a light field it cannot hold is refused before decoding its views.
-    let ctx = GpuContext::new(&args.gpu.options())?;
+    let ctx = std::sync::Arc::new(GpuContext::new(&args.gpu.options())?);
     if let Some(size) = settings.size {
         check_output_fits(&ctx, size)?;
     }
@@ -166,8 +168,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         }
     }
     let t1 = Instant::now();
-    let mut renderer =
-        HeadlessRenderer::with_context(std::sync::Arc::new(ctx), &lf, options.storage())?;
+    let mut renderer = HeadlessRenderer::with_context(ctx, &lf, options.storage())?;
     let t_upload = t1.elapsed().as_secs_f64() * 1e3;
     let t2 = Instant::now();
     let (image, timings) = render(&mut renderer, &prepared)?;
@@ -216,7 +217,8 @@ pub fn run(args: &RenderArgs) -> Result<()> {
             "surface": surface_plan.json(depth.as_ref().map(super::depth::origin_json)),
             "output": args.output,
             "averaging": args.aperture.average,
-            "strategy": settings.strategy.name(),
+            "strategy": prepared.settings.strategy.name(),
+            "strategy_source": prepared.strategy_source,
             "filter": settings.filter,
             "accumulation": settings.accumulation,
             "storage": renderer_storage,

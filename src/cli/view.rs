@@ -38,6 +38,10 @@ pub struct ViewArgs {
     /// GPU time) or nearest.
     #[arg(long, value_name = "FILTER", default_value = "hardware")]
     pub filter: crate::passes::refocus::Filter,
+    /// How views are summed, as for `render`: auto (the device's fastest, measured once and
+    /// cached), fragment, batched[:N] or compute.
+    #[arg(long, value_name = "STRATEGY", default_value = "auto")]
+    pub strategy: crate::jobs::strategy::StrategyChoice,
     /// Presentation: fifo (vsync), mailbox or immediate (for profiling).
     #[arg(long, default_value = "fifo")]
     pub present: PresentMode,
@@ -125,6 +129,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         gpu: args.gpu.options(),
         storage: ViewStorage::default(),
         filter: args.filter,
+        strategy: args.strategy.0,
         screenshot_prefix: args.screenshot_prefix.clone(),
         video,
         normal_window,
@@ -159,6 +164,8 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},
             "storage": ViewStorage::default(),
             "filter": args.filter,
+            "strategy": report.strategy.strategy.name(),
+            "strategy_source": report.strategy.source,
             "size": [size.0, size.1],
             "device": report.device,
             "present_mode": report.present_mode,

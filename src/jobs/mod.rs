@@ -12,6 +12,7 @@
 //! - [`render`]: one render as a front end asks for it (options, depth, focus, plans);
 //! - [`batch`]: many refocus images of one light field in one set-up (focal stacks, videos);
 //! - [`depth`]: the GPU plane sweep of [`crate::depth`]'s plan, and `ensure_depth` with its cache;
+//! - [`strategy`]: `--strategy auto`, the fastest way of summing on this device (measured once);
 //! - [`raster`]: synthetic light fields and optical ground truth from the mesh rasterizer.
 
 pub mod batch;
@@ -19,3 +20,4 @@ pub mod depth;
 pub mod raster;
 pub mod refocus;
 pub mod render;
+pub mod strategy;

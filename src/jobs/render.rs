@@ -9,6 +9,7 @@
 //! anti-alias, which depth, which pass — is made here.
 
 use std::path::Path;
+use std::sync::Arc;
 
 use glam::DVec2;
 use indicatif::ProgressBar;
@@ -18,6 +19,7 @@ use crate::error::{Error, Result};
 use crate::geometry::aperture::Aperture;
 use crate::gpu::GpuContext;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, PassTimings, RenderSettings};
+use crate::jobs::strategy::StrategySource;
 use crate::lightfield::{self, GridCameraOptions, LightField, LoadLimits};
 use crate::passes::refocus::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
 use crate::passes::texture::{TextureLimits, ViewStorage};
@@ -186,13 +188,35 @@ impl Default for RenderOptions {
 }
 
 impl RenderOptions {
-    /// The GPU settings (checks the output size against [`MAX_OUTPUT_SIDE`]).
+    /// The strategy asked for: `--strategy`, else `batched:N` from `--views-per-draw N`, else
+    /// `None` (auto: [`crate::jobs::strategy::choose`] measures the device's fastest).
+    pub fn strategy_asked(&self) -> Option<Strategy> {
+        match (self.strategy, self.views_per_draw) {
+            (Some(s), _) => Some(s),
+            (None, 0) => None,
+            (None, n) => Some(Strategy::Batched { views_per_draw: n }),
+        }
+    }
+
+    /// [`RenderOptions::settings`] with the strategy chosen for `ctx`'s device where none was
+    /// asked for, and where it came from.
+    pub fn settings_on(&self, ctx: &Arc<GpuContext>) -> Result<(RenderSettings, StrategySource)> {
+        let settings = self.check()?;
+        let chosen = crate::jobs::strategy::choose(ctx, self.strategy_asked())?;
+        Ok((
+            RenderSettings {
+                strategy: chosen.strategy,
+                ..settings
+            },
+            chosen.source,
+        ))
+    }
+
+    /// The GPU settings without a device (checks the output size against
+    /// [`MAX_OUTPUT_SIDE`]); the strategy is the one asked for, else a stand-in that
+    /// [`RenderOptions::settings_on`] replaces by the device's choice.
     pub fn settings(&self) -> Result<RenderSettings> {
-        let strategy = match (self.strategy, self.views_per_draw) {
-            (Some(s), _) => s,
-            (None, 0) => Strategy::default(),
-            (None, n) => Strategy::Batched { views_per_draw: n },
-        };
+        let strategy = self.strategy_asked().unwrap_or_default();
         if let Some((w, h)) = self.size {
             if w > MAX_OUTPUT_SIDE || h > MAX_OUTPUT_SIDE {
                 return Err(Error::Invalid(format!(
@@ -284,6 +308,8 @@ pub struct Prepared {
     pub surface_plan: SurfacePlan,
     /// Where the scene's depth came from, when the render used it.
     pub depth: Option<DepthOrigin>,
+    /// Whether `settings.strategy` was asked for or chosen for the device.
+    pub strategy_source: StrategySource,
 }
 
 impl Prepared {
@@ -385,7 +411,7 @@ fn antialias_plan_excluding(
 /// anti-aliasing or the focus surface needs the scene's depth and `lf` has none, it is
 /// estimated on `ctx` (`progress` counts the planes) and installed in `lf`.
 pub fn prepare(
-    ctx: &GpuContext,
+    ctx: &Arc<GpuContext>,
     lf: &mut LightField,
     options: &RenderOptions,
     progress: &ProgressBar,
@@ -396,13 +422,13 @@ pub fn prepare(
 /// [`prepare`] with the views to leave out given (`None`: found here; a [`Session`] finds
 /// them once, since scanning every view for darkness costs more than planning).
 fn prepare_excluding(
-    ctx: &GpuContext,
+    ctx: &Arc<GpuContext>,
     lf: &mut LightField,
     options: &RenderOptions,
     progress: &ProgressBar,
     excluded: Option<&[bool]>,
 ) -> Result<Prepared> {
-    let settings = options.check()?;
+    let (settings, strategy_source) = options.settings_on(ctx)?;
     // The surface's planes as given: placed in the world once the plan's reference camera
     // is known (after any depth estimate, which may give a grid folder's cameras their
     // nominal model).
@@ -457,6 +483,7 @@ fn prepare_excluding(
         surface,
         surface_plan,
         depth,
+        strategy_source,
     })
 }
 
@@ -693,7 +720,7 @@ impl Session {
     pub fn prepare(&mut self, options: &RenderOptions, progress: &ProgressBar) -> Result<Prepared> {
         let depth = self.needs_depth(options)?;
         let excluded = self.excluded(options.include_dark);
-        let ctx = std::sync::Arc::clone(&self.ctx);
+        let ctx = Arc::clone(&self.ctx);
         prepare_excluding(
             &ctx,
             self.light_field_for(depth),

@@ -33,9 +33,10 @@ use crate::error::{Error, Result};
 use crate::geometry::aperture::Aperture;
 use crate::gpu::swapchain::PresentMode;
 use crate::gpu::{GpuContext, GpuOptions};
+use crate::jobs::strategy::Chosen;
 use crate::lightfield::video::FrameSequence;
 use crate::lightfield::LightField;
-use crate::passes::refocus::Filter;
+use crate::passes::refocus::{Filter, Strategy};
 use crate::passes::texture::ViewStorage;
 use crate::refocus::antialias::AntialiasSettings;
 use crate::refocus::{Averaging, FocusRequest};
@@ -71,6 +72,8 @@ pub struct ViewerOptions {
     pub storage: ViewStorage,
     /// How the views are sampled (as `render --filter`).
     pub filter: Filter,
+    /// How the views are summed (`None`: the device's fastest, [`crate::jobs::strategy`]).
+    pub strategy: Option<Strategy>,
     /// Where `P` writes screenshots (prefix; a counter is appended).
     pub screenshot_prefix: PathBuf,
     /// The video `lf` is a frame of, and that frame's number: `,` `.` step, Space plays.
@@ -101,6 +104,8 @@ pub struct ViewerReport {
     /// The final focus surface, as `render --json` reports it.
     pub surface: serde_json::Value,
     pub device: String,
+    /// How the views were summed and whether that was chosen for the device.
+    pub strategy: Chosen,
     pub present_mode: String,
     pub window: (u32, u32),
 }
@@ -145,6 +150,7 @@ struct Viewer {
     /// The window title's prefix and the device's name (the title shows the status line).
     title: String,
     device: String,
+    strategy: Chosen,
 }
 
 fn init_glfw() -> Result<glfw::Glfw> {
@@ -274,6 +280,8 @@ pub fn run(lf: LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         opts.storage,
     )?;
     gpu.filter = opts.filter;
+    let strategy = crate::jobs::strategy::choose(&ctx, opts.strategy)?;
+    gpu.strategy = strategy.strategy;
     let layout = Layout::new(extent.width, extent.height, (lf.width, lf.height));
     gpu.rebuild_panels(&layout)?;
     if let Some(c) = &depth.cloud {
@@ -314,6 +322,7 @@ pub fn run(lf: LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         quit: false,
         title,
         device: ctx.info.name.clone(),
+        strategy,
     };
     viewer.run()
 }
@@ -661,6 +670,7 @@ impl Viewer {
             mut gpu,
             session,
             device,
+            strategy,
             ..
         } = self;
         gpu.wait_idle()?;
@@ -681,6 +691,7 @@ impl Viewer {
             state: session.state,
             validation_errors,
             device,
+            strategy,
             present_mode: format!("{mode:?}").to_lowercase(),
             window: (extent.width, extent.height),
         })

@@ -8,6 +8,7 @@ import threading
 import time
 
 import numpy as np
+import pytest
 
 import tiltfield
 
@@ -70,3 +71,20 @@ def test_every_public_function_has_a_docstring():
             assert obj.__doc__ and len(obj.__doc__) > 40, name
     for name in ["refocus", "plane", "depth", "views", "grid", "view_size", "has_depth"]:
         assert getattr(tiltfield.LightField, name).__doc__, name
+
+
+def test_the_strategy_is_the_devices_choice_unless_given():
+    lf = tiltfield.open("builtin:demo")
+    assert lf.last_strategy is None
+    auto = lf.refocus(disparity=0.25, antialias=False)
+    name, source = lf.last_strategy
+    assert source == "auto" and name in ("fragment", "compute", "batched:16"), lf.last_strategy
+    # The same choice as strategy="auto" spelled out, and the same image as naming it.
+    assert np.array_equal(lf.refocus(disparity=0.25, antialias=False, strategy="auto"), auto)
+    assert lf.last_strategy == (name, "auto")
+    assert np.array_equal(lf.refocus(disparity=0.25, antialias=False, strategy=name), auto)
+    assert lf.last_strategy == (name, "option")
+    lf.refocus(disparity=0.25, antialias=False, strategy="batched:3")
+    assert lf.last_strategy == ("batched:3", "option")
+    with pytest.raises(ValueError, match="auto"):
+        lf.refocus(disparity=0.25, strategy="fastest")
