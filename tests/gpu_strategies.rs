@@ -444,3 +444,64 @@ fn frames_in_flight_release_their_resources_only_after_completion() {
         ctx.validation().messages()
     );
 }
+
+/// The compute strategy's plain sum over several output pixels per invocation (the shader's
+/// PIXELS) gives the per-pixel loop's numbers, bit for bit: every filter, an output whose
+/// width no tile divides, a tilted plane whose views miss some pixels, and batches added to a
+/// running sum. It also equals the fragment strategy's image (the same arithmetic per sample).
+#[test]
+fn compute_pixels_per_invocation_give_the_per_pixel_sums_exactly() {
+    let lf = builtin("tilted");
+    let plan = tilted_plan(&lf);
+    let n = plan.views.len();
+    let mut r = renderer_with(&lf, ViewStorage::Linear16);
+    for filter in [
+        Filter::Hardware,
+        Filter::Shader,
+        Filter::Bicubic,
+        Filter::Nearest,
+    ] {
+        for size in [None, Some((61, 37))] {
+            let settings = RenderSettings {
+                strategy: Strategy::Compute,
+                filter,
+                size,
+                output: OutputFormat::Float,
+                ..RenderSettings::default()
+            };
+            let run = |r: &mut HeadlessRenderer, pixels: u32| -> Vec<Vec<[f32; 4]>> {
+                r.set_compute_pixels(pixels).unwrap();
+                let mut images = vec![float(r, &plan, settings).pixels];
+                // Batches: the later ones add to the stored sum.
+                for (k, w) in [0, 5, n].windows(2).enumerate() {
+                    match r.accumulate(&plan, &settings, w[0]..w[1], k == 0).unwrap() {
+                        GpuImage::Float(img) => images.push(img.pixels),
+                        GpuImage::Srgb8(_) => panic!("asked for float"),
+                    }
+                }
+                images
+            };
+            let per_pixel = run(&mut r, 0);
+            for pixels in 1..=4 {
+                assert!(
+                    run(&mut r, pixels) == per_pixel,
+                    "{filter:?} {size:?}: {pixels} pixels per invocation differ"
+                );
+            }
+            let fragment = float(
+                &mut r,
+                &plan,
+                RenderSettings {
+                    strategy: Strategy::Fragment,
+                    ..settings
+                },
+            );
+            assert!(
+                fragment.pixels == per_pixel[0],
+                "{filter:?} {size:?}: compute ≠ fragment"
+            );
+        }
+    }
+    assert!(r.set_compute_pixels(5).is_err());
+    assert_no_validation_errors(&r);
+}

@@ -175,6 +175,15 @@ impl HeadlessRenderer {
         Ok(())
     }
 
+    /// The compute strategy's output pixels per invocation of the plain sum
+    /// ([`RefocusPass::set_compute_pixels`]).
+    pub fn set_compute_pixels(&mut self, pixels: u32) -> Result<()> {
+        match self.pass.as_mut() {
+            Some(p) => p.set_compute_pixels(pixels),
+            None => Err(Error::Vulkan("the renderer was not fully created".into())),
+        }
+    }
+
     /// Renders `plan` and reads the image back.
     pub fn render(
         &mut self,

@@ -354,6 +354,21 @@ struct AccumKey {
     surface: u32,
     /// Anti-aliasing reads the defocused views (binding 9) instead of sub-sampling.
     defocus: bool,
+    /// The compute shader's PIXELS (0 for fragment pipelines).
+    pixels: u32,
+}
+
+/// Output pixels per invocation of the compute strategy's plain sum unless
+/// `TILTFIELD_COMPUTE_PIXELS` (0-4) says otherwise: a profiling knob, as `bench` on a GPU
+/// compares them.
+pub const COMPUTE_PIXELS: u32 = 1;
+
+fn default_compute_pixels() -> u32 {
+    std::env::var("TILTFIELD_COMPUTE_PIXELS")
+        .ok()
+        .and_then(|v| v.trim().parse::<u32>().ok())
+        .filter(|n| *n <= 4)
+        .unwrap_or(COMPUTE_PIXELS)
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -394,6 +409,9 @@ pub struct RefocusPass {
     uploaded_visibility: Option<u64>,
     /// The uploaded plan's `AntialiasSettings::prefilter`.
     uploaded_prefilter: bool,
+    /// Output pixels per invocation of the compute strategy's plain sum (the shader's
+    /// PIXELS; 0: the per-pixel loop). See [`RefocusPass::set_compute_pixels`].
+    compute_pixels: u32,
     /// The uploaded plan's `AntialiasSettings::occlusion`.
     uploaded_occlusion: bool,
     /// The uploaded plan's `AntialiasSettings::defocus`.
@@ -668,6 +686,7 @@ impl RefocusPass {
             scene_depth,
             uploaded_footprints: Vec::new(),
             uploaded_prefilter: false,
+            compute_pixels: default_compute_pixels(),
             uploaded_occlusion: false,
             uploaded_defocus: false,
             defocus: None,
@@ -693,6 +712,18 @@ impl RefocusPass {
                 Err(e)
             }
         }
+    }
+
+    /// Sets the compute strategy's output pixels per invocation of the plain sum (0-4; 0: the
+    /// per-pixel loop; default [`COMPUTE_PIXELS`]). Every value gives the same image.
+    pub fn set_compute_pixels(&mut self, pixels: u32) -> Result<()> {
+        if pixels > 4 {
+            return Err(Error::Invalid(format!(
+                "compute pixels per invocation: 0 to 4, got {pixels}"
+            )));
+        }
+        self.compute_pixels = pixels;
+        Ok(())
     }
 
     /// Tells the pass that the texture's views were uploaded again (the next frame of a
@@ -1049,6 +1080,7 @@ impl RefocusPass {
             occlusion: a.antialias > 0 && self.uploaded_occlusion && !self.uploaded_defocus,
             surface: rule as u32,
             defocus: a.antialias > 0 && self.uploaded_defocus,
+            pixels: if compute { self.compute_pixels } else { 0 },
         };
         let pipeline = self.accum_pipeline(ctx, key)?;
         let d = &ctx.device;
@@ -1147,9 +1179,14 @@ impl RefocusPass {
                     0,
                     as_bytes(&[push]),
                 );
+                // The plain sum's invocations cover `pixels` pixels each along x.
+                let across = match (key.pixels, key.antialias, key.surface) {
+                    (n @ 1.., 0, 0) => COMPUTE_TILE * n,
+                    _ => COMPUTE_TILE,
+                };
                 d.cmd_dispatch(
                     cmd,
-                    target.width.div_ceil(COMPUTE_TILE),
+                    target.width.div_ceil(across),
                     target.height.div_ceil(COMPUTE_TILE),
                     1,
                 );
@@ -1295,6 +1332,7 @@ impl RefocusPass {
             u32::from(key.prefilter),
             u32::from(key.occlusion),
             u32::from(key.defocus),
+            key.pixels,
         ];
         let name = format!(
             "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}{}{}{}, surface {})",
@@ -1315,7 +1353,11 @@ impl RefocusPass {
             },
             if key.defocus { " defocused" } else { "" },
             key.surface
-        );
+        ) + &if key.compute {
+            format!(", {} pixels per invocation", key.pixels)
+        } else {
+            String::new()
+        };
         let pipeline = if key.compute {
             // The storage image's format is part of the shader: one module per format.
             let (spirv, file) = if key.format == Accumulation::Rgba16f.format() {
