@@ -14,8 +14,15 @@
 // are the same numbers. PIXELS 0 keeps the per-pixel loop (accumulate()) for every pixel.
 layout(constant_id = 8) const uint PIXELS = 1u;
 const uint MAX_PIXELS = 4u;
+// Views per iteration of that loop (1-8): their warps and fetches are all issued before the
+// samples are added (in view order, so the sums are the same numbers). A whole 512² output is
+// one wave of invocations on a large GPU, each walking the views one dependent fetch after
+// another; more fetches in flight per invocation, not more invocations, hide the latency.
+layout(constant_id = 9) const uint UNROLL = 1u;
+const uint MAX_UNROLL = 8u;
 
-layout(local_size_x = 8, local_size_y = 8) in;
+// The workgroup's shape (spec constants 10 and 11; the pass dispatches to match).
+layout(local_size_x_id = 10, local_size_y_id = 11) in;
 layout(set = 1, binding = 0, ACCUM_FORMAT) uniform image2D accum_image;
 
 void store(ivec2 px, vec4 v) {
@@ -36,7 +43,8 @@ void main() {
         return;
     }
     uint n = min(PIXELS, MAX_PIXELS);
-    ivec2 px0 = ivec2(gl_WorkGroupID.x * 8u * n + gl_LocalInvocationID.x, gl_GlobalInvocationID.y);
+    uint tile = gl_WorkGroupSize.x;
+    ivec2 px0 = ivec2(gl_WorkGroupID.x * tile * n + gl_LocalInvocationID.x, gl_GlobalInvocationID.y);
     if (px0.x >= size.x || px0.y >= size.y) {
         return;
     }
@@ -46,7 +54,7 @@ void main() {
     for (uint j = 0u; j < n; ++j) {
         // As accumulate(): pixel-index coordinates of the reference view and the plane's
         // inverse depth along the pixel's ray.
-        vec2 frag = vec2(px0 + ivec2(8 * int(j), 0)) + 0.5;
+        vec2 frag = vec2(px0 + ivec2(int(tile * j), 0)) + 0.5;
         xs[j] = vec3(frag * pc.out_scale - 0.5, 1.0);
         ss[j] = max(dot(pc.plane.xyz, xs[j]), 0.0);
         acc[j] = vec4(0.0);
@@ -54,20 +62,32 @@ void main() {
     vec2 lo = vec2(-0.5);
     vec2 hi = pc.view_size - 0.5;
     uint k_end = pc.first_view + pc.view_count;
-    for (uint k = pc.first_view; k < k_end; ++k) {
-        ViewWarp w = warp_of(k);
-        mat3 a = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz);
-        for (uint j = 0u; j < n; ++j) {
-            vec3 y = a * xs[j] + w.b_weight.xyz * ss[j];
-            vec2 p = y.xy / y.z;
-            // In front of camera i and inside view i (accumulate()'s two `continue`s).
-            bool ok = y.z > 0.0 && all(greaterThanEqual(p, lo)) && all(lessThanEqual(p, hi));
-            float weight = ok ? w.b_weight.w : 0.0;
-            acc[j] += vec4(weight * fetch(ok ? p : vec2(0.0), w.a0.w), weight);
+    uint u_n = clamp(UNROLL, 1u, MAX_UNROLL);
+    for (uint k = pc.first_view; k < k_end; k += u_n) {
+        vec4 samples[MAX_UNROLL * MAX_PIXELS];
+        for (uint u = 0u; u < u_n; ++u) {
+            // Past the last view: view k_end - 1 again at weight 0 (no branch).
+            bool real = k + u < k_end;
+            ViewWarp w = warp_of(real ? k + u : k_end - 1u);
+            mat3 a = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz);
+            for (uint j = 0u; j < n; ++j) {
+                vec3 y = a * xs[j] + w.b_weight.xyz * ss[j];
+                vec2 p = y.xy / y.z;
+                // In front of camera i and inside view i (accumulate()'s two `continue`s).
+                bool ok = real && y.z > 0.0 && all(greaterThanEqual(p, lo))
+                    && all(lessThanEqual(p, hi));
+                float weight = ok ? w.b_weight.w : 0.0;
+                samples[u * MAX_PIXELS + j] = vec4(weight * fetch(ok ? p : vec2(0.0), w.a0.w), weight);
+            }
+        }
+        for (uint u = 0u; u < u_n; ++u) {
+            for (uint j = 0u; j < n; ++j) {
+                acc[j] += samples[u * MAX_PIXELS + j];
+            }
         }
     }
     for (uint j = 0u; j < n; ++j) {
-        ivec2 px = px0 + ivec2(8 * int(j), 0);
+        ivec2 px = px0 + ivec2(int(tile * j), 0);
         if (px.x < size.x) {
             store(px, acc[j]);
         }

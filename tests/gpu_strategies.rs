@@ -11,7 +11,7 @@ use common::*;
 use tiltfield::gpu::GpuContext;
 use tiltfield::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use tiltfield::lightfield::LightField;
-use tiltfield::passes::refocus::{Filter, OutputFormat, RefocusPass, Strategy};
+use tiltfield::passes::refocus::{ComputeShape, Filter, OutputFormat, RefocusPass, Strategy};
 use tiltfield::passes::texture::{LightFieldTexture, ViewStorage};
 use tiltfield::refocus::{self, cpu, Averaging, FocusSpec, RefocusImage, RefocusPlan};
 
@@ -445,16 +445,33 @@ fn frames_in_flight_release_their_resources_only_after_completion() {
     );
 }
 
-/// The compute strategy's plain sum over several output pixels per invocation (the shader's
-/// PIXELS) gives the per-pixel loop's numbers, bit for bit: every filter, an output whose
-/// width no tile divides, a tilted plane whose views miss some pixels, and batches added to a
-/// running sum. It also equals the fragment strategy's image (the same arithmetic per sample).
+/// The compute strategy's plain sum in every shape (output pixels per invocation, views per
+/// iteration, workgroup shape) gives the per-pixel loop's numbers, bit for bit: every filter,
+/// an output whose width no tile divides, a tilted plane whose views miss some pixels, and
+/// batches added to a running sum. It also equals the fragment strategy's image (the same
+/// arithmetic per sample).
 #[test]
-fn compute_pixels_per_invocation_give_the_per_pixel_sums_exactly() {
+fn every_compute_shape_gives_the_per_pixel_sums_exactly() {
     let lf = builtin("tilted");
     let plan = tilted_plan(&lf);
     let n = plan.views.len();
     let mut r = renderer_with(&lf, ViewStorage::Linear16);
+    let base = ComputeShape::default();
+    let shape = |pixels, unroll, tile| ComputeShape {
+        pixels,
+        unroll,
+        tile,
+    };
+    let shapes = [
+        shape(1, 1, (8, 8)),
+        shape(2, 1, (8, 8)),
+        shape(4, 1, (8, 8)),
+        shape(1, 4, (8, 8)),
+        shape(3, 3, (8, 8)),
+        shape(1, 8, (16, 16)),
+        shape(2, 2, (32, 4)),
+        shape(0, 1, (16, 4)),
+    ];
     for filter in [
         Filter::Hardware,
         Filter::Shader,
@@ -469,8 +486,8 @@ fn compute_pixels_per_invocation_give_the_per_pixel_sums_exactly() {
                 output: OutputFormat::Float,
                 ..RenderSettings::default()
             };
-            let run = |r: &mut HeadlessRenderer, pixels: u32| -> Vec<Vec<[f32; 4]>> {
-                r.set_compute_pixels(pixels).unwrap();
+            let run = |r: &mut HeadlessRenderer, s: ComputeShape| -> Vec<Vec<[f32; 4]>> {
+                r.set_compute_shape(s).unwrap();
                 let mut images = vec![float(r, &plan, settings).pixels];
                 // Batches: the later ones add to the stored sum.
                 for (k, w) in [0, 5, n].windows(2).enumerate() {
@@ -481,13 +498,14 @@ fn compute_pixels_per_invocation_give_the_per_pixel_sums_exactly() {
                 }
                 images
             };
-            let per_pixel = run(&mut r, 0);
-            for pixels in 1..=4 {
+            let per_pixel = run(&mut r, ComputeShape { pixels: 0, ..base });
+            for s in shapes {
                 assert!(
-                    run(&mut r, pixels) == per_pixel,
-                    "{filter:?} {size:?}: {pixels} pixels per invocation differ"
+                    run(&mut r, s) == per_pixel,
+                    "{filter:?} {size:?}: {s:?} differs from the per-pixel loop"
                 );
             }
+            r.set_compute_shape(base).unwrap();
             let fragment = float(
                 &mut r,
                 &plan,
@@ -502,6 +520,8 @@ fn compute_pixels_per_invocation_give_the_per_pixel_sums_exactly() {
             );
         }
     }
-    assert!(r.set_compute_pixels(5).is_err());
+    for bad in [shape(5, 1, (8, 8)), shape(1, 9, (8, 8)), shape(1, 1, (64, 32))] {
+        assert!(r.set_compute_shape(bad).is_err(), "{bad:?}");
+    }
     assert_no_validation_errors(&r);
 }

@@ -83,13 +83,20 @@ for strategy in auto fragment compute batched:16; do
     fi
   done
 done
-# The compute shader's output pixels per invocation of the plain sum (0: per-pixel loop).
-for px in 0 1 2 3 4; do
-  step "render --strategy compute, plain, $px pixels per invocation"
-  if TILTFIELD_COMPUTE_PIXELS=$px run 300 "$work/r.json" "$T" render "$lf" -o "$work/r.png" \
-      --disparity 0.5 --strategy compute --antialias off --repeat "$frames" --json; then
-    printf '{"strategy":"compute","antialias":"off","compute_pixels":%s,"render":%s}\n' "$px" \
-      "$(cat "$work/r.json")" >>"$ladder"
+# The compute shader's shapes (tools/gpu_bench_summary.py tabulates them): output pixels per
+# invocation of the plain sum (0: the per-pixel loop), views per loop iteration, workgroup
+# shape, and the view storage (linear16 is render's default; srgb8 halves the bytes read).
+for shape in "0 1 8x8 linear16" "1 1 8x8 linear16" "2 1 8x8 linear16" "4 1 8x8 linear16" \
+             "1 2 8x8 linear16" "1 4 8x8 linear16" "1 8 8x8 linear16" "2 4 8x8 linear16" \
+             "1 4 16x16 linear16" "1 4 32x8 linear16" "1 4 16x8 linear16" "1 4 32x4 linear16" \
+             "1 1 8x8 srgb8" "1 4 8x8 srgb8" "1 4 16x16 srgb8"; do
+  read -r px un tile storage <<<"$shape"
+  step "render --strategy compute, plain: $px pixels, $un views per iteration, $tile, $storage"
+  if TILTFIELD_COMPUTE_PIXELS=$px TILTFIELD_COMPUTE_UNROLL=$un TILTFIELD_COMPUTE_TILE=$tile \
+      run 300 "$work/r.json" "$T" render "$lf" -o "$work/r.png" --disparity 0.5 \
+      --strategy compute --antialias off --storage "$storage" --repeat "$frames" --json; then
+    printf '{"strategy":"compute","antialias":"off","compute_shape":"%s","render":%s}\n' \
+      "$shape" "$(cat "$work/r.json")" >>"$ladder"
   fi
 done
 
@@ -99,7 +106,7 @@ run 600 "$out/bench-stdout.json" "$T" bench "$lf" --disparity 0.5 "${bench_frame
 
 step "depth (three runs, each with an empty cache)"
 for i in 1 2 3; do
-  TILTFIELD_CACHE_DIR=$work/depth-cache-$i run 300 "$out/depth-$i.json" "$T" depth "$lf" \
+  RUST_LOG=info TILTFIELD_CACHE_DIR=$work/depth-cache-$i run 300 "$out/depth-$i.json" "$T" depth "$lf" \
     -o "$work/depth.pfm" --json
 done
 

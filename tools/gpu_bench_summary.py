@@ -49,16 +49,16 @@ def main(d):
     table, pixels = {}, {}
     with open(d / "ladder.csv", "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(["strategy", "strategy_used", "antialias", "compute_pixels", "views",
+        w.writerow(["strategy", "strategy_used", "antialias", "compute_shape", "views",
                     "gpu_refocus_median_ms", "frames"])
         for r in rows:
             rr = r["render"]
             t = rr["timings_ms"]["gpu_refocus_median"]
             w.writerow([r["strategy"], rr.get("strategy"), r["antialias"],
-                        r.get("compute_pixels", ""), rr.get("views_used"), t,
+                        r.get("compute_shape", ""), rr.get("views_used"), t,
                         rr["timings_ms"]["frames"]])
-            if "compute_pixels" in r:
-                pixels[r["compute_pixels"]] = (t, rr)
+            if "compute_shape" in r:
+                pixels[r["compute_shape"]] = (t, rr)
             else:
                 table[(r["strategy"], r["antialias"])] = (t, rr)
     if table:
@@ -81,11 +81,13 @@ def main(d):
         if plain and ("auto", "off") in table:
             print(f"\nauto / fastest plain: {table[('auto', 'off')][0] / min(plain):.2f}×\n")
     if pixels:
-        print("## Compute: output pixels per invocation of the plain sum\n")
-        print("| pixels | ms | view samples/s |\n|---|---|---|")
-        for px, (t, rr) in sorted(pixels.items()):
+        print("## Compute shapes of the plain sum\n")
+        print("| pixels per invocation | views per iteration | workgroup | storage | ms | "
+              "view samples/s |\n|---|---|---|---|---|---|")
+        for shape, (t, rr) in sorted(pixels.items(), key=lambda kv: kv[1][0]):
             sps = rr.get("view_samples_per_second")
-            print(f"| {px} | {ms(t)} | {sps / 1e9:.0f} G |" if sps else f"| {px} | {ms(t)} | – |")
+            cells = " | ".join(shape.split())
+            print(f"| {cells} | {ms(t)} | {'–' if not sps else f'{sps / 1e9:.0f} G'} |")
         print()
 
     bench = load(d / "bench" / "bench.json")

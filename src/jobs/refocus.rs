@@ -19,7 +19,8 @@ use crate::gpu::upload::Staging;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
 use crate::passes::refocus::{
-    Accumulate, Accumulation, Filter, OutputFormat, RefocusPass, RefocusTarget, Strategy,
+    Accumulate, Accumulation, ComputeShape, Filter, OutputFormat, RefocusPass, RefocusTarget,
+    Strategy,
     WarpMemory,
 };
 use crate::passes::texture::{LightFieldTexture, ViewStorage};
@@ -175,11 +176,11 @@ impl HeadlessRenderer {
         Ok(())
     }
 
-    /// The compute strategy's output pixels per invocation of the plain sum
-    /// ([`RefocusPass::set_compute_pixels`]).
-    pub fn set_compute_pixels(&mut self, pixels: u32) -> Result<()> {
+    /// How the compute strategy's invocations cover the output
+    /// ([`RefocusPass::set_compute_shape`]).
+    pub fn set_compute_shape(&mut self, shape: ComputeShape) -> Result<()> {
         match self.pass.as_mut() {
-            Some(p) => p.set_compute_pixels(pixels),
+            Some(p) => p.set_compute_shape(shape),
             None => Err(Error::Vulkan("the renderer was not fully created".into())),
         }
     }

@@ -69,7 +69,6 @@ use crate::refocus::surface::{SurfacePlan, SurfaceRule, MAX_PLANES};
 use crate::refocus::{Averaging, RefocusPlan};
 
 /// Workgroup edge of `refocus.comp` (8 × 8 invocations).
-const COMPUTE_TILE: u32 = 8;
 
 /// How the views are summed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -354,22 +353,68 @@ struct AccumKey {
     surface: u32,
     /// Anti-aliasing reads the defocused views (binding 9) instead of sub-sampling.
     defocus: bool,
-    /// The compute shader's PIXELS (0 for fragment pipelines).
-    pixels: u32,
+    /// The compute shader's shape (the default for fragment pipelines, which ignore it).
+    shape: ComputeShape,
 }
 
-/// Output pixels per invocation of the compute strategy's plain sum unless
-/// `TILTFIELD_COMPUTE_PIXELS` (0-4) says otherwise: a profiling knob, as `bench` on a GPU
-/// compares them.
-pub const COMPUTE_PIXELS: u32 = 1;
-
-fn default_compute_pixels() -> u32 {
-    std::env::var("TILTFIELD_COMPUTE_PIXELS")
-        .ok()
-        .and_then(|v| v.trim().parse::<u32>().ok())
-        .filter(|n| *n <= 4)
-        .unwrap_or(COMPUTE_PIXELS)
+/// How the compute strategy's invocations cover the output: output pixels per invocation of
+/// the plain sum (the shader's PIXELS, 0-4; 0: the per-pixel loop), views per iteration of its
+/// loop (UNROLL, 1-8) and the workgroup's shape. Every shape gives the same image; they differ
+/// in speed by device, so `TILTFIELD_COMPUTE_PIXELS`, `TILTFIELD_COMPUTE_UNROLL` and
+/// `TILTFIELD_COMPUTE_TILE` (`WxH`) override the defaults for profiling (tools/gpu-bench.sh
+/// compares them).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ComputeShape {
+    pub pixels: u32,
+    pub unroll: u32,
+    pub tile: (u32, u32),
 }
+
+impl Default for ComputeShape {
+    fn default() -> Self {
+        ComputeShape {
+            pixels: 1,
+            unroll: 1,
+            tile: (8, 8),
+        }
+    }
+}
+
+impl ComputeShape {
+    /// Checks the ranges (a workgroup of at most 1024 invocations, which every device has).
+    pub fn validate(&self) -> Result<()> {
+        let (w, h) = self.tile;
+        if self.pixels > 4 || !(1..=8).contains(&self.unroll) || w == 0 || h == 0 || w * h > 1024
+        {
+            return Err(Error::Invalid(format!(
+                "compute shape: pixels 0-4, unroll 1-8 and a tile of at most 1024 invocations, \
+                 got {self:?}"
+            )));
+        }
+        Ok(())
+    }
+
+    /// The default with the environment's overrides (those out of range are ignored).
+    fn from_env() -> Self {
+        let num = |k: &str| std::env::var(k).ok().and_then(|v| v.trim().parse::<u32>().ok());
+        let d = ComputeShape::default();
+        let tile = std::env::var("TILTFIELD_COMPUTE_TILE").ok().and_then(|v| {
+            let (a, b) = v.trim().split_once('x')?;
+            Some((a.parse().ok()?, b.parse().ok()?))
+        });
+        let s = ComputeShape {
+            pixels: num("TILTFIELD_COMPUTE_PIXELS").unwrap_or(d.pixels),
+            unroll: num("TILTFIELD_COMPUTE_UNROLL").unwrap_or(d.unroll),
+            tile: tile.unwrap_or(d.tile),
+        };
+        if s.validate().is_ok() {
+            s
+        } else {
+            d
+        }
+    }
+}
+
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct ResolveKey {
@@ -409,9 +454,8 @@ pub struct RefocusPass {
     uploaded_visibility: Option<u64>,
     /// The uploaded plan's `AntialiasSettings::prefilter`.
     uploaded_prefilter: bool,
-    /// Output pixels per invocation of the compute strategy's plain sum (the shader's
-    /// PIXELS; 0: the per-pixel loop). See [`RefocusPass::set_compute_pixels`].
-    compute_pixels: u32,
+    /// How the compute strategy's invocations cover the output (see [`ComputeShape`]).
+    compute_shape: ComputeShape,
     /// The uploaded plan's `AntialiasSettings::occlusion`.
     uploaded_occlusion: bool,
     /// The uploaded plan's `AntialiasSettings::defocus`.
@@ -686,7 +730,7 @@ impl RefocusPass {
             scene_depth,
             uploaded_footprints: Vec::new(),
             uploaded_prefilter: false,
-            compute_pixels: default_compute_pixels(),
+            compute_shape: ComputeShape::from_env(),
             uploaded_occlusion: false,
             uploaded_defocus: false,
             defocus: None,
@@ -714,15 +758,11 @@ impl RefocusPass {
         }
     }
 
-    /// Sets the compute strategy's output pixels per invocation of the plain sum (0-4; 0: the
-    /// per-pixel loop; default [`COMPUTE_PIXELS`]). Every value gives the same image.
-    pub fn set_compute_pixels(&mut self, pixels: u32) -> Result<()> {
-        if pixels > 4 {
-            return Err(Error::Invalid(format!(
-                "compute pixels per invocation: 0 to 4, got {pixels}"
-            )));
-        }
-        self.compute_pixels = pixels;
+    /// Sets how the compute strategy's invocations cover the output ([`ComputeShape`]).
+    /// Every shape gives the same image.
+    pub fn set_compute_shape(&mut self, shape: ComputeShape) -> Result<()> {
+        shape.validate()?;
+        self.compute_shape = shape;
         Ok(())
     }
 
@@ -1080,7 +1120,11 @@ impl RefocusPass {
             occlusion: a.antialias > 0 && self.uploaded_occlusion && !self.uploaded_defocus,
             surface: rule as u32,
             defocus: a.antialias > 0 && self.uploaded_defocus,
-            pixels: if compute { self.compute_pixels } else { 0 },
+            shape: if compute {
+                self.compute_shape
+            } else {
+                ComputeShape::default()
+            },
         };
         let pipeline = self.accum_pipeline(ctx, key)?;
         let d = &ctx.device;
@@ -1180,14 +1224,15 @@ impl RefocusPass {
                     as_bytes(&[push]),
                 );
                 // The plain sum's invocations cover `pixels` pixels each along x.
-                let across = match (key.pixels, key.antialias, key.surface) {
-                    (n @ 1.., 0, 0) => COMPUTE_TILE * n,
-                    _ => COMPUTE_TILE,
+                let (tw, th) = key.shape.tile;
+                let across = match (key.shape.pixels, key.antialias, key.surface) {
+                    (n @ 1.., 0, 0) => tw * n,
+                    _ => tw,
                 };
                 d.cmd_dispatch(
                     cmd,
                     target.width.div_ceil(across),
-                    target.height.div_ceil(COMPUTE_TILE),
+                    target.height.div_ceil(th),
                     1,
                 );
             }
@@ -1332,7 +1377,10 @@ impl RefocusPass {
             u32::from(key.prefilter),
             u32::from(key.occlusion),
             u32::from(key.defocus),
-            key.pixels,
+            key.shape.pixels,
+            key.shape.unroll,
+            key.shape.tile.0,
+            key.shape.tile.1,
         ];
         let name = format!(
             "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}{}{}{}, surface {})",
@@ -1354,7 +1402,7 @@ impl RefocusPass {
             if key.defocus { " defocused" } else { "" },
             key.surface
         ) + &if key.compute {
-            format!(", {} pixels per invocation", key.pixels)
+            format!(", {:?}", key.shape)
         } else {
             String::new()
         };
