@@ -371,11 +371,15 @@ pub struct ComputeShape {
 }
 
 impl Default for ComputeShape {
+    /// Measured on an NVIDIA H200 (81 views of 512², 200 frames, two interleaved rounds):
+    /// 2 pixels × 4 views per iteration in 8×16 workgroups 0.0745 ms, against 0.090 ms for
+    /// one pixel and one view per iteration in 8×8 (the per-pixel loop 0.091); 4 pixels or 8
+    /// views per iteration were slower again (registers). The same numbers on every device.
     fn default() -> Self {
         ComputeShape {
-            pixels: 1,
-            unroll: 1,
-            tile: (8, 8),
+            pixels: 2,
+            unroll: 4,
+            tile: (8, 16),
         }
     }
 }
