@@ -62,3 +62,30 @@ impl Error {
         }
     }
 }
+
+/// A number as error messages and warnings print it: as typed up to a million, in scientific
+/// notation (4 decimals) beyond and below 1e-4, so `--disparity=1e308` is not echoed as 309
+/// digits.
+pub fn compact(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && a != 0.0 && !(1e-4..1e6).contains(&a) {
+        format!("{v:.4e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::compact;
+
+    #[test]
+    fn huge_and_tiny_numbers_are_compact_others_as_typed() {
+        assert_eq!(compact(1e308), "1.0000e308");
+        assert_eq!(compact(-2.5e-9), "-2.5000e-9");
+        assert_eq!(compact(0.25), "0.25");
+        assert_eq!(compact(-3.0), "-3");
+        assert_eq!(compact(0.0), "0");
+        assert_eq!(compact(f64::NAN), "NaN");
+    }
+}

@@ -229,16 +229,18 @@ pub(crate) fn focus_plane(
             Some(rig) => {
                 let z = rig.depth_of_disparity(d).ok_or_else(|| {
                     Error::Geometry(format!(
-                        "disparity {d} px lies at or beyond infinity for this rig (the most \
+                        "disparity {} px lies at or beyond infinity for this rig (the most \
                          negative physical disparity is {:.4} px)",
+                        crate::error::compact(d),
                         rig.disparity_at_infinity()
                     ))
                 })?;
                 if z < near {
                     return Err(Error::Invalid(format!(
-                        "--disparity {d} px is far too large for this rig: it puts the focus \
+                        "--disparity {} px is far too large for this rig: it puts the focus \
                          plane at depth {z:.1e}, practically on the cameras (disparity 0 is the \
                          focus distance {}, {:.4} px is infinity)",
+                        crate::error::compact(d),
                         rig.focus_distance,
                         rig.disparity_at_infinity()
                     )));
