@@ -46,12 +46,22 @@ pub enum Error {
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
-    /// Wrap an I/O error with the path it concerns.
+    /// Wrap an I/O error with the path it concerns. A path that is not found because it is
+    /// a link to nothing says so and names the target: "No such file or directory" about a
+    /// name that `ls` shows sent users looking for the wrong file.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io {
-            path: path.into(),
-            source,
-        }
+        let path = path.into();
+        let source = match (source.kind(), std::fs::read_link(&path)) {
+            (std::io::ErrorKind::NotFound, Ok(target)) => std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                format!(
+                    "a dangling link: its target {} does not exist",
+                    target.display()
+                ),
+            ),
+            _ => source,
+        };
+        Error::Io { path, source }
     }
 
     /// A malformed-file error naming the file.

@@ -64,7 +64,13 @@ fn accepted(secs: u64, args: &[&str], cache: &Path) -> String {
 /// A 5×5 HCI folder of 48×48 views of builtin:planes, with its disparity and depth maps
 /// (every pixel sees a surface).
 fn planes_hci(dir: &Path) -> PathBuf {
-    let lf = dir.join("planes");
+    planes_hci_sized(dir, "planes", 48)
+}
+
+/// [`planes_hci`] named `name`, of `size²` views.
+fn planes_hci_sized(dir: &Path, name: &str, size: u32) -> PathBuf {
+    let lf = dir.join(name);
+    let size = format!("{size}x{size}");
     accepted(
         60,
         &[
@@ -73,13 +79,21 @@ fn planes_hci(dir: &Path) -> PathBuf {
             "--grid",
             "5x5",
             "--size",
-            "48x48",
+            &size,
             "-o",
             s(&lf),
         ],
         &dir.join("cache"),
     );
     lf
+}
+
+fn mkfifo(path: &Path) {
+    let st = std::process::Command::new("mkfifo")
+        .arg(path)
+        .status()
+        .unwrap();
+    assert!(st.success());
 }
 
 /// A one-channel little-endian PFM of `w × h` holding `value` everywhere but at `holes`
@@ -343,4 +357,174 @@ fn huge_numbers_are_printed_compactly() {
         let err = refused(60, 1, &all, &cache, &[needle]);
         assert!(err.len() < 400, "{args:?}: {err}");
     }
+}
+
+#[test]
+fn a_grid_view_that_is_not_an_image_file_is_named_with_what_it_is() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cache = tmp.path().join("cache");
+    let hci = planes_hci_sized(tmp.path(), "hci", 32);
+    let out = tmp.path().join("x.png");
+    let plant: [(&str, &dyn Fn(&Path)); 4] = [
+        ("a FIFO", &|p| mkfifo(p)),
+        ("a folder", &|p| std::fs::create_dir(p).unwrap()),
+        ("a character device", &|p| {
+            std::os::unix::fs::symlink("/dev/zero", p).unwrap()
+        }),
+        ("a dangling link to", &|p| {
+            std::os::unix::fs::symlink("/no/such/view.png", p).unwrap()
+        }),
+    ];
+    for (k, (what, make)) in plant.iter().enumerate() {
+        let grid = tmp.path().join(format!("grid{k}"));
+        common::hci_as_grid_folder(&hci, &grid, 5, 5);
+        let view = grid.join("02_02.png");
+        std::fs::remove_file(&view).unwrap();
+        make(&view);
+        let err = refused(
+            10,
+            1,
+            &["render", s(&grid), "--disparity", "0", "-o", s(&out)],
+            &cache,
+            &["02_02.png", what, "image file"],
+        );
+        assert!(!err.contains("missing"), "{err}");
+    }
+}
+
+#[test]
+fn dangling_links_are_named_with_their_target() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cache = tmp.path().join("cache");
+    let lf = planes_hci_sized(tmp.path(), "planes", 32);
+    let link = tmp.path().join("link");
+    std::os::unix::fs::symlink(tmp.path().join("gone"), &link).unwrap();
+    let out = tmp.path().join("x.png");
+    let link_s = s(&link);
+    for args in [
+        vec!["render", link_s, "--disparity", "0", "-o", s(&out)],
+        vec!["info", link_s],
+        vec![
+            "depth",
+            s(&lf),
+            "-o",
+            s(&tmp.path().join("d.pfm")),
+            "--score",
+            link_s,
+        ],
+        vec!["synth", link_s, "-o", s(&tmp.path().join("synth"))],
+    ] {
+        let err = refused(30, 1, &args, &cache, &[link_s, "dangling link", "gone"]);
+        assert!(!err.contains("os error 2"), "{args:?}: {err}");
+    }
+    // A view of an HCI folder.
+    std::fs::remove_file(lf.join("input_Cam007.png")).unwrap();
+    std::os::unix::fs::symlink("../nowhere.png", lf.join("input_Cam007.png")).unwrap();
+    refused(
+        30,
+        1,
+        &["render", s(&lf), "--disparity", "0", "-o", s(&out)],
+        &cache,
+        &["input_Cam007.png", "dangling link", "nowhere.png"],
+    );
+}
+
+#[test]
+fn collinear_points_say_they_lie_on_a_line() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cache = tmp.path().join("cache");
+    let lf = planes_hci(tmp.path());
+    let out = tmp.path().join("x.png");
+    let err = refused(
+        30,
+        1,
+        &[
+            "render",
+            s(&lf),
+            "--points",
+            "10,10,20,20,30,30",
+            "-o",
+            s(&out),
+        ],
+        &cache,
+        &[tiltfield::viewer::state::COLLINEAR_CLICKS],
+    );
+    assert!(!err.contains("reference camera centre"), "{err}");
+    // Three points off a line still pick a plane.
+    accepted(
+        60,
+        &[
+            "render",
+            s(&lf),
+            "--points",
+            "10,10,38,12,20,36",
+            "-o",
+            s(&out),
+        ],
+        &cache,
+    );
+}
+
+#[test]
+fn a_ground_truth_too_small_to_score_says_so() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cache = tmp.path().join("cache");
+    let lf = planes_hci_sized(tmp.path(), "planes", 32);
+    let gt = tmp.path().join("tiny.pfm");
+    write_pfm(&gt, 20, 20, 0.5, &[], 0.0);
+    refused(
+        30,
+        1,
+        &[
+            "depth",
+            s(&lf),
+            "-o",
+            s(&tmp.path().join("d.pfm")),
+            "--score",
+            s(&gt),
+        ],
+        &cache,
+        &["tiny.pfm", "20×20", "too small", "15 px border"],
+    );
+}
+
+#[test]
+fn a_forged_cache_entry_is_named_and_estimated_again() {
+    use tiltfield::depth::cache;
+    let tmp = tempfile::tempdir().unwrap();
+    // Two grid folders without depth, of 32² and 40² views: each gets an estimate, cached.
+    let mut grids = Vec::new();
+    for size in [32, 40] {
+        let hci = planes_hci_sized(tmp.path(), &format!("hci{size}"), size);
+        let grid = tmp.path().join(format!("grid{size}"));
+        common::hci_as_grid_folder(&hci, &grid, 5, 5);
+        let dir = tmp.path().join(format!("cache{size}"));
+        let ply = tmp.path().join(format!("c{size}.ply"));
+        accepted(120, &["cloud", s(&grid), "-o", s(&ply)], &dir);
+        let key = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .find(|p| p.extension().is_some_and(|e| e == "json"))
+            .unwrap()
+            .file_stem()
+            .unwrap()
+            .to_string_lossy()
+            .into_owned();
+        grids.push((grid, dir, key));
+    }
+    // The 32² estimate written, with a matching hash, as the 40² grid's entry: what anyone who
+    // can write a shared cache can do.
+    let small = cache::load(&grids[0].1, &grids[0].2).expect("the 32² entry");
+    let (grid, dir, key) = &grids[1];
+    cache::store(dir, key, &small).unwrap();
+    let ply = tmp.path().join("forged.ply");
+    let err = accepted(120, &["cloud", s(grid), "-o", s(&ply)], dir);
+    let entry = dir.join(format!("{key}.json"));
+    assert!(
+        err.contains(s(&entry)) && err.contains("32×32") && err.contains("estimating again"),
+        "{err}"
+    );
+    // Replaced: the next run uses it without a word.
+    let err = accepted(120, &["cloud", s(grid), "-o", s(&ply)], dir);
+    assert!(!err.contains("estimating again"), "{err}");
 }

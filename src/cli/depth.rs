@@ -285,6 +285,20 @@ pub fn run(args: &DepthArgs) -> Result<()> {
                 .map_err(|e| Error::Invalid(format!("--score: {e}")))?;
             // A truth without a single finite pixel inside the scored area would score a
             // perfect 0 on zero pixels.
+            // Too small to have an inside at all: say so, not that its values are missing.
+            if t.width <= 2 * HCI_BORDER || t.height <= 2 * HCI_BORDER {
+                return Err(Error::bad_file(
+                    p,
+                    format!(
+                        "--score: the ground truth is {}×{} px, too small to score: the HCI \
+                         metrics leave out a {HCI_BORDER} px border, so it needs more than {} px \
+                         a side",
+                        t.width,
+                        t.height,
+                        2 * HCI_BORDER
+                    ),
+                ));
+            }
             let inside = score(&t.values, &t.values, t.width, t.height, HCI_BORDER, None).pixels;
             if inside == 0 {
                 return Err(Error::bad_file(

@@ -61,9 +61,18 @@ pub fn image_names(dir: &Path) -> Result<Vec<String>> {
     for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
         let entry = entry.map_err(|e| Error::io(dir, e))?;
         let name = entry.file_name().to_string_lossy().into_owned();
-        if is_image_name(&name) && entry.path().is_file() {
-            names.push(name);
+        if !is_image_name(&name) {
+            continue;
         }
+        // A view's name that is not an image file is named with what it is; skipped, it
+        // was reported as a missing view of the grid.
+        if let Some(what) = crate::io::describe_irregular(&entry.path()) {
+            return Err(Error::bad_file(
+                entry.path(),
+                format!("a view of the grid folder must be an image file, but this is {what}"),
+            ));
+        }
+        names.push(name);
     }
     names.sort();
     Ok(names)

@@ -162,6 +162,10 @@ pub fn resolve_focus(
             (picking::click(&d, pixel.x, pixel.y, &normals)?, Some(d))
         }
         FocusTarget::ThreeClicks(pixels) => {
+            // Said in the user's terms, not as a plane distance of 1e-16 from the camera.
+            if picking::image_collinear(&pixels) {
+                return Err(Error::Geometry(picking::COLLINEAR_CLICKS.into()));
+            }
             let d = pick_depth(lf)?;
             (picking::three_clicks(&d, pixels)?, Some(d))
         }
