@@ -365,7 +365,8 @@ fn a_grid_view_that_is_not_an_image_file_is_named_with_what_it_is() {
     let cache = tmp.path().join("cache");
     let hci = planes_hci_sized(tmp.path(), "hci", 32);
     let out = tmp.path().join("x.png");
-    let plant: [(&str, &dyn Fn(&Path)); 4] = [
+    type Plant<'a> = (&'a str, &'a dyn Fn(&Path));
+    let plant: [Plant; 4] = [
         ("a FIFO", &|p| mkfifo(p)),
         ("a folder", &|p| std::fs::create_dir(p).unwrap()),
         ("a character device", &|p| {
