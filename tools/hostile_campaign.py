@@ -1341,7 +1341,7 @@ def round3_cases(add):
                  words=SPECIAL_WORDS[kind] + ("view_01_01",)))
     for j, pts in enumerate(["10,10,20,20,30,30", "5,5,5,5,5,5", "0,0,47,0,20,0", "1,2,3,4,5,6"]):
         add(Case(f"r3-collinear-{j}", "round3", "render", ["render", HCI, "--points", pts, "-o", "{D}/o.png"],
-                 setup=cp("hci"), expect="fail", words=("line", "collinear")))
+                 setup=cp("hci"), expect="fail", words=("line", "collinear", "coincide")))
     for j, n in enumerate([1, 20, 30, 31]):
         add(Case(f"r3-score-tiny-{j}", "round3", "depth", ["depth", HCI, "-o", "{D}/d.pfm", "--score", "{D}/t.pfm"],
                  setup=chain(cp("hci"), write("t.pfm", pfm_bytes(n, n))), outputs=[("d.pfm", "pfm")],

@@ -163,7 +163,10 @@ pub fn resolve_focus(
         }
         FocusTarget::ThreeClicks(pixels) => {
             // Said in the user's terms, not as a plane distance of 1e-16 from the camera.
-            if picking::image_collinear(&pixels) {
+            // Two pixels that coincide keep three_clicks' own, more precise message.
+            let distinct =
+                pixels[0] != pixels[1] && pixels[1] != pixels[2] && pixels[0] != pixels[2];
+            if distinct && picking::image_collinear(&pixels) {
                 return Err(Error::Geometry(picking::COLLINEAR_CLICKS.into()));
             }
             let d = pick_depth(lf)?;
