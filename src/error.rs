@@ -46,12 +46,22 @@ pub enum Error {
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
-    /// Wrap an I/O error with the path it concerns.
+    /// Wrap an I/O error with the path it concerns. A path that is not found because it is
+    /// a link to nothing says so and names the target: "No such file or directory" about a
+    /// name that `ls` shows sent users looking for the wrong file.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        Error::Io {
-            path: path.into(),
-            source,
-        }
+        let path = path.into();
+        let source = match (source.kind(), std::fs::read_link(&path)) {
+            (std::io::ErrorKind::NotFound, Ok(target)) => std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                format!(
+                    "a dangling link: its target {} does not exist",
+                    target.display()
+                ),
+            ),
+            _ => source,
+        };
+        Error::Io { path, source }
     }
 
     /// A malformed-file error naming the file.
@@ -60,5 +70,32 @@ impl Error {
             path: path.into(),
             message: message.into(),
         }
+    }
+}
+
+/// A number as error messages and warnings print it: as typed up to a million, in scientific
+/// notation (4 decimals) beyond and below 1e-4, so `--disparity=1e308` is not echoed as 309
+/// digits.
+pub fn compact(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && a != 0.0 && !(1e-4..1e6).contains(&a) {
+        format!("{v:.4e}")
+    } else {
+        format!("{v}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::compact;
+
+    #[test]
+    fn huge_and_tiny_numbers_are_compact_others_as_typed() {
+        assert_eq!(compact(1e308), "1.0000e308");
+        assert_eq!(compact(-2.5e-9), "-2.5000e-9");
+        assert_eq!(compact(0.25), "0.25");
+        assert_eq!(compact(-3.0), "-3");
+        assert_eq!(compact(0.0), "0");
+        assert_eq!(compact(f64::NAN), "NaN");
     }
 }

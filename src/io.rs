@@ -54,6 +54,19 @@ pub fn kind_of(meta: &Metadata) -> &'static str {
     }
 }
 
+/// What `path` is when it is not a regular file, links followed: "a folder", "a FIFO (named
+/// pipe)", "a dangling link to TARGET", ...; `None` for a regular file or a path that does not
+/// exist at all.
+pub fn describe_irregular(path: &Path) -> Option<String> {
+    match std::fs::metadata(path) {
+        Ok(m) if m.is_file() => None,
+        Ok(m) => Some(kind_of(&m).to_string()),
+        Err(_) => std::fs::read_link(path)
+            .ok()
+            .map(|t| format!("a dangling link to {}", t.display())),
+    }
+}
+
 /// The refusal of `path`, which is `meta`'s kind where `what` (for example "the --score
 /// ground truth") must be a regular file.
 fn not_regular(path: &Path, meta: &Metadata, what: &str) -> Error {

@@ -167,7 +167,7 @@ fn bad_set_options_fail_clearly() {
         (vec!["antialias-set", "--size", "4000"], "48 to 512 px"),
         (
             vec!["antialias-set", "--truth-grid", "3"],
-            "at least 9 pinholes",
+            "--truth-grid must be 9 to 257",
         ),
         (vec!["antialias-set", "--filter", "sinc"], "sinc"),
     ] {

@@ -294,7 +294,7 @@ fn click_refusals_exit_with_one_clear_message() {
         &["coincide"],
     );
     fails_with(
-        &["render", lf, "--points", "2,2,20,20,40,40", "-o", out],
+        &["render", lf, "--points", "2,2,20,20,40,30", "-o", out],
         &["point 1", "NaN"],
     );
     fails_with(

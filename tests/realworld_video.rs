@@ -756,3 +756,48 @@ fn frames_keep_a_focus_surface_on_each_frames_own_depth() {
         );
     }
 }
+
+/// A click over a frame range picks on the first frame's depth, estimated when the video has
+/// none, as `--frame N --click` does (it said the video "has no depth or disparity map"); the
+/// plane it finds is the one `--frame 1 --click` finds.
+#[test]
+fn frames_with_a_click_estimate_the_first_frames_depth_as_one_frame_does() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path().join("video");
+    std::fs::create_dir(&d).unwrap();
+    video(&d);
+    let cache = tmp.path().join("cache");
+    let click = ["--click", "10,10", "--json"];
+    let one = json_of(&tiltfield_cached(
+        &[
+            &[
+                "render",
+                s(&d),
+                "--frame",
+                "1",
+                "-o",
+                s(&tmp.path().join("one.png")),
+            ][..],
+            &click,
+        ]
+        .concat(),
+        &cache,
+    ));
+    let pattern = tmp.path().join("range_{frame}.png");
+    let range = json_of(&tiltfield_cached(
+        &[
+            &["render", s(&d), "--frames", "1..2", "-o", s(&pattern)][..],
+            &click,
+        ]
+        .concat(),
+        &cache,
+    ));
+    assert_eq!(range["focus"]["how"], "click", "{range}");
+    assert_eq!(
+        range["focus"]["plane"], one["focus"]["plane"],
+        "{range}\n{one}"
+    );
+    for f in [1, 2] {
+        assert!(tmp.path().join(format!("range_{f}.png")).is_file());
+    }
+}

@@ -93,8 +93,9 @@ fn render_state_cached(
         format!("--view={},{}", view[0], view[1]),
         "--average".into(),
         state["averaging"].as_str().unwrap().into(),
+        // As the screenshot recorded it: the viewer keeps one storage whatever E does.
         "--storage".into(),
-        "linear16".into(),
+        state["storage"].as_str().unwrap_or("linear16").into(),
     ];
     // Anti-aliasing as the screenshot recorded it (on by default: these light fields have depth).
     match state["antialias"]["max_samples"].as_u64() {
@@ -1239,4 +1240,33 @@ fn focus_peaking_tints_part_of_the_refocus_panel() {
     let off = json_file(&d.join("off.json"));
     assert_eq!(off["peaking"]["on"], false);
     assert!(off["peaking"]["tinted_fraction"].is_null());
+}
+
+/// E (encoded averaging) keeps the views in the session's storage (linear16, one upload): the
+/// screenshot records the storage, and `render` with the recorded `--average` and `--storage`
+/// reproduces it. `render --average encoded` alone defaults to srgb8, whose sampler decode is
+/// biased, so without the record the two did not match (issue 42).
+#[test]
+fn encoded_averaging_records_its_storage_and_render_reproduces_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let lf = "builtin:tilted";
+    let script = format!(
+        "wait-converged\n\
+         key E\n\
+         wait-converged\n\
+         screenshot {d}/e\n\
+         quit\n",
+        d = d.display()
+    );
+    run_script(d, "encoded.txt", &script, &[lf]);
+    let e = json_file(&d.join("e.json"));
+    assert_eq!(e["averaging"], "encoded", "{e}");
+    assert_eq!(e["storage"], "linear16", "{e}");
+    let want = render_state(lf, &e, &["--disparity=0".into()], &d.join("re.png"));
+    assert_eq!(
+        std::fs::read(d.join("e_refocus.png")).unwrap(),
+        want,
+        "viewer after E ≠ render with the recorded storage"
+    );
 }

@@ -1270,7 +1270,97 @@ def cases():
         add(Case(f"misc-cmd-{j}", "misc", args[0].lstrip("-") if args else "none", args,
                  setup=chain(cp("hci"), cp("grid"), cp("man"), cp("video"), cp("example.gltf"), cp("example.bin"), cp("example.glb")),
                  outputs=outs))
+    round3_cases(add)
     return C
+
+
+def _mostly_opaque(d, fx, rc, out, err):
+    """A render that succeeded must not be mostly transparent (the 1e30 depth map made 84-91 %
+    of it transparent without a word)."""
+    p = os.path.join(d, "o.png")
+    if rc == 0 and os.path.exists(p):
+        a = np.asarray(Image.open(p).convert("RGBA"))[..., 3]
+        frac = float((a == 0).mean())
+        if frac > 0.05:
+            return ("lost", f"{100 * frac:.0f} % of the output is transparent")
+    return None
+
+
+def _short_message(d, fx, rc, out, err):
+    """Numbers in messages are printed compactly, not as 309 digits."""
+    if rc != 0 and any(len(l) > 600 for l in err.splitlines()):
+        return ("unclear", "a message line longer than 600 characters (a number printed in full?)")
+    return None
+
+
+def round3_cases(add):
+    """Issue 42 (round 3): the cases the third campaign found, each with what it must end as."""
+    HCI = "{D}/hci"
+    aa = ["antialias-set", "--size", "48", "--cases", "layers", "--no-estimate"]
+    for j, extra in enumerate([
+        ["--truth-grid", "1000000", "--frames", "1", "--supersamples", "1"],
+        ["--truth-grid", "9", "--supersamples", "1000000"], ["--truth-grid", "4294967295"],
+        ["--truth-grid", "600"], ["--truth-grid", "258"], ["--truth-grid", "8"], ["--truth-grid", "0"],
+        ["--truth-grid", "-1"], ["--frames", "1000000"], ["--frames", "1001"], ["--frames", "0"],
+        ["--frames", "-3"], ["--supersamples", "0"], ["--supersamples", "17"], ["--supersamples", "-1"],
+    ]):
+        add(Case(f"r3-aaset-{j}", "round3", "antialias-set", aa + extra, expect="fail",
+                 words=("truth-grid", "supersamples", "frames")))
+    for j, v in enumerate(["-1", "-0.5", "-1e308", "-inf", "-0"]):
+        add(Case(f"r3-aperture-neg-{j}", "round3", "render",
+                 ["render", HCI, "--disparity", "0", "--aperture-radius", v, "-o", "{D}/o.png"],
+                 setup=cp("hci"), outputs=[("o.png", "png")], words=("aperture-radius",)))
+    for j, (opt, v) in enumerate([("--stride", "-1"), ("--normal-window", "-9"), ("--plane-size", "-2")]):
+        add(Case(f"r3-cloud-neg-{j}", "round3", "cloud", ["cloud", HCI, "-o", "{D}/c.ply", "--focus", "2", opt, v],
+                 setup=cp("hci"), outputs=[("c.ply", "ply")], words=(opt,)))
+    add(Case("r3-aif-alone-hci", "round3", "render", ["render", HCI, "--all-in-focus", "-o", "{D}/o.png"],
+             setup=cp("hci"), outputs=[("o.png", "png")], expect="ok", post=_mostly_opaque))
+    add(Case("r3-aif-alone-grid", "round3", "render", ["render", "{D}/grid", "--all-in-focus", "-o", "{D}/o.png"],
+             setup=cp("grid"), outputs=[("o.png", "png")], words=("all-in-focus", "unknown")))
+    for j, w in enumerate(["1000", "2", "1e308", "0.5"]):
+        add(Case(f"r3-cloud-slab-{j}", "round3", "cloud", ["cloud", HCI, "-o", "{D}/c.ply", "--focus", "2", "--slab", w],
+                 setup=cp("hci"), outputs=[("c.ply", "ply")], words=("slab",)))
+    for j, (val, holes) in enumerate([(1e30, 0), (-1e30, 0), (1e6, 0), (0.5, 100), (float("inf"), 0)]):
+        def absurd(val=val, holes=holes):
+            def f(d, fx):
+                cp("hci")(d, fx)
+                vals = np.full(48 * 48, val, "<f4")
+                vals[:holes] = 1e30
+                open(os.path.join(d, "hci/gt_disp_lowres.pfm"), "wb").write(pfm_bytes(48, 48, vals.tolist()))
+                os.remove(os.path.join(d, "hci/gt_depth_lowres.pfm"))
+            return f
+        add(Case(f"r3-depth-absurd-{j}", "round3", "render", ["render", HCI, "--disparity", "0", "-o", "{D}/o.png"],
+                 setup=absurd(), outputs=[("o.png", "png")], expect="ok", post=_mostly_opaque))
+    for j, click in enumerate(["16,12", "8,8", "24,16"]):
+        add(Case(f"r3-video-click-{j}", "round3", "render",
+                 ["render", "{D}/video", "--frames", "1..2", "--click", click, "-o", "{D}/f_{frame}.png"],
+                 setup=cp("video"), words=("click", "normal", "depth", "confidence")))
+    for kind in ["dir", "fifo", "dangling", "devzero", "devnull", "loop"]:
+        add(Case(f"r3-grid-view-{kind}", "round3", "render", ["render", "{D}/grid", "--disparity", "0", "-o", "{D}/o.png"],
+                 setup=chain(cp("grid"), special("grid/view_01_01.png", kind)), expect="fail",
+                 words=SPECIAL_WORDS[kind] + ("view_01_01",)))
+    for j, pts in enumerate(["10,10,20,20,30,30", "5,5,5,5,5,5", "0,0,47,0,20,0", "1,2,3,4,5,6"]):
+        add(Case(f"r3-collinear-{j}", "round3", "render", ["render", HCI, "--points", pts, "-o", "{D}/o.png"],
+                 setup=cp("hci"), expect="fail", words=("line", "collinear", "coincide")))
+    for j, n in enumerate([1, 20, 30, 31]):
+        add(Case(f"r3-score-tiny-{j}", "round3", "depth", ["depth", HCI, "-o", "{D}/d.pfm", "--score", "{D}/t.pfm"],
+                 setup=chain(cp("hci"), write("t.pfm", pfm_bytes(n, n))), outputs=[("d.pfm", "pfm")],
+                 words=("too small", "border", "the views")))
+    for j, argv in enumerate([
+        ["render", "{D}/link", "--disparity", "0", "-o", "{D}/o.png"], ["info", "{D}/link"],
+        ["cloud", "{D}/link", "-o", "{D}/c.ply"], ["depth", HCI, "-o", "{D}/d.pfm", "--score", "{D}/link"],
+        ["synth", "{D}/link", "--out", "{D}/s"], ["view", "{D}/link"],
+        ["render", HCI, "--disparity", "0", "-o", "{D}/o.png", "--size", "8x8", "--view", "1,1"],
+    ]):
+        setup = chain(cp("hci"), lambda d, fx: os.symlink(os.path.join(d, "gone", "target"), os.path.join(d, "link")))
+        if j == 6:  # a view of the HCI folder that is a dangling link
+            setup = chain(cp("hci"), special("hci/input_Cam004.png", "dangling"))
+        add(Case(f"r3-dangling-{j}", "round3", argv[0], argv, setup=setup, expect="fail", words=("dangling",)))
+    for j, args in enumerate([["--disparity=1e308"], ["--disparity=-1e308"], ["--disparity", "0", "--slab=1e308"],
+                              ["--disparity", "0", "--view", "1e308,0"], ["--focus", "3", "--tilt=1e308"],
+                              ["--disparity", "0", "--aperture-radius=-1e308"]]):
+        add(Case(f"r3-huge-{j}", "round3", "render", ["render", HCI, "-o", "{D}/o.png"] + args,
+                 setup=cp("hci"), outputs=[("o.png", "png")], post=_short_message))
 
 
 def _black(w, h):
@@ -1660,6 +1750,8 @@ def main():
     ap.add_argument("--match", help="only case ids containing this text")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--limit", type=int, help="at most this many new runs")
+    ap.add_argument("--every", type=int, default=1,
+                    help="a proportional subset: every K-th selected case of each group (seeded order kept)")
     ap.add_argument("--fresh", action="store_true", help="forget earlier results")
     ap.add_argument("--rerun", action="store_true", help="run matching cases again even if done")
     ap.add_argument("--summary", action="store_true", help="only print the table from results so far")
@@ -1682,6 +1774,14 @@ def main():
         print(f"{'total':10} {len(all_cases)}")
         return
     sel = [c for c in all_cases if (not a.group or c.group in a.group) and (not a.match or a.match in c.cid)]
+    if a.every > 1:
+        seen = collections.Counter()
+        keep = []
+        for c in sel:
+            if seen[c.group] % a.every == 0:
+                keep.append(c)
+            seen[c.group] += 1
+        sel = keep
     if a.list:
         for c in sel:
             print(c.cid, shlex.join(c.argv))

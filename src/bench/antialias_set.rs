@@ -196,6 +196,13 @@ pub fn select(only: Option<&[String]>) -> Result<Vec<AntialiasCase>> {
 /// (`layers`: 6.0 s at 3, 6.5 s at 8).
 pub const SUPERSAMPLES: u32 = 8;
 
+/// Most pinholes a side of the lens (synth's `--gt-samples` limit).
+pub const MAX_TRUTH_GRID: u32 = 257;
+/// Most jitters a pixel side (synth's `--samples` limit).
+pub const MAX_SUPERSAMPLES: u32 = 16;
+/// Most timed frames per image (bench's `--frames` limit).
+pub const MAX_FRAMES: usize = 1000;
+
 /// How the set is run.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SetOptions {
@@ -217,7 +224,7 @@ pub struct SetOptions {
 }
 
 impl SetOptions {
-    /// Checks the size and the truth's grid.
+    /// Checks the size, the truth's grid, the jitters and the timed frames.
     pub fn validate(&self) -> Result<()> {
         if !(48..=512).contains(&self.size) {
             return Err(Error::Invalid(format!(
@@ -225,10 +232,25 @@ impl SetOptions {
                 self.size
             )));
         }
-        if self.truth_grid < 9 {
+        // Upper bounds as synth's --gt-samples and --samples: beyond them the lens and the
+        // views take minutes to hours (the lens allocates grid² images before it starts), and
+        // 0 would silently run as 1.
+        if !(9..=MAX_TRUTH_GRID).contains(&self.truth_grid) {
             return Err(Error::Invalid(format!(
-                "the truth needs at least 9 pinholes a side, got {}",
+                "--truth-grid must be 9 to {MAX_TRUTH_GRID} (pinholes a side of the lens), got {}",
                 self.truth_grid
+            )));
+        }
+        if !(1..=MAX_SUPERSAMPLES).contains(&self.supersamples) {
+            return Err(Error::Invalid(format!(
+                "--supersamples must be 1 to {MAX_SUPERSAMPLES} (jitters a pixel side), got {}",
+                self.supersamples
+            )));
+        }
+        if !(1..=MAX_FRAMES).contains(&self.frames) {
+            return Err(Error::Invalid(format!(
+                "--frames must be 1 to {MAX_FRAMES} (timed frames per image), got {}",
+                self.frames
             )));
         }
         self.antialias.validate()
@@ -606,7 +628,7 @@ mod tests {
             truth_grid: 3,
             ..o
         };
-        assert!(o.validate().unwrap_err().to_string().contains("9 pinholes"));
+        assert!(o.validate().unwrap_err().to_string().contains("9 to 257"));
         let o = SetOptions {
             truth_grid: 65,
             antialias: AntialiasSettings {

@@ -25,7 +25,7 @@ pub struct BenchArgs {
     #[command(flatten)]
     pub focus: FocusArgs,
     /// Timed frames per variant (after discarded warm-up frames); default 20 (--quick: 3).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub frames: Option<usize>,
     /// Output folder for bench.json, bench.csv, homographies.json and the charts.
     #[arg(long, value_name = "DIR", default_value = "tiltfield-bench")]
@@ -43,10 +43,10 @@ pub struct BenchArgs {
     #[arg(long)]
     pub no_scaling: bool,
     /// The device's bilinear texture rate in GTexel/s (default: a table of common GPUs).
-    #[arg(long, value_name = "G")]
+    #[arg(long, value_name = "G", allow_negative_numbers = true)]
     pub peak_gtexels: Option<f64>,
     /// The device's memory bandwidth in GB/s (default: a table of common GPUs).
-    #[arg(long, value_name = "G")]
+    #[arg(long, value_name = "G", allow_negative_numbers = true)]
     pub peak_gbps: Option<f64>,
     /// The anti-aliasing study (plain sum and anti-aliased refocus at several sub-sample caps
     /// on a layered synthetic scene, against its lens): on (default) or off.
@@ -275,17 +275,27 @@ pub fn run(args: &BenchArgs) -> Result<()> {
 #[derive(Debug, Args)]
 pub struct AntialiasSetArgs {
     /// View size of the cases, px (48 to 512).
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = 128, allow_negative_numbers = true)]
     pub size: u32,
     /// Pinholes per side of the lens's aperture grid (about 0.8 × its square inside the disk;
     /// fewer leave the truth itself noisy on fine texture).
-    #[arg(long, value_name = "N", default_value_t = 129)]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 129,
+        allow_negative_numbers = true
+    )]
     pub truth_grid: u32,
     /// Only these cases (comma-separated); default: the whole set.
     #[arg(long, value_name = "A,B,…", value_delimiter = ',')]
     pub cases: Option<Vec<String>>,
     /// Timed frames of each of the plain and the anti-aliased sum per case.
-    #[arg(long, value_name = "N", default_value_t = 10)]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 10,
+        allow_negative_numbers = true
+    )]
     pub frames: usize,
     /// Skip anti-aliasing on estimated depth (the depth estimate takes most of the time).
     #[arg(long)]
@@ -295,7 +305,7 @@ pub struct AntialiasSetArgs {
     #[arg(long, value_name = "FILTER", default_value = "hardware")]
     pub filter: crate::passes::refocus::Filter,
     /// Jittered samples per pixel and axis of the rendered views (and of the lens).
-    #[arg(long, value_name = "N", default_value_t = crate::bench::antialias_set::SUPERSAMPLES)]
+    #[arg(long, value_name = "N", default_value_t = crate::bench::antialias_set::SUPERSAMPLES, allow_negative_numbers = true)]
     pub supersamples: u32,
     /// How the anti-aliased images sample their footprints (as for `render`).
     #[command(flatten)]

@@ -42,13 +42,18 @@ pub struct CloudArgs {
     pub view: Option<String>,
     /// Half the side of the plane quad in world units; default: half the cloud's bounding-box
     /// diagonal.
-    #[arg(long, value_name = "H")]
+    #[arg(long, value_name = "H", allow_negative_numbers = true)]
     pub plane_size: Option<f64>,
     /// Add every view's camera centre as a point (normal = its optical axis).
     #[arg(long)]
     pub cameras: bool,
     /// Keep every N-th pixel in x and y.
-    #[arg(long, value_name = "N", default_value_t = 1)]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 1,
+        allow_negative_numbers = true
+    )]
     pub stride: u32,
     /// Print a JSON summary on stdout.
     #[arg(long)]
@@ -153,6 +158,16 @@ pub fn run(args: &CloudArgs) -> Result<()> {
         .transpose()?;
     // The surface's planes placed as the focus is, from the reference camera.
     let surface = asked.resolve(&lf, reference)?;
+    if let (FocusSurface::Slab { half_width }, Some(plane)) =
+        (&surface, focus.as_ref().and_then(|f| f.plane))
+    {
+        // The same refusal as render's: a slab reaching the camera has a boundary behind it.
+        crate::refocus::surface::slab_clearance(
+            &plane,
+            lf.camera_at(reference)?.centre(),
+            *half_width,
+        )?;
+    }
     let mut builder = SceneBuilder::new(&lf).reference(reference).cloud(cloud);
     if let Some(f) = &focus {
         builder = builder.focus(f);

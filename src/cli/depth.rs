@@ -33,7 +33,7 @@ pub struct DepthArgs {
     pub kind: Option<String>,
     /// Number of planes, uniform in inverse depth; default: one per half pixel of motion in
     /// the farthest matched view over the range (16 to 256).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub planes: Option<usize>,
     /// Swept range MIN,MAX in --kind units (depth: NEAR,FAR); default: the dataset's
     /// disp_min,disp_max, else found by a coarse sweep.
@@ -56,7 +56,7 @@ pub struct DepthArgs {
     #[arg(long, value_name = "AGG")]
     pub aggregation: Option<Aggregation>,
     /// Aggregation window radius, pixels.
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub radius: Option<u32>,
     /// The naive baseline: SAD over the views with box aggregation (same planes and views).
     #[arg(long, conflicts_with_all = ["cost", "aggregation"])]
@@ -72,7 +72,7 @@ pub struct DepthArgs {
     /// 14, none with --naive; above 6 the window is sampled every other pixel and an odd
     /// radius rounds up): gives pixels of a faint surface back the depth of their own colour
     /// region where a nearer object was fattened into them.
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub median: Option<u32>,
     /// Match (almost) black views too (vignetted corners are left out by default).
     #[arg(long)]
@@ -93,10 +93,10 @@ pub struct DepthArgs {
 #[derive(Debug, Args)]
 pub struct DepthSetArgs {
     /// Views a side of the synthetic scenes (odd, 3 to 9).
-    #[arg(long, default_value_t = 5)]
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true)]
     pub grid: usize,
     /// Size of the synthetic views, px (48 to 512).
-    #[arg(long, default_value_t = 96)]
+    #[arg(long, default_value_t = 96, allow_negative_numbers = true)]
     pub size: u32,
     /// Only these synthetic scenes (comma-separated); default: the whole set.
     #[arg(long, value_name = "A,B,…", value_delimiter = ',')]
@@ -285,6 +285,20 @@ pub fn run(args: &DepthArgs) -> Result<()> {
                 .map_err(|e| Error::Invalid(format!("--score: {e}")))?;
             // A truth without a single finite pixel inside the scored area would score a
             // perfect 0 on zero pixels.
+            // Too small to have an inside at all: say so, not that its values are missing.
+            if t.width <= 2 * HCI_BORDER || t.height <= 2 * HCI_BORDER {
+                return Err(Error::bad_file(
+                    p,
+                    format!(
+                        "--score: the ground truth is {}×{} px, too small to score: the HCI \
+                         metrics leave out a {HCI_BORDER} px border, so it needs more than {} px \
+                         a side",
+                        t.width,
+                        t.height,
+                        2 * HCI_BORDER
+                    ),
+                ));
+            }
             let inside = score(&t.values, &t.values, t.width, t.height, HCI_BORDER, None).pixels;
             if inside == 0 {
                 return Err(Error::bad_file(

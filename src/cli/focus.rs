@@ -168,7 +168,7 @@ pub struct FocusArgs {
     pub nudge_swing: Option<f64>,
     /// Side of the image window (odd, pixels) of the --click normal estimate; default 9 on a
     /// depth map the light field carries, 31 on depth estimated from its views (noisier).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub normal_window: Option<u32>,
     /// How the --click normal is fitted: inverse-depth (a plane fitted to 1/z, the default)
     /// or pca (the paper's Hoppe normals).

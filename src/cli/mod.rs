@@ -93,14 +93,19 @@ impl LightFieldArgs {
 #[derive(Debug, Clone, Args)]
 pub struct ReadArgs {
     /// Grid folders only: focal length in pixels (default: max(width, height)).
-    #[arg(long, value_name = "PX")]
+    #[arg(long, value_name = "PX", allow_negative_numbers = true)]
     pub focal_px: Option<f64>,
     /// Grid folders only: distance between neighbouring views in world units.
-    #[arg(long, value_name = "B", default_value_t = 1.0)]
+    #[arg(
+        long,
+        value_name = "B",
+        default_value_t = 1.0,
+        allow_negative_numbers = true
+    )]
     pub baseline: f64,
     /// Camera-array videos only: the frame, by its number in the file names (default: the
     /// first frame; the viewer steps through frames with , and . and plays with Space).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
     pub frame: Option<u64>,
 }
 
@@ -123,7 +128,7 @@ pub struct ApertureArgs {
     #[arg(long, default_value = "disk")]
     pub aperture: ApertureShape,
     /// Aperture radius in grid steps (σ for gaussian); default: all views.
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub aperture_radius: Option<f64>,
     /// Reference (virtual) view S,T in grid units, fractional allowed; default: grid centre.
     #[arg(long, value_name = "S,T")]
@@ -176,7 +181,7 @@ pub struct AntialiasArgs {
 pub struct AntialiasSamplingArgs {
     /// Anti-aliasing: most sub-samples per axis of each view's aperture cell (1 to 16; more
     /// is smoother and slower).
-    #[arg(long, value_name = "N", default_value_t = crate::refocus::antialias::AntialiasSettings::default().max_samples)]
+    #[arg(long, value_name = "N", default_value_t = crate::refocus::antialias::AntialiasSettings::default().max_samples, allow_negative_numbers = true)]
     pub antialias_samples: u32,
     /// Anti-aliasing: sub-samples of a long footprint read the views' box-filtered pyramid
     /// (mip levels) at the level of their spacing, on (default) or off (full-resolution

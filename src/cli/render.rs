@@ -27,7 +27,16 @@ use crate::refocus::antialias::antialias_json;
 const MAX_REPEAT: usize = 10_000;
 
 #[derive(Debug, Args)]
-#[command(group(clap::ArgGroup::new("focus_plane").required(true).args(FOCUS_OPTIONS)))]
+#[command(group(clap::ArgGroup::new("focus_plane").args(FOCUS_OPTIONS)))]
+// A focus option is required unless --all-in-focus is given, whose depth focuses every pixel
+// (the library refuses it alone where the depth leaves pixels unknown).
+#[command(group(
+    clap::ArgGroup::new("focus_or_all")
+        .required(true)
+        .multiple(true)
+        .args(FOCUS_OPTIONS)
+        .arg("all_in_focus")
+))]
 pub struct RenderArgs {
     #[command(flatten)]
     pub lf: LightFieldArgs,
@@ -45,8 +54,8 @@ pub struct RenderArgs {
     /// field's own map, else estimated).
     #[arg(long, value_name = "W", allow_hyphen_values = true)]
     pub slab: Option<f64>,
-    /// Focus every pixel on the scene point it sees (needs the scene's depth; the focus
-    /// option is then the fallback where the depth is unknown).
+    /// Focus every pixel on the scene point it sees (needs the scene's depth; a focus
+    /// option is then the fallback where the depth is unknown, needed only if it is).
     #[arg(long)]
     pub all_in_focus: bool,
     /// How views are summed: auto (the fastest on this device, measured on first use and
@@ -58,7 +67,8 @@ pub struct RenderArgs {
         long,
         value_name = "N",
         default_value_t = 0,
-        conflicts_with = "strategy"
+        conflicts_with = "strategy",
+        allow_negative_numbers = true
     )]
     pub views_per_draw: usize,
     /// How views are sampled: hardware (bilinear), shader (exact bilinear), bicubic
@@ -78,7 +88,12 @@ pub struct RenderArgs {
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
     /// Render N more frames for timing and report the median GPU time.
-    #[arg(long, value_name = "N", default_value_t = 0)]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 0,
+        allow_negative_numbers = true
+    )]
     pub repeat: usize,
     /// Camera-array videos: render frames A..B (inclusive; A.. to the end, ..B from the start)
     /// with one GPU set-up; the output names each file with {frame} or {frame:05}.

@@ -62,17 +62,22 @@ pub struct SynthArgs {
     #[arg(long, value_name = "WxH", default_value = "512x512")]
     pub size: String,
     /// Distance between neighbouring cameras (metres); default: the scene's.
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub baseline: Option<f64>,
     /// Focal length in mm (f_px = F · max(W, H) / sensor); default: the scene's or the glTF
     /// camera's field of view.
-    #[arg(long, value_name = "F")]
+    #[arg(long, value_name = "F", allow_negative_numbers = true)]
     pub focal_mm: Option<f64>,
     /// Sensor width in mm (HCI `sensor_size_mm`).
-    #[arg(long, value_name = "S", default_value_t = 36.0)]
+    #[arg(
+        long,
+        value_name = "S",
+        default_value_t = 36.0,
+        allow_negative_numbers = true
+    )]
     pub sensor_mm: f64,
     /// Zero-disparity distance of the parallel rig (metres); default: the scene's.
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub focus_distance: Option<f64>,
     /// Output layout.
     #[arg(long, value_enum, default_value = "hci")]
@@ -82,17 +87,27 @@ pub struct SynthArgs {
     pub rig: RigArg,
     /// Converging rigs: distance of the point on the centre axis all cameras look at
     /// (default: the focus distance).
-    #[arg(long, value_name = "M")]
+    #[arg(long, value_name = "M", allow_negative_numbers = true)]
     pub converge_distance: Option<f64>,
     /// Anti-aliasing: N×N jittered renders per view.
-    #[arg(long, value_name = "N", default_value_t = 3)]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 3,
+        allow_negative_numbers = true
+    )]
     pub samples: u32,
     /// Optical ground truth (with a plane option): aperture radius in grid steps (default: half
     /// the grid's larger side, i.e. the whole grid's disk).
-    #[arg(long, value_name = "R")]
+    #[arg(long, value_name = "R", allow_negative_numbers = true)]
     pub gt_aperture_radius: Option<f64>,
     /// Optical ground truth: pinholes per side of the dense aperture grid.
-    #[arg(long, value_name = "N", default_value_t = 33)]
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 33,
+        allow_negative_numbers = true
+    )]
     pub gt_samples: u32,
     /// The plane of the optical ground truth (optional; same options as `render`).
     #[command(flatten)]

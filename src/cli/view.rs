@@ -46,7 +46,12 @@ pub struct ViewArgs {
     #[arg(long, default_value = "fifo")]
     pub present: PresentMode,
     /// Frame budget in milliseconds for progressive refinement.
-    #[arg(long, value_name = "MS", default_value_t = 33.0)]
+    #[arg(
+        long,
+        value_name = "MS",
+        default_value_t = 33.0,
+        allow_negative_numbers = true
+    )]
     pub frame_budget_ms: f64,
     /// Initial window size WxH.
     #[arg(long, value_name = "WxH", default_value = "1280x720")]

@@ -262,7 +262,24 @@ pub fn cached_estimate(
     let key = cache_key(lf, options);
     if let Some(dir) = &dir {
         if let Some(est) = load(dir, &key) {
-            return Ok((est, true, Some(dir.join(format!("{key}.json")))));
+            let file = dir.join(format!("{key}.json"));
+            // An entry with a matching hash may still be forged (the hash detects damage, not
+            // forgery): one that cannot be this light field's is named and estimated again,
+            // like a damaged one, instead of failing later without naming the file.
+            if fits(lf, &est) {
+                return Ok((est, true, Some(file)));
+            }
+            log::warn!(
+                "{}: the cached depth estimate is {}×{} of view {}, but the light field's \
+                 views are {}×{} ({} views); estimating again",
+                file.display(),
+                est.width,
+                est.height,
+                est.reference,
+                lf.width,
+                lf.height,
+                lf.views.len()
+            );
         }
     }
     let est = estimate(lf, options)?;
@@ -333,9 +350,14 @@ pub fn estimated_origin(
     })
 }
 
+/// Whether `est` can be `lf`'s estimate: its size and reference view.
+fn fits(lf: &LightField, est: &DepthEstimate) -> bool {
+    (est.width, est.height) == (lf.width, lf.height) && est.reference < lf.views.len()
+}
+
 /// Installs `est` as `lf`'s depth map (see [`ensure_depth`]).
 pub fn install(lf: &mut LightField, est: &DepthEstimate) -> Result<()> {
-    if (est.width, est.height) != (lf.width, lf.height) || est.reference >= lf.views.len() {
+    if !fits(lf, est) {
         return Err(Error::Invalid(
             "the depth estimate does not belong to this light field".into(),
         ));

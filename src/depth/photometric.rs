@@ -90,6 +90,11 @@ impl Equaliser {
                 }
             })
             .collect();
+        // A view too thin for the downscaled check (1 px wide) has no gains: nothing to change
+        // (the median of nothing panicked).
+        if gain.is_empty() {
+            return (gain, false);
+        }
         let mid = gain.len() / 2;
         let mut deviation: Vec<f64> = gain.iter().map(|g| (g - 1.0).abs()).collect();
         let changed = *deviation.select_nth_unstable_by(mid, f64::total_cmp).1 > MIN_GAIN_CHANGE;
@@ -196,6 +201,13 @@ pub fn smooth(img: &RgbaImage, passes: u32) -> RgbaImage {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn no_pixels_means_no_gain_change() {
+        let (gain, changed) = Equaliser::gains(&[], &[]);
+        assert!(gain.is_empty() && !changed);
+    }
+
     use super::*;
 
     fn textured(gain: impl Fn(u32, u32) -> f64) -> RgbaImage {

@@ -60,7 +60,9 @@ impl Aperture {
         if let Some(r) = self.radius {
             if !(r.is_finite() && r >= 0.0) {
                 return Err(Error::Invalid(format!(
-                    "aperture radius must be a finite number ≥ 0 (grid steps), got {r}"
+                    "--aperture-radius (the aperture radius) must be a finite number ≥ 0 (grid \
+                     steps), got {}",
+                    crate::error::compact(r)
                 )));
             }
             if self.shape == ApertureShape::Gaussian && r == 0.0 {

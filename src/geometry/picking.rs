@@ -304,6 +304,20 @@ pub fn triangle_min_angle_deg(a: DVec3, b: DVec3, c: DVec3) -> f64 {
     }
 }
 
+/// The refusal of three clicks on one line of the image (the viewer's Shift+clicks and
+/// `--points`).
+pub const COLLINEAR_CLICKS: &str =
+    "the three points lie on one line in the image (collinear), so their plane would pass \
+     through the camera; pick the third point off that line";
+
+/// Whether three image points lie on one line (within a tenth of a pixel of it).
+/// Back-projected, such points span a plane through the camera.
+pub fn image_collinear(p: &[DVec2]) -> bool {
+    let (a, b) = (p[1] - p[0], p[2] - p[0]);
+    let longest = a.length().max(b.length()).max((p[2] - p[1]).length());
+    longest == 0.0 || a.perp_dot(b).abs() / longest <= 0.1
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

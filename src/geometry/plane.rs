@@ -84,7 +84,8 @@ impl Plane {
         for (name, v) in [("tilt", tilt_deg), ("swing", swing_deg)] {
             if !(v.is_finite() && v.abs() < 90.0) {
                 return Err(Error::Geometry(format!(
-                    "{name} must lie strictly between −90° and 90°, got {v}°"
+                    "{name} must lie strictly between −90° and 90°, got {}°",
+                    crate::error::compact(v)
                 )));
             }
         }

@@ -256,11 +256,12 @@ impl RenderOptions {
     }
 
     /// Every check that needs no light field, in the CLI's order: the GPU settings, the
-    /// anti-aliasing samples, the focus surface. The focus itself is checked by
-    /// [`FocusOptions::validate`] (the CLI's parser does it there) and the aperture when the
-    /// plan is made, before the focus is resolved.
+    /// anti-aliasing samples, the focus surface, the aperture's radius. The focus itself is
+    /// checked by [`FocusOptions::validate`] (the CLI's parser does it there).
     pub fn check(&self) -> Result<RenderSettings> {
         let settings = self.settings()?;
+        // A bad radius is refused before loading, not after decoding every view.
+        self.aperture.validate()?;
         self.antialias_settings()?;
         self.surface()?;
         Ok(settings)
@@ -357,11 +358,19 @@ fn make_plan_excluding(
     default_window: u32,
     excluded: &[bool],
 ) -> Result<(RefocusPlan, ResolvedFocus)> {
-    let request = options.focus.request(default_window)?.ok_or_else(|| {
-        Error::Invalid(
-            "give one of --disparity, --plane, --focus, --click, --points or --points-3d".into(),
-        )
-    })?;
+    let request = match options.focus.request(default_window)? {
+        Some(r) => r,
+        // All-in-focus alone: the plane only serves where the depth is unknown, and
+        // `no_fallback_needed` refuses the render if there is any such pixel; the
+        // zero-disparity plane stands in (the rig's focus distance, or no shift).
+        None if options.all_in_focus => FocusSpec::Disparity(0.0).into(),
+        None => {
+            return Err(Error::Invalid(
+                "give one of --disparity, --plane, --focus, --click, --points or --points-3d"
+                    .into(),
+            ))
+        }
+    };
     let (focus, plan) =
         refocus::resolve_and_plan(lf, &request, options.aperture, options.reference, excluded)?;
     Ok((plan, focus))
@@ -475,6 +484,7 @@ fn prepare_excluding(
         false => None,
     };
     let surface_plan = refocus::surface::surface_for(lf, &plan, &surface, antialias.as_ref())?;
+    no_fallback_needed(options, &surface_plan)?;
     Ok(Prepared {
         settings,
         plan,
@@ -485,6 +495,24 @@ fn prepare_excluding(
         depth,
         strategy_source,
     })
+}
+
+/// Refuses `--all-in-focus` without a focus option where the depth leaves pixels unknown:
+/// their focus would be a plane nobody chose.
+fn no_fallback_needed(options: &RenderOptions, surface: &SurfacePlan) -> Result<()> {
+    let given = options
+        .focus
+        .request(crate::geometry::normals::GIVEN_DEPTH_WINDOW)?;
+    match (&surface.depth, given) {
+        (Some(d), None) if options.all_in_focus && d.unknown > 0 => Err(Error::Invalid(format!(
+            "--all-in-focus: the depth ({}) is unknown at {} of {} pixels; give a focus option \
+             (--disparity, --plane, --focus, --click, --points or --points-3d) for them",
+            d.source,
+            d.unknown,
+            d.width as usize * d.height as usize
+        ))),
+        _ => Ok(()),
+    }
 }
 
 /// The error of a focus surface whose light field (or video frame) has no depth and cannot
@@ -543,8 +571,17 @@ impl<'a> FramePlanner<'a> {
         // none, so its first frame's plan serves every frame.
         let per_frame = aa_on || asked.needs_depth();
         let plan = match previous {
-            // The plane is fixed from the first frame; picks use a depth map the video
-            // carries (the range does not estimate one per frame for them).
+            // The plane is fixed from the first frame.
+            None if options.focus.needs_depth() => {
+                // A click picks on the first frame's depth, estimated (and cached) when the
+                // video has none, as `render --frame N --click` does on frame N; the plane it
+                // finds then serves the whole range, as any other plane does.
+                let mut first = lf.clone();
+                let (_, window) = crate::jobs::depth::ensure_for(ctx, &mut first, progress)?;
+                let (plan, f) = make_plan(&first, options, window)?;
+                self.focus = Some(f);
+                plan
+            }
             None => {
                 let (plan, f) =
                     make_plan(lf, options, crate::geometry::normals::GIVEN_DEPTH_WINDOW)?;
@@ -607,6 +644,7 @@ impl<'a> FramePlanner<'a> {
         let surface = asked.resolve(&frame, base.reference)?;
         let surface_plan =
             refocus::surface::surface_for(&frame, base, &surface, antialias.as_ref())?;
+        no_fallback_needed(options, &surface_plan)?;
         Ok(Some(crate::jobs::batch::FramePlan {
             plan: base.clone(),
             antialias,

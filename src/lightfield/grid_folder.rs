@@ -69,6 +69,24 @@ pub fn image_names(dir: &Path) -> Result<Vec<String>> {
     Ok(names)
 }
 
+/// Refuses an entry of the views' folder `dir` named as an image that is not a regular file,
+/// naming it and what it is: skipped, it was reported as a missing view of the grid.
+fn refuse_irregular_views(dir: &Path) -> Result<()> {
+    for entry in std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))? {
+        let entry = entry.map_err(|e| Error::io(dir, e))?;
+        if !is_image_name(&entry.file_name().to_string_lossy()) {
+            continue;
+        }
+        if let Some(what) = crate::io::describe_irregular(&entry.path()) {
+            return Err(Error::bad_file(
+                entry.path(),
+                format!("a view of the grid folder must be an image file, but this is {what}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// The sub-folders of `dir` (not hidden), sorted.
 pub fn subfolders(dir: &Path) -> Result<Vec<PathBuf>> {
     let mut out = Vec::new();
@@ -151,6 +169,7 @@ pub fn load_within(
     limits: &LoadLimits,
 ) -> Result<LightField> {
     let (folder, names, subfolder) = locate(dir)?;
+    refuse_irregular_views(&folder)?;
     let reading = read_grid(&names, subfolder).map_err(|e| match e {
         NamingError::NoNumberedViews => {
             // One message for the folder, not one warning per file: most likely this is an

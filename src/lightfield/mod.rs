@@ -171,7 +171,10 @@ impl LightField {
         if !st.is_finite() || st.x < 0.0 || st.y < 0.0 || st.x > max.x || st.y > max.y {
             return Err(Error::Invalid(format!(
                 "reference view ({}, {}) lies outside the grid: s must be in [0, {}], t in [0, {}]",
-                st.x, st.y, max.x, max.y
+                crate::error::compact(st.x),
+                crate::error::compact(st.y),
+                max.x,
+                max.y
             )));
         }
         // A single row or column has no second neighbour: s1 = s0 (weights then irrelevant).
@@ -420,8 +423,52 @@ pub fn open_frame_within(
     } else {
         grid_folder::load_within(path, grid_opts, limits)?
     };
+    let mut lf = lf;
+    screen_depth_maps(&mut lf);
     lf.validate()?;
     Ok(lf)
+}
+
+/// Values of the light field's own depth maps that no camera could have measured become
+/// unknown (NaN), with a warning naming the file: a disparity larger than the views (a point
+/// displaced by more than a whole view between neighbouring views, which no two views can
+/// both see) or a depth ≤ 0 (at or behind the camera). A map left without any value is
+/// dropped. Kept, a map of 1e30 px made 84–91 % of a plain `render --disparity 0` transparent
+/// (anti-aliasing, on by default with a map, spread each pixel over the whole aperture) without
+/// a word about the map.
+pub fn screen_depth_maps(lf: &mut LightField) {
+    let limit = lf.width.max(lf.height) as f32;
+    lf.depth.retain_mut(|(_, map)| {
+        let absurd = |v: f32| match map.kind {
+            DepthKind::Disparity => v.abs() > limit,
+            DepthKind::Depth => v <= 0.0,
+        };
+        let bad = map.values.iter().filter(|&&v| absurd(v)).count();
+        if bad == 0 {
+            return true;
+        }
+        let example = map.values.iter().copied().find(|&v| absurd(v));
+        for v in map.values.iter_mut().filter(|v| absurd(**v)) {
+            *v = f32::NAN;
+        }
+        let what = match map.kind {
+            DepthKind::Disparity => format!("disparities beyond ±{limit} px per grid step"),
+            DepthKind::Depth => "depths ≤ 0 (at or behind the camera)".to_string(),
+        };
+        let kept = map.values.iter().any(|v| v.is_finite());
+        log::warn!(
+            "{}: {bad} of {} values are {what} (e.g. {}), which no camera measures; {}",
+            map.source,
+            map.values.len(),
+            crate::error::compact(example.unwrap_or(f32::NAN) as f64),
+            if kept {
+                "they are taken as unknown"
+            } else {
+                "the map is ignored"
+            }
+        );
+        kept
+    });
 }
 
 /// Views in row-major grid order from decoded images, their cameras and files (all three in

@@ -162,6 +162,13 @@ pub fn resolve_focus(
             (picking::click(&d, pixel.x, pixel.y, &normals)?, Some(d))
         }
         FocusTarget::ThreeClicks(pixels) => {
+            // Said in the user's terms, not as a plane distance of 1e-16 from the camera.
+            // Two pixels that coincide keep three_clicks' own, more precise message.
+            let distinct =
+                pixels[0] != pixels[1] && pixels[1] != pixels[2] && pixels[0] != pixels[2];
+            if distinct && picking::image_collinear(&pixels) {
+                return Err(Error::Geometry(picking::COLLINEAR_CLICKS.into()));
+            }
             let d = pick_depth(lf)?;
             (picking::three_clicks(&d, pixels)?, Some(d))
         }
@@ -229,16 +236,18 @@ pub(crate) fn focus_plane(
             Some(rig) => {
                 let z = rig.depth_of_disparity(d).ok_or_else(|| {
                     Error::Geometry(format!(
-                        "disparity {d} px lies at or beyond infinity for this rig (the most \
+                        "disparity {} px lies at or beyond infinity for this rig (the most \
                          negative physical disparity is {:.4} px)",
+                        crate::error::compact(d),
                         rig.disparity_at_infinity()
                     ))
                 })?;
                 if z < near {
                     return Err(Error::Invalid(format!(
-                        "--disparity {d} px is far too large for this rig: it puts the focus \
+                        "--disparity {} px is far too large for this rig: it puts the focus \
                          plane at depth {z:.1e}, practically on the cameras (disparity 0 is the \
                          focus distance {}, {:.4} px is infinity)",
+                        crate::error::compact(d),
                         rig.focus_distance,
                         rig.disparity_at_infinity()
                     )));

@@ -372,6 +372,22 @@ pub fn plan_surface(
     })
 }
 
+/// The distance of `plane` from the reference camera centre `centre`, refusing a slab of
+/// half-width `w` around `plane` that reaches the camera: the reference camera would see its
+/// own position as in focus, and the near boundary plane would pass through or behind it.
+/// `render` refuses such a slab here, and `cloud` draws no boundary behind the camera.
+pub fn slab_clearance(plane: &Plane, centre: DVec3, w: f64) -> Result<f64> {
+    let d = plane.normal.dot(plane.point - centre).abs();
+    if d - w <= 1e-9 * d.max(1.0) {
+        return Err(Error::Geometry(format!(
+            "the reference camera lies inside the focus slab (the plane is {d:.4} from it, the \
+             half-width {}); narrow the slab or move the plane",
+            crate::error::compact(w)
+        )));
+    }
+    Ok(d)
+}
+
 /// The rule and plane terms of `surface` seen from `plan`'s reference camera (the geometry
 /// of [`plan_surface`], without the scene depth): refuses classic shift-and-sum (no plane)
 /// and a slab around the reference camera. Cheap: the viewer checks every change with it.
@@ -400,15 +416,7 @@ pub fn surface_terms(
             (SurfaceRule::Nearest, terms)
         }
         FocusSurface::Slab { half_width: w } => {
-            let d = plane.normal.dot(plane.point - rc.centre()).abs();
-            // Inside the slab the reference camera would see its own position as in focus:
-            // the near boundary plane would pass through or behind it.
-            if d - w <= 1e-9 * d.max(1.0) {
-                return Err(Error::Geometry(format!(
-                    "the reference camera lies inside the focus slab (the plane is {d:.4} from \
-                     it, the half-width {w}); narrow the slab or move the plane"
-                )));
-            }
+            let d = slab_clearance(&plane, rc.centre(), *w)?;
             (
                 SurfaceRule::Clamp,
                 vec![plan.m * (d / (d + w)), plan.m * (d / (d - w))],

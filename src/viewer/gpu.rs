@@ -149,6 +149,9 @@ pub struct ViewerGpu {
     pub strategy: Strategy,
     /// How the views are sampled (`view --filter`, as `render --filter`).
     pub filter: Filter,
+    /// How the views are stored: one upload for the session, so E (encoded averaging) keeps
+    /// it; screenshots record it so `render --storage` reproduces them.
+    pub storage: ViewStorage,
     /// The focus surface the pass holds (uploaded by [`ViewerGpu::prepare`]; `None` after
     /// anything else may have rewritten the pass's scene depth).
     surface: Option<SurfacePlan>,
@@ -196,6 +199,7 @@ impl ViewerGpu {
             full_size: (lf.width, lf.height),
             strategy: Strategy::default(),
             filter: Filter::default(),
+            storage,
             surface: None,
         };
         // Each step stores what it made, so `Drop` frees it when a later step fails.

@@ -230,17 +230,9 @@ struct Core {
     surface: SurfaceChoice,
 }
 
-/// The refusal of three clicks on one line of the image.
-pub const COLLINEAR_CLICKS: &str =
-    "the three points lie on one line in the image (collinear), so their plane would pass \
-     through the camera; pick the third point off that line";
-
-/// Whether three image points lie on one line (within a tenth of a pixel of it).
-fn image_collinear(p: &[DVec2]) -> bool {
-    let (a, b) = (p[1] - p[0], p[2] - p[0]);
-    let longest = a.length().max(b.length()).max((p[2] - p[1]).length());
-    longest == 0.0 || a.perp_dot(b).abs() / longest <= 0.1
-}
+// The library refuses `render --points` on one line in the same words.
+use crate::geometry::picking::image_collinear;
+pub use crate::geometry::picking::COLLINEAR_CLICKS;
 
 /// How many changes [`Action::Undo`] can take back (the oldest are forgotten first).
 pub const UNDO_STEPS: usize = 256;

@@ -144,6 +144,12 @@ pub fn save(
     }
     let mut json = screenshot_json(state, aa, surface, depth, gpu.filter);
     if let Some(obj) = json.as_object_mut() {
+        // The views stay in one storage whatever E does: `render --average encoded` defaults
+        // to srgb8, so reproducing an encoded screenshot needs `--storage` as recorded here.
+        obj.insert(
+            "storage".into(),
+            serde_json::to_value(gpu.storage).unwrap_or_default(),
+        );
         if let Some(f) = state.frame {
             obj.insert("frame".into(), f.into());
         }
