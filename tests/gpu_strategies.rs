@@ -520,7 +520,11 @@ fn every_compute_shape_gives_the_per_pixel_sums_exactly() {
             );
         }
     }
-    for bad in [shape(5, 1, (8, 8)), shape(1, 9, (8, 8)), shape(1, 1, (64, 32))] {
+    for bad in [
+        shape(5, 1, (8, 8)),
+        shape(1, 9, (8, 8)),
+        shape(1, 1, (64, 32)),
+    ] {
         assert!(r.set_compute_shape(bad).is_err(), "{bad:?}");
     }
     assert_no_validation_errors(&r);

@@ -20,8 +20,7 @@ use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
 use crate::passes::refocus::{
     Accumulate, Accumulation, ComputeShape, Filter, OutputFormat, RefocusPass, RefocusTarget,
-    Strategy,
-    WarpMemory,
+    Strategy, WarpMemory,
 };
 use crate::passes::texture::{LightFieldTexture, ViewStorage};
 use crate::refocus::antialias::AntialiasPlan;

@@ -68,8 +68,6 @@ use crate::refocus::antialias::{AntialiasPlan, MAX_VISIBILITY_BYTES};
 use crate::refocus::surface::{SurfacePlan, SurfaceRule, MAX_PLANES};
 use crate::refocus::{Averaging, RefocusPlan};
 
-/// Workgroup edge of `refocus.comp` (8 × 8 invocations).
-
 /// How the views are summed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
 #[serde(rename_all = "lowercase", tag = "kind")]
@@ -388,8 +386,7 @@ impl ComputeShape {
     /// Checks the ranges (a workgroup of at most 1024 invocations, which every device has).
     pub fn validate(&self) -> Result<()> {
         let (w, h) = self.tile;
-        if self.pixels > 4 || !(1..=8).contains(&self.unroll) || w == 0 || h == 0 || w * h > 1024
-        {
+        if self.pixels > 4 || !(1..=8).contains(&self.unroll) || w == 0 || h == 0 || w * h > 1024 {
             return Err(Error::Invalid(format!(
                 "compute shape: pixels 0-4, unroll 1-8 and a tile of at most 1024 invocations, \
                  got {self:?}"
@@ -400,7 +397,11 @@ impl ComputeShape {
 
     /// The default with the environment's overrides (those out of range are ignored).
     fn from_env() -> Self {
-        let num = |k: &str| std::env::var(k).ok().and_then(|v| v.trim().parse::<u32>().ok());
+        let num = |k: &str| {
+            std::env::var(k)
+                .ok()
+                .and_then(|v| v.trim().parse::<u32>().ok())
+        };
         let d = ComputeShape::default();
         let tile = std::env::var("TILTFIELD_COMPUTE_TILE").ok().and_then(|v| {
             let (a, b) = v.trim().split_once('x')?;
@@ -418,7 +419,6 @@ impl ComputeShape {
         }
     }
 }
-
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 struct ResolveKey {
