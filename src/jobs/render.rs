@@ -45,6 +45,11 @@ pub struct ReadOptions {
     pub frame: Option<u64>,
 }
 
+/// Largest `--baseline` (world units between neighbouring views).
+pub const MAX_BASELINE: f64 = 1e9;
+/// `--focal-px` bounds (pixels).
+pub const FOCAL_PX_RANGE: (f64, f64) = (1e-3, 1e8);
+
 impl Default for ReadOptions {
     fn default() -> Self {
         ReadOptions {
@@ -59,18 +64,23 @@ impl ReadOptions {
     /// Checks the grid folder cameras' numbers (also where a source ignores them, so a typo
     /// is never silently dropped).
     pub fn validate(&self) -> Result<()> {
-        if self.baseline.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
-            || !self.baseline.is_finite()
-        {
+        // Bounds that keep every nominal camera a finite, invertible one: positions within
+        // the ±1e12 world units the geometry accepts for any grid of up to 1000 views a side,
+        // and a focal length a 32-bit float holds with room for the image's size.
+        if !(self.baseline > 0.0 && self.baseline <= MAX_BASELINE) {
             return Err(Error::Invalid(format!(
-                "--baseline must be positive, got {}",
-                self.baseline
+                "--baseline must be positive and at most {} world units, got {}",
+                crate::error::compact(MAX_BASELINE),
+                crate::error::compact(self.baseline)
             )));
         }
         if let Some(f) = self.focal_px {
-            if !(f.is_finite() && f > 0.0) {
+            if !(FOCAL_PX_RANGE.0..=FOCAL_PX_RANGE.1).contains(&f) {
                 return Err(Error::Invalid(format!(
-                    "--focal-px must be positive, got {f}"
+                    "--focal-px must lie in {}..{} pixels, got {}",
+                    crate::error::compact(FOCAL_PX_RANGE.0),
+                    crate::error::compact(FOCAL_PX_RANGE.1),
+                    crate::error::compact(f)
                 )));
             }
         }
@@ -857,15 +867,26 @@ mod tests {
                 baseline: f64::INFINITY,
                 ..base.clone()
             }),
-            "--baseline must be positive, got inf"
+            "--baseline must be positive and at most 1.0000e9 world units, got inf"
         );
         assert_eq!(
             bad(ReadOptions {
                 focal_px: Some(-2.0),
-                ..base
+                ..base.clone()
             }),
-            "--focal-px must be positive, got -2"
+            "--focal-px must lie in 1.0000e-3..1.0000e8 pixels, got -2"
         );
+        // The campaign's extremes: cameras that would lie beyond the geometry's reach, or a
+        // focal length that makes K singular, name the option.
+        for (baseline, focal) in [(1e308, None), (1.845e19, None), (1.0, Some(1e-308))] {
+            let e = bad(ReadOptions {
+                baseline,
+                focal_px: focal,
+                ..base.clone()
+            });
+            let option = if focal.is_some() { "--focal-px" } else { "--baseline" };
+            assert!(e.starts_with(option), "{e}");
+        }
     }
 
     #[test]
