@@ -874,7 +874,7 @@ mod tests {
                 focal_px: Some(-2.0),
                 ..base.clone()
             }),
-            "--focal-px must lie in 1.0000e-3..1.0000e8 pixels, got -2"
+            "--focal-px must lie in 0.001..1.0000e8 pixels, got -2"
         );
         // The campaign's extremes: cameras that would lie beyond the geometry's reach, or a
         // focal length that makes K singular, name the option.
