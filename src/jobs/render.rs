@@ -764,8 +764,22 @@ impl Session {
             .clone()
     }
 
-    /// Plans `options` ([`prepare`]) on the light field the request sees.
+    /// Plans `options` ([`prepare`]) on the light field the request sees. Anti-aliasing's
+    /// default follows the depth the light field *ships*, as `render` decides it: a depth an
+    /// earlier request estimated is kept for the requests that need depth (a click, a surface)
+    /// but does not turn anti-aliasing on, so the same request always gives the same image.
     pub fn prepare(&mut self, options: &RenderOptions, progress: &ProgressBar) -> Result<Prepared> {
+        let resolved;
+        let options = match options.antialias {
+            Some(_) => options,
+            None => {
+                resolved = RenderOptions {
+                    antialias: Some(refocus::antialias::wanted(None, &self.lf)),
+                    ..options.clone()
+                };
+                &resolved
+            }
+        };
         let depth = self.needs_depth(options)?;
         let excluded = self.excluded(options.include_dark);
         let ctx = Arc::clone(&self.ctx);
@@ -884,7 +898,11 @@ mod tests {
                 focal_px: focal,
                 ..base.clone()
             });
-            let option = if focal.is_some() { "--focal-px" } else { "--baseline" };
+            let option = if focal.is_some() {
+                "--focal-px"
+            } else {
+                "--baseline"
+            };
             assert!(e.starts_with(option), "{e}");
         }
     }

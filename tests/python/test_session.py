@@ -88,3 +88,17 @@ def test_the_strategy_is_the_devices_choice_unless_given():
     assert lf.last_strategy == ("batched:3", "option")
     with pytest.raises(ValueError, match="auto"):
         lf.refocus(disparity=0.25, strategy="fastest")
+
+
+def test_the_same_call_gives_the_same_image_after_an_estimate_on_the_way(grid_folder):
+    # A two-plane focus surface on a grid folder without depth estimates depth on the first
+    # call; the second call must neither anti-alias because of it nor differ.
+    lf = tiltfield.open(str(grid_folder))
+    assert not lf.has_depth
+    first = lf.refocus(disparity=[0.5, -0.5])
+    second = lf.refocus(disparity=[0.5, -0.5])
+    assert np.array_equal(first, second)
+    assert not lf.has_depth
+    # Anti-aliasing asked for uses the kept estimate, and is then a different image.
+    aa = lf.refocus(disparity=[0.5, -0.5], antialias=True)
+    assert aa.shape == first.shape and not np.array_equal(aa, first)
