@@ -24,9 +24,10 @@ use std::sync::{Arc, Mutex, MutexGuard};
 
 use glam::{DVec2, DVec3};
 use numpy::ndarray::{Array2, Array3};
-use numpy::{IntoPyArray, PyArray2, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 
 use tiltfield::depth::request::{parse_kind, DepthRequest};
 use tiltfield::error::Error;
@@ -631,12 +632,15 @@ impl LightField {
     /// ``median`` (radius of the colour-weighted median; 0: none),
     /// ``include_dark``.
     ///
-    /// Returns a ``float32`` array (H, W), NaN where there is no value. Does not install the
-    /// estimate in the light field (renders that need depth estimate and cache their own).
+    /// Returns a ``float32`` array (H, W), NaN where there is no value; with
+    /// ``confidence=True`` the tuple ``(depth, confidence)``, the confidence a ``float32``
+    /// array (H, W) in [0, 1] (what ``tiltfield depth --confidence`` writes as a PNG). Does
+    /// not install the estimate in the light field (renders that need depth estimate and
+    /// cache their own).
     #[pyo3(signature = (
         *, kind=None, planes=None, range=None, views="cross", view=None, cost=None,
         aggregation=None, radius=None, naive=false, no_fit=false, no_snap=false, median=None,
-        include_dark=false
+        include_dark=false, confidence=false
     ))]
     #[allow(clippy::too_many_arguments)] // one keyword per `tiltfield depth` option
     fn depth<'py>(
@@ -655,7 +659,8 @@ impl LightField {
         no_snap: bool,
         median: Option<u32>,
         include_dark: bool,
-    ) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        confidence: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
         let request = DepthRequest {
             kind: kind.map(parse_kind).transpose().map_err(py_err)?,
             planes,
@@ -672,7 +677,7 @@ impl LightField {
             include_dark,
         };
         let options = request.options().map_err(py_err)?;
-        let (w, h, values) = gpu_work(py, "estimating depth", || {
+        let (w, h, values, conf) = gpu_work(py, "estimating depth", || {
             let session = &lock(&self.session).0;
             let progress = indicatif::ProgressBar::hidden();
             let est = tiltfield::jobs::depth::estimate(
@@ -682,11 +687,18 @@ impl LightField {
                 &progress,
             )?;
             let values = est.values(request.kind.unwrap_or_else(|| est.natural_kind()))?;
-            Ok((est.width, est.height, values))
+            Ok((est.width, est.height, values, est.confidence))
         })?;
-        let array = Array2::from_shape_vec((h as usize, w as usize), values)
-            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
-        Ok(array.into_pyarray(py))
+        let shape = (h as usize, w as usize);
+        let array = |v: Vec<f32>| {
+            Array2::from_shape_vec(shape, v).map_err(|e| PyRuntimeError::new_err(e.to_string()))
+        };
+        let depth = array(values)?.into_pyarray(py);
+        if !confidence {
+            return Ok(depth.into_any());
+        }
+        let conf = array(conf)?.into_pyarray(py);
+        Ok(PyTuple::new(py, [depth.into_any(), conf.into_any()])?.into_any())
     }
 }
 

@@ -195,6 +195,20 @@ def test_depth_equals_the_cli_estimate(cli, planes, tmp_path):
     assert z[32, 32] == pytest.approx(4, rel=0.05)
 
 
+def test_depth_confidence_equals_the_cli_png(cli, planes, tmp_path):
+    from PIL import Image
+
+    out, conf_png = tmp_path / "d.pfm", tmp_path / "c.png"
+    cli.ok("depth", "builtin:planes", "-o", str(out), "--planes", "24", "--confidence", str(conf_png))
+    depth, conf = planes.depth(planes=24, confidence=True)
+    assert np.array_equal(depth, planes.depth(planes=24), equal_nan=True)
+    assert conf.dtype == np.float32 and conf.shape == depth.shape
+    assert conf.min() >= 0 and conf.max() <= 1 and conf.max() > conf.min()
+    # The CLI's PNG is the same confidence in 8 bits.
+    png = np.asarray(Image.open(conf_png).convert("L"), dtype=np.float64) / 255
+    assert np.abs(png - conf).max() <= 0.5 / 255 + 1e-6
+
+
 def test_from_array_with_a_disparity_map_uses_it(planes):
     views = planes.views()
     disparity = planes.depth(planes=24)
