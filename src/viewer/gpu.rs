@@ -21,7 +21,7 @@ use std::sync::Arc;
 use ash::vk;
 use image::RgbaImage;
 
-use super::refine::Batch;
+use super::refine::{shows_batch, Batch};
 use super::text::Canvas;
 use crate::error::{Error, Result};
 use crate::gpu::commands::{
@@ -708,7 +708,7 @@ struct RefocusWork<'a> {
 
 impl RefocusTargets {
     /// Step 1, refocus: the next batch of views into the target of its size, then resolve; the
-    /// window shows that target from now on.
+    /// window shows that target from now on (a full-size one once it has enough views).
     fn record_batch(
         &mut self,
         ctx: &GpuContext,
@@ -748,7 +748,12 @@ impl RefocusTargets {
         } else {
             self.full_ready = true;
         }
-        self.shown = Some(batch.divisor.max(1));
+        // A full-size sum of fewer views than a preview has is grainy and sharper than the
+        // final image: the preview stays on screen until the full-size sum has as many views
+        // as a preview's first frame (or all of them).
+        if shows_batch(batch, work.plan.views.len(), self.preview_ready) {
+            self.shown = Some(batch.divisor.max(1));
+        }
         Ok(())
     }
 

@@ -39,6 +39,13 @@ pub const STILL_OVERHEAD_FRACTION: f64 = 0.1;
 /// …but no still frame is planned longer than this (the next input waits for it).
 pub const MAX_STILL_FRAME_MS: f64 = 400.0;
 
+/// Whether the window switches to the target `batch` was summed into, of a plan of `total`
+/// views: a preview always; a full-size sum once it has [`PREVIEW_MIN_VIEWS`] views (or all),
+/// or when no preview exists to keep showing.
+pub fn shows_batch(batch: &Batch, total: usize, preview_ready: bool) -> bool {
+    batch.divisor > 1 || batch.views.end >= PREVIEW_MIN_VIEWS.min(total) || !preview_ready
+}
+
 /// The order in which to accumulate views at grid `positions` for a reference at `centre`.
 pub fn spread_order(positions: &[DVec2], centre: DVec2) -> Vec<usize> {
     let n = positions.len();
@@ -101,6 +108,8 @@ pub struct Refiner {
     /// GPU ms per frame besides the accumulation (resolve, scene, compositing).
     overhead_ms: Option<f64>,
     full_pixels: f64,
+    /// Views of the last batch planned.
+    last_batch: usize,
 }
 
 /// Least-squares line through recent (x, y) samples, older ones forgotten geometrically, so
@@ -124,6 +133,11 @@ impl CostFit {
         self.sy = k * self.sy + y;
         self.sxx = k * self.sxx + x * x;
         self.sxy = k * self.sxy + x * y;
+    }
+
+    /// Whether the samples spread in x enough to separate the fixed cost from the slope.
+    fn spread(&self) -> bool {
+        self.n > 0.0 && self.sxx > 0.0 && self.sxx - self.sx * self.sx / self.n > 1e-3 * self.sxx
     }
 
     /// (fixed, slope); through the origin while the samples do not spread in x.
@@ -154,6 +168,7 @@ impl Refiner {
             fit: CostFit::default(),
             overhead_ms: None,
             full_pixels: full_pixels.max(1) as f64,
+            last_batch: 0,
         }
     }
 
@@ -237,13 +252,27 @@ impl Refiner {
                         / STILL_OVERHEAD_FRACTION
                         / per_view)
                         .ceil() as usize;
-                    let cap = ((MAX_STILL_FRAME_MS / per_view).floor() as usize).max(1);
-                    by_budget.max(by_overhead.min(cap))
+                    // The cap counts the batch's fixed cost too: the frame is what the next
+                    // input waits for.
+                    let fixed = self.fit.line().map_or(0.0, |(a, _)| a);
+                    let cap = (((MAX_STILL_FRAME_MS - fixed).max(0.0) / per_view).floor() as usize)
+                        .max(1);
+                    let n = by_budget.max(by_overhead.min(cap));
+                    // Batches of one size cannot tell a batch's fixed cost (anti-aliasing's
+                    // focus test reads every view whatever the batch) from the cost per view,
+                    // and the line through the origin then charges it all per view: one view
+                    // per frame for ever. Doubling the batch until the sizes spread measures
+                    // both.
+                    match self.fit.spread() {
+                        true => n,
+                        false => n.max(2 * self.last_batch),
+                    }
                 }
                 None => by_budget,
             }
         };
         n = n.min(self.total - self.done);
+        self.last_batch = n;
         let batch = Batch {
             views: self.done..self.done + n,
             clear: self.done == 0,
@@ -385,5 +414,57 @@ mod tests {
         // A light field with fewer views takes them all.
         r.restart(4, true);
         assert_eq!(r.next_batch(true).unwrap().views, 0..4);
+    }
+
+    /// A batch's fixed cost that dwarfs a view's (anti-aliasing's focus test reads every view
+    /// whatever the batch) cannot be told apart from batches of one size: the still schedule
+    /// doubles its batches until their sizes spread, then sizes them by the fitted line, and
+    /// so converges in a handful of frames instead of one view per frame.
+    #[test]
+    fn a_large_fixed_cost_per_batch_is_measured_and_amortised() {
+        let cost = |views: usize| 200.0 + 5.0 * views as f64; // ms: fixed + per view
+        let mut r = Refiner::new(33.0, 512 * 512);
+        r.restart(81, false);
+        let mut frames = 0;
+        let mut sizes = Vec::new();
+        while let Some(b) = r.next_batch(false) {
+            let n = b.views.len();
+            sizes.push(n);
+            r.measured(n, b.divisor, cost(n), cost(n) + 6.0);
+            frames += 1;
+            assert!(frames <= 12, "not converging: {sizes:?}");
+        }
+        assert!(r.converged());
+        assert_eq!(sizes.iter().sum::<usize>(), 81);
+        assert!(
+            sizes[1] >= 2 && sizes[2] > sizes[1],
+            "doubling while unmeasured: {sizes:?}"
+        );
+        // No still frame is planned past the cap, fixed cost included.
+        assert!(
+            sizes.iter().all(|&n| cost(n) <= MAX_STILL_FRAME_MS + 1e-9),
+            "{sizes:?}"
+        );
+    }
+
+    #[test]
+    fn a_full_size_sum_shows_only_once_it_has_a_previews_views() {
+        let b = |views: std::ops::Range<usize>, divisor| Batch {
+            clear: views.start == 0,
+            views,
+            divisor,
+        };
+        assert!(shows_batch(&b(0..1, 4), 81, true), "previews always show");
+        assert!(
+            !shows_batch(&b(0..1, 1), 81, true),
+            "one view at full size stays hidden"
+        );
+        assert!(!shows_batch(&b(4..8, 1), 81, true));
+        assert!(shows_batch(&b(4..9, 1), 81, true));
+        assert!(
+            shows_batch(&b(0..4, 1), 4, true),
+            "a small aperture: all its views"
+        );
+        assert!(shows_batch(&b(0..1, 1), 81, false), "nothing else to show");
     }
 }

@@ -139,8 +139,12 @@ impl Refinement {
             t.accumulate_ms,
             t.frame_ms
         );
-        self.refiner
-            .measured(t.views, t.divisor, t.accumulate_ms, t.frame_ms);
+        // Reduced-size previews of an anti-aliased refinement are plain sums (Session::draw):
+        // their cost says nothing about the anti-aliased frames the schedule plans.
+        if !(t.divisor > 1 && self.ordered_aa.is_some()) {
+            self.refiner
+                .measured(t.views, t.divisor, t.accumulate_ms, t.frame_ms);
+        }
         self.last_gpu_ms = Some(t.frame_ms);
         let (id, was_interactive) = t.tag;
         if was_interactive {
