@@ -148,10 +148,10 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
     let (w, h) = report.size;
     // The first frame includes the upload and any depth estimate; the others are the
     // steady state, what each frame costs.
-    let later = &report.frame_ms[1.min(report.frame_ms.len())..];
-    let mean_ms = (!later.is_empty()).then(|| later.iter().sum::<f64>() / later.len() as f64);
-    let gpu: Vec<f64> = report.gpu_ms.iter().flatten().copied().collect();
-    let gpu_mean = (!gpu.is_empty()).then(|| gpu.iter().sum::<f64>() / gpu.len() as f64);
+    let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+    let mean_ms = mean(&report.frame_ms[1.min(report.frame_ms.len())..]);
+    let gpu: Vec<f64> = report.gpu_ms.iter().skip(1).flatten().copied().collect();
+    let gpu_mean = mean(&gpu);
     if r.json {
         let motion = match animation.motion {
             Motion::Sweep { key, from, to } => {
@@ -190,6 +190,7 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
                 "mean_frame": mean_ms,
                 "per_frame": report.frame_ms,
                 "gpu_refocus_mean": gpu_mean,
+                "gpu_refocus_per_frame": report.gpu_ms,
             },
         });
         println!(
