@@ -9,6 +9,8 @@
 #   Window: X11 headers for GLFW's bundled build, xvfb for headless window tests
 #   Python: venv and headers for the Python module (tools/test.sh builds it into a virtual
 #           environment; pyo3 needs the interpreter's headers and `python3 -m venv`)
+#   Video:  ffmpeg (`tiltfield animate -o OUT.mp4` pipes its frames to it for H.264; its tests
+#           count the frames with ffprobe, which comes with it)
 # Needs root or sudo for apt-get; installs Rust with rustup only if cargo is missing.
 set -euo pipefail
 
@@ -17,6 +19,7 @@ packages=(
   libshaderc-dev glslang-dev spirv-tools glslc
   cmake python3 python3-venv python3-dev g++ pkg-config
   libx11-dev libxrandr-dev libxinerama-dev libxcursor-dev libxi-dev libxkbcommon-dev xvfb
+  ffmpeg
 )
 
 missing=()

@@ -23,11 +23,11 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::{Arc, Mutex, MutexGuard};
 
 use glam::{DVec2, DVec3};
-use numpy::ndarray::{Array2, Array3};
+use numpy::ndarray::{Array2, Array3, Array4};
 use numpy::{IntoPyArray, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::exceptions::{PyOSError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::PyTuple;
+use pyo3::types::{PyDict, PyTuple};
 
 use tiltfield::depth::request::{parse_kind, DepthRequest};
 use tiltfield::error::Error;
@@ -35,6 +35,8 @@ use tiltfield::geometry::aperture::Aperture;
 use tiltfield::geometry::picking::Nudge;
 use tiltfield::geometry::plane::Plane;
 use tiltfield::gpu::{GpuContext, GpuOptions};
+use tiltfield::jobs::animate::encode::{self, Format};
+use tiltfield::jobs::animate::{self, Animation, Motion, SweepKey};
 use tiltfield::jobs::refocus::GpuImage;
 use tiltfield::jobs::render::{self, ReadOptions, RenderOptions, Session};
 use tiltfield::jobs::strategy::{StrategyChoice, StrategySource};
@@ -226,7 +228,34 @@ fn focus_options(
     normal_window: Option<u32>,
     normal_method: &str,
 ) -> PyResult<FocusOptions> {
-    let focus = FocusOptions {
+    let focus = focus_options_unchecked(
+        disparity,
+        plane,
+        focus,
+        (tilt, swing),
+        (click, points, points_3d),
+        (nudge_distance, nudge_tilt, nudge_swing),
+        normal_window,
+        normal_method,
+    )?;
+    focus.validate().map_err(py_err)?;
+    Ok(focus)
+}
+
+/// [`focus_options`] without the check that one focus is given: an animation's sweep may
+/// give the focus itself.
+#[allow(clippy::too_many_arguments)] // the focus keywords, grouped where they belong together
+fn focus_options_unchecked(
+    disparity: Option<&Bound<'_, PyAny>>,
+    plane: Option<&Bound<'_, PyAny>>,
+    focus: Option<&Bound<'_, PyAny>>,
+    (tilt, swing): (Option<&Bound<'_, PyAny>>, Option<&Bound<'_, PyAny>>),
+    (click, points, points_3d): (Pick<'_, '_>, Pick<'_, '_>, Pick<'_, '_>),
+    (nudge_distance, nudge_tilt, nudge_swing): (Option<f64>, Option<f64>, Option<f64>),
+    normal_window: Option<u32>,
+    normal_method: &str,
+) -> PyResult<FocusOptions> {
+    Ok(FocusOptions {
         disparity: values_of(disparity, "--disparity")?,
         planes: planes_of(plane)?,
         focus: values_of(focus, "--focus")?,
@@ -256,9 +285,135 @@ fn focus_options(
         ),
         normal_window,
         normal_method: choice(Some(normal_method))?.unwrap_or_default(),
+    })
+}
+
+/// A render request built from `refocus`'s keywords (what `animate` passes on): the
+/// library's [`RenderOptions`] in a Python object, so `animate(**options)` is converted by
+/// [`render_options`]'s one keyword list.
+#[pyclass(module = "tiltfield", frozen)]
+struct RenderRequest(RenderOptions);
+
+/// The keywords of :meth:`LightField.refocus` (all but ``linear``) as the library's render
+/// request: what `refocus` renders and what `animate` animates. The focus is not checked here
+/// (an animation's sweep may give it); everything else is. Named `animate` for Python, whose
+/// unknown-keyword errors then name the method that was called with it.
+#[pyfunction]
+#[pyo3(name = "animate", signature = (
+    *, disparity=None, plane=None, focus=None, tilt=None, swing=None, click=None,
+    points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
+    normal_window=None, normal_method="inverse-depth", slab=None, all_in_focus=false,
+    aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
+    include_dark=false, antialias=None, antialias_samples=4, antialias_prefilter=true,
+    antialias_focus_test=true, antialias_focused_bicubic=true, antialias_occlusion=true,
+    antialias_defocus=false, strategy=None,
+    views_per_draw=0, filter=None, accumulation=None, warps=None, storage=None
+))]
+#[allow(clippy::too_many_arguments)] // one keyword per CLI option, as `refocus`
+fn render_options(
+    disparity: Option<&Bound<'_, PyAny>>,
+    plane: Option<&Bound<'_, PyAny>>,
+    focus: Option<&Bound<'_, PyAny>>,
+    tilt: Option<&Bound<'_, PyAny>>,
+    swing: Option<&Bound<'_, PyAny>>,
+    click: Option<&Bound<'_, PyAny>>,
+    points: Option<&Bound<'_, PyAny>>,
+    points_3d: Option<&Bound<'_, PyAny>>,
+    nudge_distance: Option<f64>,
+    nudge_tilt: Option<f64>,
+    nudge_swing: Option<f64>,
+    normal_window: Option<u32>,
+    normal_method: &str,
+    slab: Option<f64>,
+    all_in_focus: bool,
+    aperture: &str,
+    aperture_radius: Option<f64>,
+    view: Option<&Bound<'_, PyAny>>,
+    size: Option<(i64, i64)>,
+    average: &str,
+    include_dark: bool,
+    antialias: Option<bool>,
+    antialias_samples: u32,
+    antialias_prefilter: bool,
+    antialias_focus_test: bool,
+    antialias_focused_bicubic: bool,
+    antialias_occlusion: bool,
+    antialias_defocus: bool,
+    strategy: Option<&str>,
+    views_per_draw: usize,
+    filter: Option<&str>,
+    accumulation: Option<&str>,
+    warps: Option<&str>,
+    storage: Option<&str>,
+) -> PyResult<RenderRequest> {
+    let focus = focus_options_unchecked(
+        disparity,
+        plane,
+        focus,
+        (tilt, swing),
+        (click, points, points_3d),
+        (nudge_distance, nudge_tilt, nudge_swing),
+        normal_window,
+        normal_method,
+    )?;
+    let options = RenderOptions {
+        focus,
+        slab,
+        all_in_focus,
+        aperture: Aperture {
+            shape: choice(Some(aperture))?.unwrap_or(Aperture::default().shape),
+            radius: aperture_radius,
+        },
+        reference: numbers_of(view, 2, "--view")?.map(|v| DVec2::new(v[0], v[1])),
+        averaging: choice(Some(average))?.unwrap_or_default(),
+        include_dark,
+        antialias,
+        antialias_sampling: AntialiasSettings {
+            max_samples: antialias_samples,
+            prefilter: antialias_prefilter,
+            focus_test: antialias_focus_test,
+            focused_bicubic: antialias_focused_bicubic,
+            occlusion: antialias_occlusion,
+            defocus: antialias_defocus,
+        },
+        strategy: choice::<StrategyChoice>(strategy)?.and_then(|c| c.0),
+        views_per_draw,
+        filter: choice(filter)?,
+        accumulation: choice(accumulation)?,
+        warps: choice(warps)?,
+        storage: choice(storage)?,
+        size: size
+            .map(|(w, h)| render::output_size(w, h))
+            .transpose()
+            .map_err(py_err)?,
+        output: OutputFormat::Srgb8,
     };
-    focus.validate().map_err(py_err)?;
-    Ok(focus)
+    Ok(RenderRequest(options))
+}
+
+/// The motion of `animate`'s `sweep` and `orbit` keywords: exactly one, as the CLI's options.
+fn motion_of(sweep: Option<&Bound<'_, PyAny>>, orbit: Option<f64>) -> PyResult<Motion> {
+    match (sweep, orbit) {
+        (Some(sweep), None) => {
+            if let Ok(text) = sweep.extract::<String>() {
+                return Motion::parse_sweep(&text).map_err(py_err);
+            }
+            let (key, from, to): (String, f64, f64) = sweep.extract().map_err(|_| {
+                PyValueError::new_err(format!(
+                    "--sweep: expected \"KEY=A..B\" or (KEY, A, B), got {}",
+                    repr(sweep)
+                ))
+            })?;
+            Motion::sweep(SweepKey::parse(&key).map_err(py_err)?, from, to).map_err(py_err)
+        }
+        (None, Some(radius)) => Motion::orbit(radius).map_err(py_err),
+        (Some(_), Some(_)) => Err(PyValueError::new_err(
+            "give one motion, --sweep or --orbit, not both",
+        )),
+        (None, None) => Err(PyValueError::new_err(
+            "give one motion: --sweep KEY=A..B or --orbit R",
+        )),
+    }
 }
 
 /// A plane as `((px, py, pz), (nx, ny, nz))`.
@@ -490,52 +645,47 @@ impl LightField {
         storage: Option<&str>,
         linear: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let focus = focus_options(
+        let mut options = render_options(
             disparity,
             plane,
             focus,
-            (tilt, swing),
-            (click, points, points_3d),
-            (nudge_distance, nudge_tilt, nudge_swing),
+            tilt,
+            swing,
+            click,
+            points,
+            points_3d,
+            nudge_distance,
+            nudge_tilt,
+            nudge_swing,
             normal_window,
             normal_method,
-        )?;
-        let options = RenderOptions {
-            focus,
             slab,
             all_in_focus,
-            aperture: Aperture {
-                shape: choice(Some(aperture))?.unwrap_or(Aperture::default().shape),
-                radius: aperture_radius,
-            },
-            reference: numbers_of(view, 2, "--view")?.map(|v| DVec2::new(v[0], v[1])),
-            averaging: choice(Some(average))?.unwrap_or_default(),
+            aperture,
+            aperture_radius,
+            view,
+            size,
+            average,
             include_dark,
             antialias,
-            antialias_sampling: AntialiasSettings {
-                max_samples: antialias_samples,
-                prefilter: antialias_prefilter,
-                focus_test: antialias_focus_test,
-                focused_bicubic: antialias_focused_bicubic,
-                occlusion: antialias_occlusion,
-                defocus: antialias_defocus,
-            },
-            strategy: choice::<StrategyChoice>(strategy)?.and_then(|c| c.0),
+            antialias_samples,
+            antialias_prefilter,
+            antialias_focus_test,
+            antialias_focused_bicubic,
+            antialias_occlusion,
+            antialias_defocus,
+            strategy,
             views_per_draw,
-            filter: choice(filter)?,
-            accumulation: choice(accumulation)?,
-            warps: choice(warps)?,
-            storage: choice(storage)?,
-            size: size
-                .map(|(w, h)| render::output_size(w, h))
-                .transpose()
-                .map_err(py_err)?,
-            output: if linear {
-                OutputFormat::Float
-            } else {
-                OutputFormat::Srgb8
-            },
-        };
+            filter,
+            accumulation,
+            warps,
+            storage,
+        )?
+        .0;
+        options.focus.validate().map_err(py_err)?;
+        if linear {
+            options.output = OutputFormat::Float;
+        }
         options.check().map_err(py_err)?;
         let (image, timings) = gpu_work(py, "rendering", || {
             let session = &mut lock(&self.session).0;
@@ -553,6 +703,98 @@ impl LightField {
         })?;
         *lock(&self.last_gpu_ms) = timings.map(|t| t.refocus_ms + t.resolve_ms);
         image_to_numpy(py, image)
+    }
+
+    /// An animation (``tiltfield animate``): ``frames`` renders of one motion, with one
+    /// upload for all, each frame byte for byte the :meth:`refocus` of its state.
+    ///
+    /// The motion is one of:
+    ///
+    /// - ``sweep="KEY=A..B"`` (or ``(KEY, A, B)``): one option from A to B, evenly over the
+    ///   frames and both ends included (A > B runs backwards); KEY is ``disparity``, ``focus``
+    ///   (with ``tilt``/``swing``), ``tilt`` or ``swing`` (with ``focus=Z``), or
+    ///   ``aperture_radius`` (with a focus);
+    /// - ``orbit=R``: the viewpoint on a circle of R grid steps around the grid centre, frame
+    ///   k at angle 2πk/N from the +s (column) axis towards +t, i.e. ``view=(c_s + R cos θ,
+    ///   c_t + R sin θ)``; needs a focus.
+    ///
+    /// ``bounce=True`` plays forward then backward without showing the ends twice. Every other
+    /// keyword is :meth:`refocus`'s (not ``linear``: frames are 8-bit sRGB).
+    ///
+    /// Returns the frames in playback order as a ``uint8`` array (N, H, W, 4), or, with
+    /// ``path=``, writes them (``.png``: animated PNG, ``.gif``, ``.mp4``: H.264 through
+    /// ``ffmpeg``) at ``fps`` frames per second and returns ``None``. Raises ``ValueError``
+    /// for a bad motion or keyword, with the CLI's message.
+    #[pyo3(signature = (
+        frames, *, sweep=None, orbit=None, bounce=false, fps=20.0, path=None, **options
+    ))]
+    #[allow(clippy::too_many_arguments)] // the animation's own keywords, as the CLI's options
+    fn animate<'py>(
+        &self,
+        py: Python<'py>,
+        frames: i64,
+        sweep: Option<&Bound<'py, PyAny>>,
+        orbit: Option<f64>,
+        bounce: bool,
+        fps: f64,
+        path: Option<std::path::PathBuf>,
+        options: Option<&Bound<'py, PyDict>>,
+    ) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let base = wrap_pyfunction!(render_options, py)?
+            .call((), options)?
+            .downcast_into::<RenderRequest>()?
+            .get()
+            .0
+            .clone();
+        let motion = motion_of(sweep, orbit)?;
+        let frames = usize::try_from(frames).map_err(|_| {
+            PyValueError::new_err(format!(
+                "--frames {frames}: an animation has 1 to {} frames",
+                animate::MAX_FRAMES
+            ))
+        })?;
+        let animation = Animation::new(motion, frames, bounce).map_err(py_err)?;
+        animation.states(&base, None).map_err(py_err)?;
+        let format = path
+            .as_deref()
+            .map(|p| -> tiltfield::Result<Format> {
+                let format = Format::from_path(p)?;
+                format.check_fps(fps)?;
+                format.check_available()?;
+                tiltfield::io::check_writable(p)?;
+                Ok(format)
+            })
+            .transpose()
+            .map_err(py_err)?;
+        let shown = animation.order().len();
+        let rendered = gpu_work(py, "animating", || {
+            let session = &mut lock(&self.session).0;
+            let states = animation.states(&base, Some(session.light_field().grid))?;
+            let hidden = indicatif::ProgressBar::hidden();
+            let mut run = |sink: &mut encode::Sink| {
+                animate::render(session, &animation, &states, &hidden, |_| {}, sink)
+            };
+            match (&path, format) {
+                (Some(path), Some(format)) => {
+                    encode::write(format, path, fps, shown, run)?;
+                    Ok(None)
+                }
+                _ => {
+                    let mut all = Vec::new();
+                    let report = run(&mut |frame| {
+                        all.extend_from_slice(frame.as_raw());
+                        Ok(())
+                    })?;
+                    Ok(Some((all, report.size)))
+                }
+            }
+        })?;
+        let Some((all, (w, h))) = rendered else {
+            return Ok(None);
+        };
+        let a = Array4::from_shape_vec((shown, h as usize, w as usize, 4), all)
+            .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        Ok(Some(a.into_pyarray(py).into_any()))
     }
 
     /// The focus plane a :meth:`refocus` call with the same focus keywords would use (the

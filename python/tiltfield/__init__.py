@@ -9,6 +9,8 @@ frontoparallel disparity, a plane picked by a click, several planes, a slab, or 
     >>> lf = tiltfield.open("/data/hci/backgammon")          # or tiltfield.from_array(views)
     >>> img = lf.refocus(disparity=0.5)                       # uint8 (H, W, 4), sRGB
     >>> tilted = lf.refocus(focus=3.0, tilt=10, linear=True)  # float32 (H, W, 4), linear
+    >>> pull = lf.animate(20, sweep="disparity=-1.5..1.5")    # uint8 (20, H, W, 4) frames
+    >>> lf.animate(20, orbit=2, disparity=0, path="orbit.gif")  # written as tiltfield animate
 
 Conventions (as the ``tiltfield`` command line's; see its README):
 

@@ -1,5 +1,6 @@
 //! The `tiltfield` command line: argument parsing and the subcommands.
 
+mod animate;
 mod bench;
 mod cloud;
 mod demo;
@@ -40,6 +41,10 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Refocus a light field onto a plane and write PNG or EXR.
     Render(Box<render::RenderArgs>),
+    /// Animate a refocus as an animated PNG, GIF or MP4: a focus pull, a tilt or swing sweep,
+    /// an aperture opening (--sweep KEY=A..B) or the viewpoint circling the grid centre
+    /// (--orbit R), with every render option.
+    Animate(Box<animate::AnimateArgs>),
     /// Render a synthetic light field with ground truth (depth, disparity, normals, optical
     /// tilt-shift image) from a glTF scene or a built-in scene.
     Synth(Box<synth::SynthArgs>),
@@ -288,6 +293,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Info(a) => info::run(&a),
         Command::Render(a) => render::run(&a),
+        Command::Animate(a) => animate::run(&a),
         Command::Synth(a) => synth::run(&a),
         Command::Cloud(a) => cloud::run(&a),
         Command::Bench(a) => bench::run(&a),

@@ -10,11 +10,13 @@
 //!
 //! - [`refocus`]: headless refocus images (render, frames, tests);
 //! - [`render`]: one render as a front end asks for it (options, depth, focus, plans);
+//! - [`animate`]: focus pulls, tilt sweeps and orbits as animated PNG, GIF or MP4;
 //! - [`batch`]: many refocus images of one light field in one set-up (focal stacks, videos);
 //! - [`depth`]: the GPU plane sweep of [`crate::depth`]'s plan, and `ensure_depth` with its cache;
 //! - [`strategy`]: `--strategy auto`, the fastest way of summing on this device (measured once);
 //! - [`raster`]: synthetic light fields and optical ground truth from the mesh rasterizer.
 
+pub mod animate;
 pub mod batch;
 pub mod depth;
 pub mod raster;
