@@ -27,7 +27,7 @@ use crate::jobs::render::{check_output_fits, Session};
 #[derive(Debug, Args)]
 #[command(
     group(clap::ArgGroup::new("motion").required(true).args(["sweep", "orbit"])),
-    mut_group("focus_plane", |g| g.required(false)),
+    mut_group("focus_or_all", |g| g.required(false)),
     mut_arg("tilt", |a| a.requires(clap::builder::Resettable::<clap::Id>::Reset)),
     mut_arg("swing", |a| a.requires(clap::builder::Resettable::<clap::Id>::Reset)),
     mut_arg("frames", |a| a
