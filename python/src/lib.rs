@@ -476,9 +476,10 @@ impl LightField {
     /// manifest's maps, built-in scenes, ``from_array(depth=...)``). Without one, a click, a
     /// focus surface or ``antialias=True`` estimates depth from the views first (cached on
     /// disk), as ``tiltfield render`` does; and anti-aliasing is on by default exactly when
-    /// this is true. An estimate made on the way is kept for later calls that need depth but
-    /// does not change this, nor the anti-aliasing default: the same call on the same object
-    /// always returns the same image.
+    /// this is true (and for a click, whose estimate it then uses, as the CLI does). An
+    /// estimate made on the way is kept for later calls that need depth but changes neither
+    /// this nor the anti-aliasing default: the same call on the same object always returns
+    /// the same image, the one ``tiltfield render`` writes for it.
     #[getter]
     fn has_depth(&self) -> bool {
         !lock(&self.session).0.light_field().depth.is_empty()

@@ -765,16 +765,18 @@ impl Session {
     }
 
     /// Plans `options` ([`prepare`]) on the light field the request sees. Anti-aliasing's
-    /// default follows the depth the light field *ships*, as `render` decides it: a depth an
-    /// earlier request estimated is kept for the requests that need depth (a click, a surface)
-    /// but does not turn anti-aliasing on, so the same request always gives the same image.
+    /// default is what `render` decides from the light field as loaded: on where it ships
+    /// depth, and where the request's focus is picked in the depth (a click estimates it
+    /// first). A depth an earlier request estimated is kept for the requests that need depth
+    /// but decides nothing, so the same request always gives the same image, `render`'s.
     pub fn prepare(&mut self, options: &RenderOptions, progress: &ProgressBar) -> Result<Prepared> {
         let resolved;
         let options = match options.antialias {
             Some(_) => options,
             None => {
+                let on = refocus::antialias::wanted(None, &self.lf) || options.focus.needs_depth();
                 resolved = RenderOptions {
-                    antialias: Some(refocus::antialias::wanted(None, &self.lf)),
+                    antialias: Some(on),
                     ..options.clone()
                 };
                 &resolved
