@@ -383,7 +383,8 @@ impl Default for ComputeShape {
 }
 
 impl ComputeShape {
-    /// Checks the ranges (a workgroup of at most 1024 invocations, which every device has).
+    /// Checks the ranges: a workgroup of at most 1024 invocations, what desktop and data-centre
+    /// GPUs take (Vulkan guarantees 128; the default, 8×16, stays within that).
     pub fn validate(&self) -> Result<()> {
         let (w, h) = self.tile;
         if self.pixels > 4 || !(1..=8).contains(&self.unroll) || w == 0 || h == 0 || w * h > 1024 {
@@ -412,10 +413,12 @@ impl ComputeShape {
             unroll: num("TILTFIELD_COMPUTE_UNROLL").unwrap_or(d.unroll),
             tile: tile.unwrap_or(d.tile),
         };
-        if s.validate().is_ok() {
-            s
-        } else {
-            d
+        match s.validate() {
+            Ok(()) => s,
+            Err(e) => {
+                log::warn!("TILTFIELD_COMPUTE_*: {e}; using the default {d:?}");
+                d
+            }
         }
     }
 }
