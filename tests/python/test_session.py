@@ -102,3 +102,38 @@ def test_the_same_call_gives_the_same_image_after_an_estimate_on_the_way(grid_fo
     # Anti-aliasing asked for uses the kept estimate, and is then a different image.
     aa = lf.refocus(disparity=[0.5, -0.5], antialias=True)
     assert aa.shape == first.shape and not np.array_equal(aa, first)
+
+
+def test_a_focal_stack_is_its_single_calls_with_one_upload(planes):
+    calls = []
+    values = [-0.5, 0.0, 0.5]
+    stack = planes.focal_stack(
+        disparity=values, antialias=False, progress=lambda k, n: calls.append((k, n))
+    )
+    assert stack.dtype == np.uint8 and stack.shape == (3, 64, 64, 4)
+    for k, d in enumerate(values):
+        assert np.array_equal(stack[k], planes.refocus(disparity=d, antialias=False))
+    assert calls == [(1, 3), (2, 3), (3, 3)]
+    # focus= planes take tilt; linear output is float32; arrays are sequences too.
+    tilted = planes.focal_stack(focus=np.array([3.0, 4.0]), tilt=5, linear=True, antialias=False)
+    assert tilted.dtype == np.float32 and tilted.shape == (2, 64, 64, 4)
+    assert np.array_equal(tilted[1], planes.refocus(focus=4.0, tilt=5, linear=True, antialias=False))
+
+
+def test_a_focal_stack_refuses_bad_values_and_stops_on_an_interrupt(planes):
+    for kwargs in [{}, {"disparity": [0.1], "focus": [3.0]}, {"disparity": []}, {"disparity": [float("nan")]}]:
+        with pytest.raises(ValueError, match="focal_stack"):
+            planes.focal_stack(**kwargs)
+    with pytest.raises(TypeError, match="focal_stack"):
+        planes.focal_stack(disparity="far")
+    with pytest.raises(TypeError, match="focal_stack"):
+        planes.focal_stack(disparity=[0.1], no_such_option=3)
+
+    def interrupt(k, n):
+        if k == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        planes.focal_stack(disparity=[0.1, 0.2, 0.3, 0.4], antialias=False, progress=interrupt)
+    # The session is usable after the interruption.
+    assert planes.refocus(disparity=0.1, antialias=False).shape == (64, 64, 4)
