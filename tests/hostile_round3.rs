@@ -529,3 +529,47 @@ fn a_forged_cache_entry_is_named_and_estimated_again() {
     let err = accepted(120, &["cloud", s(grid), "-o", s(&ply)], dir);
     assert!(!err.contains("estimating again"), "{err}");
 }
+
+/// The fourth campaign's unclear messages about lengths and sizes: extreme `synth` lengths and
+/// `depth-set` sizes are refused naming the option and its range, before any work.
+#[test]
+fn extreme_lengths_and_sizes_name_their_option() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cache = tmp.path().join("cache");
+    let out = tmp.path().join("out");
+    for (option, value) in [
+        ("--baseline", "18446744073709551615"),
+        ("--baseline", "1e-308"),
+        ("--focus-distance", "1e308"),
+        ("--converge-distance", "1e308"),
+        ("--converge-distance", "1e-308"),
+    ] {
+        let arg = format!("{option}={value}");
+        let mut args = vec![
+            "synth",
+            "builtin:planes",
+            "--out",
+            s(&out),
+            "--grid",
+            "3x3",
+            "--size",
+            "32x32",
+        ];
+        if option == "--converge-distance" {
+            args.extend(["--layout", "manifest", "--rig", "converging"]);
+        }
+        args.push(&arg);
+        refused(30, 1, &args, &cache, &[option, "world units"]);
+        assert!(!out.exists(), "{arg}: nothing may be written");
+    }
+    for size in ["0", "1", "4096"] {
+        let arg = format!("--size={size}");
+        refused(
+            30,
+            1,
+            &["depth-set", "--scenes", "planes", "--grid", "3", &arg],
+            &cache,
+            &["--size", "48 to 512"],
+        );
+    }
+}

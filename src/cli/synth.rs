@@ -214,14 +214,27 @@ fn check_request(args: &SynthArgs, cols: u32, rows: u32, width: u32, height: u32
             )));
         }
     }
+    if let Some(v) = args.focal_mm {
+        positive(v, "--focal-mm")?;
+    }
+    // Lengths in world units within the bounds a grid folder's --baseline has: beyond them the
+    // cameras leave the geometry's ±1e12 or see nothing, and the message would not name the
+    // option.
+    let (lo, hi) = DISTANCE_RANGE;
     for (what, v) in [
         ("--baseline", args.baseline),
-        ("--focal-mm", args.focal_mm),
         ("--focus-distance", args.focus_distance),
         ("--converge-distance", args.converge_distance),
     ] {
         if let Some(v) = v {
-            positive(v, what)?;
+            if !(lo..=hi).contains(&v) {
+                return Err(Error::Invalid(format!(
+                    "{what} must lie in {}..{} world units, got {}",
+                    crate::error::compact(lo),
+                    crate::error::compact(hi),
+                    crate::error::compact(v)
+                )));
+            }
         }
     }
     Ok(())
@@ -286,6 +299,9 @@ fn check_out_dir(out: &Path) -> Result<()> {
     crate::io::check_writable_folder(out, hci::CONFIG_NAME)
         .map_err(|e| Error::Invalid(format!("--out: {e}")))
 }
+
+/// Bounds of `synth`'s lengths (`--baseline`, `--focus-distance`, `--converge-distance`).
+pub const DISTANCE_RANGE: (f64, f64) = (1e-9, crate::jobs::render::MAX_BASELINE);
 
 fn positive(v: f64, what: &str) -> Result<f64> {
     if v.is_finite() && v > 0.0 {

@@ -71,12 +71,12 @@ pub fn synthetic(grid: usize, size: u32, only: Option<&[String]>) -> Result<Vec<
     };
     if !(3..=9).contains(&grid) || grid % 2 == 0 {
         return Err(Error::Invalid(format!(
-            "the test set's grid must be 3, 5, 7 or 9 views a side, got {grid}"
+            "--grid: the test set's grid must be 3, 5, 7 or 9 views a side, got {grid}"
         )));
     }
     if !(48..=512).contains(&size) {
         return Err(Error::Invalid(format!(
-            "the test set's views must be 48 to 512 px a side, got {size}"
+            "--size: the test set's views must be 48 to 512 px a side, got {size}"
         )));
     }
     Ok(scenes
