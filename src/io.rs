@@ -525,6 +525,14 @@ pub fn save_exr_channel(
 }
 
 /// Output file kind, from the extension.
+/// `path`'s extension in lower case (`None` without one or when it is not UTF-8): how every
+/// file format here is chosen, so `X.PNG` and `x.png` are read and written alike.
+pub fn extension_lower(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum OutputKind {
     Png,
@@ -534,12 +542,7 @@ pub enum OutputKind {
 impl OutputKind {
     /// `.png` or `.exr` (case-insensitive); anything else is an error naming the path.
     pub fn from_path(path: &Path) -> Result<Self> {
-        match path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(|e| e.to_ascii_lowercase())
-            .as_deref()
-        {
+        match extension_lower(path).as_deref() {
             Some("png") => Ok(Self::Png),
             Some("exr") => Ok(Self::Exr),
             _ => Err(Error::Invalid(format!(

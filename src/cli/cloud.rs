@@ -81,11 +81,7 @@ fn f32x3(v: DVec3) -> [f32; 3] {
 }
 
 pub fn run(args: &CloudArgs) -> Result<()> {
-    let ext = args
-        .output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
+    let ext = crate::io::extension_lower(&args.output);
     if ext.as_deref() != Some("ply") {
         return Err(Error::Invalid(format!(
             "{}: the cloud is written as PLY; give a file name ending in .ply",

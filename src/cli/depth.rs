@@ -228,10 +228,7 @@ pub fn options(args: &DepthArgs) -> Result<DepthOptions> {
 
 /// Writes `values` as PFM or EXR by the extension of `path`.
 fn write_map(path: &Path, est: &DepthEstimate, kind: DepthKind, values: &[f32]) -> Result<()> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
+    let ext = crate::io::extension_lower(path);
     match ext.as_deref() {
         Some("pfm") => write_pfm(path, est.width, est.height, 1, values),
         Some("exr") => {
@@ -250,10 +247,7 @@ fn write_map(path: &Path, est: &DepthEstimate, kind: DepthKind, values: &[f32]) 
 
 /// Checks an output's extension among `allowed` before any work.
 fn check_extension(path: &Path, allowed: &[&str], what: &str) -> Result<()> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
+    let ext = crate::io::extension_lower(path);
     if ext.as_deref().is_some_and(|e| allowed.contains(&e)) {
         return Ok(());
     }

@@ -49,10 +49,8 @@ pub const EXTENSIONS: [&str; 4] = ["png", "jpg", "jpeg", "bmp"];
 /// True for a file name with an image extension that is not hidden.
 pub fn is_image_name(name: &str) -> bool {
     !name.starts_with('.')
-        && Path::new(name)
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+        && crate::io::extension_lower(Path::new(name))
+            .is_some_and(|e| EXTENSIONS.contains(&e.as_str()))
 }
 
 /// The names of the image files directly in `dir` (see [`is_image_name`]), sorted.

@@ -528,10 +528,7 @@ fn rig_deviation(
 
 /// Reads a depth or disparity map, `.pfm` or `.exr` by extension.
 pub fn read_depth_map(path: &Path, kind: DepthKind) -> Result<DepthMap> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
+    let ext = crate::io::extension_lower(path);
     match ext.as_deref() {
         Some("pfm") => read_pfm_depth(path, kind),
         Some("exr") => read_exr_depth(path, kind),

@@ -70,10 +70,7 @@ pub fn load(path: &Path) -> Result<GltfScene> {
             ),
         ));
     }
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase());
+    let ext = crate::io::extension_lower(path);
     if !matches!(ext.as_deref(), Some("gltf") | Some("glb")) {
         return Err(Error::bad_file(
             path,

@@ -42,12 +42,7 @@ impl Format {
     /// The format of `path` by its extension (case-insensitive): `.png` (or `.apng`), `.gif`,
     /// `.mp4`.
     pub fn from_path(path: &Path) -> Result<Self> {
-        match path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(|e| e.to_ascii_lowercase())
-            .as_deref()
-        {
+        match crate::io::extension_lower(path).as_deref() {
             Some("png" | "apng") => Ok(Format::Apng),
             Some("gif") => Ok(Format::Gif),
             Some("mp4") => Ok(Format::Mp4),
