@@ -244,6 +244,7 @@ fn more_views_than_the_uniform_buffer_holds_fall_back_to_the_storage_buffer() {
         }],
         background: [0.0; 3],
         solids: Vec::new(),
+        lighting: None,
     };
     let grid = GridSize { cols: 17, rows: 17 };
     let lf = tiltfield::synth::render_light_field(&scene, "many", grid, 8, 8, &rig, 1);

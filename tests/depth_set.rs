@@ -74,12 +74,12 @@ fn the_default_beats_the_sweep_and_the_naive_sweep_over_the_whole_set() {
         rows.len(),
         4 * testset::synthetic(3, 48, None).unwrap().len()
     );
-    // The means' bounds were measured on the nine scenes before the converging rig joined
-    // the set; it is held to its own bounds below.
+    // The means' bounds were measured on the nine scenes before the converging rig and the
+    // shaded scenes joined the set; those are held to their own bounds below.
     let mean = |v: &str| {
         let of: Vec<&SetRow> = rows
             .iter()
-            .filter(|r| r.variant == v && r.scene != "converging")
+            .filter(|r| r.variant == v && r.scene != "converging" && !shaded(&r.scene))
             .collect();
         testset::mean(&of)
     };
@@ -149,13 +149,42 @@ fn the_default_beats_the_sweep_and_the_naive_sweep_over_the_whole_set() {
     assert!(rows.iter().all(|r| r.scores.mse_x100.is_finite()));
 }
 
+/// Whether `scene` is one of the set's shaded scenes (renderer-like output).
+fn shaded(scene: &str) -> bool {
+    tiltfield::depth::scenes::DepthScene::from_name(scene).is_some_and(|s| s.shaded())
+}
+
+/// The shaded scenes (an area light: Lambertian shading, soft shadows, highlights) are where
+/// the estimator fails today, as it fails on real renderer output (docs/depth.md): held here
+/// to what they measure, so that a change that helps shows and one that hurts fails.
+#[test]
+fn the_shaded_scenes_are_scored_and_held_to_their_measured_bounds() {
+    let rows = scores();
+    let of = |variant: &str| -> Vec<&SetRow> {
+        rows.iter()
+            .filter(|r| r.variant == variant && shaded(&r.scene))
+            .collect()
+    };
+    let (d, n) = (of("default"), of("naive"));
+    assert_eq!(d.len(), 3, "three shaded scenes in the set");
+    let (dm, nm) = (testset::mean(&d), testset::mean(&n));
+    eprintln!("shaded: default {dm:?}, naive {nm:?}");
+    // Measured at 64 px: default 56.9 % / 10.2 mean (49.5, 71.5 and 49.7 %), naive
+    // 70.4 % / 54.8. The target is 12 % / 5 on each.
+    assert!(dm.bad_pix_007 <= 62.0, "{dm:?}");
+    assert!(dm.mse_x100 <= 13.0, "{dm:?}");
+    assert!(nm.bad_pix_007 >= dm.bad_pix_007 + 5.0, "{nm:?} vs {dm:?}");
+    assert!(nm.mse_x100 >= 3.0 * dm.mse_x100, "{nm:?} vs {dm:?}");
+    assert!(d.iter().all(|r| r.scores.mse_x100.is_finite()));
+}
+
 #[test]
 fn confidence_ranks_errors_over_the_set() {
     // Over the nine scenes the bound was measured on: on the converging rig (joined later)
     // the confident pixels are as often wrong as the rest (19.6 against 19.7 % at 64 px).
     let rows: Vec<SetRow> = scores()
         .into_iter()
-        .filter(|r| r.variant == "default" && r.scene != "converging")
+        .filter(|r| r.variant == "default" && r.scene != "converging" && !shaded(&r.scene))
         .collect();
     let pooled = |k: usize| {
         rows.iter()

@@ -16,7 +16,7 @@ use glam::{DMat3, DVec3};
 
 use crate::geometry::camera::Camera;
 use crate::lightfield::{DepthKind, GridSize, LightField, ParallelRig, Source, View};
-use crate::synth::scene::Solid;
+use crate::synth::scene::{Lighting, Solid};
 use crate::synth::surfaces::Rng;
 use crate::synth::{render_light_field, render_view, Quad, Scene, Texture};
 
@@ -101,6 +101,19 @@ pub enum DepthScene {
     /// card). Scored as the regular rig's disparity of the estimated depth
     /// ([`DepthScene::scored_as`]).
     Converging,
+    /// The `Bust` under an area light above and to the left: Lambertian shading across the
+    /// smooth ellipsoids (the brightness changes with the surface's slope, not with a texture),
+    /// soft shadows on the wall and the floor, a mild highlight on the marble.
+    ShadedBust,
+    /// A reclining figure of overlapping ellipsoids (torso, hip, head, arm) in pale, nearly
+    /// textureless stone under an area light, with mild highlights, in front of a dark wall:
+    /// smooth curvature that a fronto-parallel prior turns into staircases, silhouettes
+    /// against a dark low-contrast background.
+    Sculpture,
+    /// A faintly textured column and a ball lit from the side, their soft shadows falling on a
+    /// pale wall: shading gradients and penumbrae as the only image structure over most of
+    /// the curved surfaces.
+    ShadedColumn,
 }
 
 impl DepthScene {
@@ -112,7 +125,7 @@ impl DepthScene {
     ];
 
     /// The depth test set (module docs).
-    pub const SET: [DepthScene; 10] = [
+    pub const SET: [DepthScene; 13] = [
         DepthScene::Planes,
         DepthScene::Tilted,
         DepthScene::Textureless,
@@ -123,7 +136,19 @@ impl DepthScene {
         DepthScene::Thin,
         DepthScene::Plenoptic,
         DepthScene::Converging,
+        DepthScene::ShadedBust,
+        DepthScene::Sculpture,
+        DepthScene::ShadedColumn,
     ];
+
+    /// The scenes shaded by an area light ([`crate::synth::scene::Lighting`]): the part of the
+    /// set that looks like renderer output.
+    pub fn shaded(&self) -> bool {
+        matches!(
+            self,
+            DepthScene::ShadedBust | DepthScene::Sculpture | DepthScene::ShadedColumn
+        )
+    }
 
     /// A short name.
     pub fn name(&self) -> &'static str {
@@ -138,6 +163,9 @@ impl DepthScene {
             DepthScene::Thin => "thin",
             DepthScene::Plenoptic => "plenoptic",
             DepthScene::Converging => "converging",
+            DepthScene::ShadedBust => "shaded-bust",
+            DepthScene::Sculpture => "sculpture",
+            DepthScene::ShadedColumn => "shaded-column",
         }
     }
 
@@ -159,6 +187,9 @@ impl DepthScene {
             DepthScene::Thin => "thin structures",
             DepthScene::Plenoptic => "sensor noise and vignetting",
             DepthScene::Converging => "converging calibrated rig, no disparity convention",
+            DepthScene::ShadedBust => "shading, soft shadows, highlights on a smooth bust",
+            DepthScene::Sculpture => "smooth shaded curvature, nearly textureless, dark wall",
+            DepthScene::ShadedColumn => "shading gradients and penumbrae, faint texture",
         }
     }
 
@@ -199,7 +230,7 @@ impl DepthScene {
                 });
                 vec![back, floor(&rig, s, noise(43, 4.0 * s, [0.6, 0.6, 0.65]))]
             }
-            DepthScene::Bust => {
+            DepthScene::Bust | DepthScene::ShadedBust => {
                 // Pale marble: faint dark veins (low contrast) on a near-white stone.
                 let marble = |seed| Texture::Detail {
                     seed,
@@ -307,6 +338,78 @@ impl DepthScene {
                 let texture = noise(5, 4.0 * s, [0.7, 0.6, 0.5]);
                 crate::synth::plane_scene(n, DVec3::new(0.0, 0.0, 2.0), 4.0, texture).quads
             }
+            DepthScene::Sculpture => {
+                // Pale stone with faint grain: nearly textureless at this size.
+                let stone = |seed| Texture::Detail {
+                    seed,
+                    grain: (s / 6.0).max(1.0) as u32,
+                    rings: 0,
+                    text: String::new(),
+                    paper: [0.62, 0.6, 0.56],
+                    ink: [0.57, 0.55, 0.52],
+                };
+                let torso = point(s * 0.45, s * 0.55, 0.5 * k);
+                let parts = [
+                    (torso, DVec3::new(0.34, 0.14, 0.16)),
+                    (
+                        torso + DVec3::new(0.3, -0.04, 0.06),
+                        DVec3::new(0.18, 0.16, 0.17),
+                    ),
+                    (
+                        torso + DVec3::new(-0.38, -0.12, -0.05),
+                        DVec3::new(0.11, 0.12, 0.11),
+                    ),
+                    (
+                        torso + DVec3::new(-0.12, -0.13, -0.1),
+                        DVec3::new(0.2, 0.05, 0.06),
+                    ),
+                ];
+                for (i, (centre, radii)) in parts.into_iter().enumerate() {
+                    solids.push(Solid::Ellipsoid {
+                        centre,
+                        radii,
+                        texture: stone(81 + i as u32),
+                    });
+                }
+                let wall = Texture::Detail {
+                    seed: 85,
+                    grain: (s * 0.5) as u32,
+                    rings: 0,
+                    text: String::new(),
+                    paper: [0.05, 0.045, 0.04],
+                    ink: [0.035, 0.03, 0.03],
+                };
+                vec![
+                    card(&rig, size, -1.4 * k, big, wall),
+                    floor(&rig, s, noise(86, 2.0 * s, [0.25, 0.23, 0.2])),
+                ]
+            }
+            DepthScene::ShadedColumn => {
+                let faint = |seed, colour: [f32; 3]| Texture::Detail {
+                    seed,
+                    grain: (s / 10.0).max(1.0) as u32,
+                    rings: 0,
+                    text: String::new(),
+                    paper: colour,
+                    ink: colour.map(|c| c * 0.93),
+                };
+                solids.push(Solid::Cylinder {
+                    centre: point(s * 0.35, s * 0.5, 0.6 * k),
+                    axis: DVec3::Y,
+                    radius: 0.13,
+                    half_height: 2.0,
+                    texture: faint(91, [0.7, 0.66, 0.6]),
+                });
+                solids.push(Solid::Ellipsoid {
+                    centre: point(s * 0.68, s * 0.62, 1.0 * k),
+                    radii: DVec3::splat(0.14),
+                    texture: faint(92, [0.55, 0.62, 0.7]),
+                });
+                vec![
+                    card(&rig, size, -0.8 * k, big, faint(93, [0.8, 0.78, 0.74])),
+                    floor(&rig, s, faint(94, [0.5, 0.47, 0.42])),
+                ]
+            }
             DepthScene::Textureless => vec![
                 back,
                 card(
@@ -322,7 +425,29 @@ impl DepthScene {
             quads,
             background: [0.0; 3],
             solids,
+            lighting: self.lighting(),
         }
+    }
+
+    /// The area light of a shaded scene: above, in front and to the left of the subject
+    /// (the shaded column's from the left only, low, for long shadows); `None` otherwise.
+    fn lighting(&self) -> Option<Lighting> {
+        let (centre, specular) = match self {
+            DepthScene::ShadedBust => (DVec3::new(-0.9, -1.4, 1.2), 0.12),
+            DepthScene::Sculpture => (DVec3::new(-0.7, -1.5, 1.4), 0.2),
+            DepthScene::ShadedColumn => (DVec3::new(-1.6, -0.5, 1.6), 0.05),
+            _ => return None,
+        };
+        Some(Lighting {
+            centre,
+            half_u: DVec3::new(0.35, 0.0, 0.0),
+            half_v: DVec3::new(0.0, 0.1, 0.35),
+            power: [5.0, 4.8, 4.5],
+            ambient: 0.12,
+            samples: 6,
+            specular,
+            shininess: 40.0,
+        })
     }
 
     /// The light field on the regular rig (the converging one for

@@ -96,7 +96,10 @@ pub fn render_view(
                     for &oy in &offsets {
                         for &ox in &offsets {
                             let hit = trace(&prepared, &rays, centre + DVec2::new(ox, oy));
-                            let c = scene.radiance(hit.as_ref().map(|(h, _)| h));
+                            let c =
+                                scene.shade(hit.as_ref().map(|(h, _)| h), rays.origin, |a, b| {
+                                    prepared.intersect(a, b - a).is_some_and(|h| h.t < 1.0)
+                                });
                             for (s, v) in sum.iter_mut().zip(c) {
                                 *s += v;
                             }
@@ -296,6 +299,7 @@ mod tests {
             quads: vec![white.clone()],
             background: [0.0; 3],
             solids: Vec::new(),
+            lighting: None,
         };
         let grid = GridSize { cols: 3, rows: 3 };
         let mut cams = rig().cameras(grid, 40, 30);
@@ -374,6 +378,7 @@ mod tests {
             }],
             background: [0.0; 3],
             solids: Vec::new(),
+            lighting: None,
         };
         let (img, _) = render_view(&scene, &cam, 20, 20, 2);
         assert_eq!(img.get_pixel(9, 5).0, [0, 0, 0, 255]);

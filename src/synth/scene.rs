@@ -43,6 +43,32 @@ pub struct Scene {
     /// Curved surfaces, traced by the CPU ray tracer only (the rasterizer's meshes are baked
     /// from the quads: [`crate::synth::mesh`]).
     pub solids: Vec<Solid>,
+    /// Shading by an area light (CPU ray tracer only); `None`: every surface shows its albedo,
+    /// as the rasterizer's views do.
+    pub lighting: Option<Lighting>,
+}
+
+/// An area light over the scene, so that views look like renderer output rather than flat
+/// albedo: Lambertian shading, soft shadows (stratified shadow rays to the light), an ambient
+/// term and a mild Blinn-Phong highlight. The light samples are the same for every shading
+/// point and every view, so the diffuse part is the same radiance from every camera (only the
+/// highlight depends on the view, as on real surfaces).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Lighting {
+    /// The light's centre and half edges (a parallelogram emitting on both sides).
+    pub centre: DVec3,
+    pub half_u: DVec3,
+    pub half_v: DVec3,
+    /// Linear-light irradiance of a surface facing the light squarely at distance 1 per unit
+    /// of light area, per channel.
+    pub power: Rgb,
+    /// Light reaching every surface whatever it faces (a stand-in for interreflection).
+    pub ambient: f32,
+    /// Shadow rays per axis of the light (n² in all).
+    pub samples: u32,
+    /// Strength and exponent of the Blinn-Phong highlight (0: none).
+    pub specular: f32,
+    pub shininess: f32,
 }
 
 /// A smooth textured solid.
@@ -291,6 +317,78 @@ impl Scene {
         nearest_solid(hit, self.quads.len(), &self.solids, origin, dir)
     }
 
+    /// The unit normal of the surface at `hit`, facing the ray's origin `origin`.
+    pub fn normal_at(&self, hit: &Hit, origin: DVec3) -> DVec3 {
+        let n = match self.quads.get(hit.quad_index) {
+            Some(q) => q.normal(),
+            None => match self.solids.get(hit.quad_index - self.quads.len()) {
+                Some(Solid::Ellipsoid { centre, radii, .. }) => {
+                    ((hit.point - *centre) / (*radii * *radii)).normalize_or_zero()
+                }
+                Some(Solid::Cylinder { centre, axis, .. }) => {
+                    let a = axis.normalize_or_zero();
+                    let rel = hit.point - *centre;
+                    (rel - a * rel.dot(a)).normalize_or_zero()
+                }
+                None => DVec3::ZERO,
+            },
+        };
+        if n.dot(origin - hit.point) < 0.0 {
+            -n
+        } else {
+            n
+        }
+    }
+
+    /// Linear-light colour seen from `origin` at `hit` (or the background): the albedo alone
+    /// without [`Scene::lighting`], else the albedo times the ambient term plus the light's
+    /// irradiance over its unshadowed samples, and the highlight. `occluded(from, to)` says
+    /// whether anything lies on the segment (the renderer's prepared scene).
+    pub fn shade(
+        &self,
+        hit: Option<&Hit>,
+        origin: DVec3,
+        occluded: impl Fn(DVec3, DVec3) -> bool,
+    ) -> Rgb {
+        let albedo = self.radiance(hit);
+        let (Some(h), Some(l)) = (hit, self.lighting) else {
+            return albedo;
+        };
+        let n = self.normal_at(h, origin);
+        let view = (origin - h.point).normalize_or_zero();
+        let light_normal = l.half_u.cross(l.half_v);
+        let area = 4.0 * light_normal.length();
+        let light_normal = light_normal.normalize_or_zero();
+        let count = l.samples.max(1);
+        // Off the surface by a hair so the shadow ray does not hit its own start.
+        let start = h.point + n * 1e-6 * (1.0 + h.point.length());
+        let (mut diffuse, mut highlight) = (0f64, 0f64);
+        for j in 0..count {
+            for i in 0..count {
+                let a = (i as f64 + 0.5) / count as f64 * 2.0 - 1.0;
+                let b = (j as f64 + 0.5) / count as f64 * 2.0 - 1.0;
+                let p = l.centre + a * l.half_u + b * l.half_v;
+                let to = p - h.point;
+                let d2 = to.length_squared();
+                let dir = to / d2.sqrt();
+                let cos_s = n.dot(dir);
+                let cos_l = light_normal.dot(dir).abs();
+                if cos_s <= 0.0 || occluded(start, p) {
+                    continue;
+                }
+                let g = cos_s * cos_l / d2;
+                diffuse += g;
+                let half = (dir + view).normalize_or_zero();
+                highlight += g * n.dot(half).max(0.0).powf(l.shininess as f64);
+            }
+        }
+        let scale = area / (count * count) as f64;
+        let (diffuse, highlight) = ((diffuse * scale) as f32, (highlight * scale) as f32);
+        std::array::from_fn(|k| {
+            albedo[k] * (l.ambient + l.power[k] * diffuse) + l.specular * l.power[k] * highlight
+        })
+    }
+
     /// Linear-light colour seen along the ray: the hit surface's texture, or the background.
     pub fn radiance(&self, hit: Option<&Hit>) -> Rgb {
         let Some(h) = hit else {
@@ -336,6 +434,7 @@ pub fn plane_scene(normal: DVec3, point: DVec3, half_size: f64, texture: Texture
         }],
         background: [0.0; 3],
         solids: Vec::new(),
+        lighting: None,
     }
 }
 
@@ -406,6 +505,7 @@ mod tests {
             ],
             background: [0.0; 3],
             solids: Vec::new(),
+            lighting: None,
         };
         let h = scene.intersect(DVec3::ZERO, DVec3::Z).unwrap();
         assert_eq!(h.quad_index, 1);
@@ -502,5 +602,102 @@ mod tests {
         // Degenerate input: no panic, nothing is hit.
         let s = plane_scene(DVec3::ZERO, DVec3::Z, 1.0, Texture::Solid([1.0; 3]));
         assert!(s.intersect(DVec3::ZERO, DVec3::Z).is_none());
+    }
+
+    /// A white square of side 2 at z = 3 facing the cameras, a small square light 1 above it
+    /// shining down, nothing else.
+    fn lit(occluder: bool, specular: f32) -> Scene {
+        let mut quads = vec![white(DVec3::new(0.0, 0.0, 3.0), DVec3::X, DVec3::Z)];
+        if occluder {
+            quads.push(white(
+                DVec3::new(0.0, -0.5, 3.0),
+                DVec3::X * 0.3,
+                DVec3::Z * 0.3,
+            ));
+        }
+        Scene {
+            quads,
+            background: [0.0; 3],
+            solids: Vec::new(),
+            lighting: Some(Lighting {
+                centre: DVec3::new(0.0, -1.0, 3.0),
+                half_u: DVec3::X * 0.01,
+                half_v: DVec3::Z * 0.01,
+                power: [2.0, 2.0, 2.0],
+                ambient: 0.1,
+                samples: 2,
+                specular,
+                shininess: 10.0,
+            }),
+        }
+    }
+
+    fn shade_at(scene: &Scene, origin: DVec3, p: DVec3) -> Rgb {
+        let h = scene.intersect(origin, p - origin).unwrap();
+        scene.shade(Some(&h), origin, |a, b| {
+            scene.intersect(a, b - a).is_some_and(|h| h.t < 1.0)
+        })
+    }
+
+    #[test]
+    fn a_lit_surface_is_lambertian_and_a_shadowed_one_gets_the_ambient_term() {
+        // The floor quad (normal ±y) under a light 1 above: E = area · cos · cos / d² with
+        // both cosines 1 below the light's centre, and cos³/d² off to the side.
+        let scene = lit(false, 0.0);
+        let area = 4.0 * 0.01 * 0.01;
+        let below = shade_at(
+            &scene,
+            DVec3::new(0.0, -0.5, 0.0),
+            DVec3::new(0.0, 0.0, 3.0),
+        );
+        let want = 0.1 + 2.0 * area;
+        assert!(
+            (below[0] as f64 - want).abs() < 1e-4 * want,
+            "{below:?} vs {want}"
+        );
+        let side = shade_at(
+            &scene,
+            DVec3::new(0.0, -0.5, 0.0),
+            DVec3::new(0.8, 0.0, 3.0),
+        );
+        let d2: f64 = 1.0 + 0.64;
+        let want_side = 0.1 + 2.0 * area * (1.0 / d2.sqrt()).powi(2) / d2;
+        assert!(
+            (side[0] as f64 - want_side).abs() < 1e-3 * want_side,
+            "{side:?}"
+        );
+        // The same point seen from elsewhere: the diffuse radiance does not depend on the view.
+        let other = shade_at(
+            &scene,
+            DVec3::new(0.7, -0.9, 0.5),
+            DVec3::new(0.0, 0.0, 3.0),
+        );
+        assert!((other[0] - below[0]).abs() < 1e-6);
+        // A card between the light and the point leaves only the ambient term.
+        let shadowed = shade_at(
+            &lit(true, 0.0),
+            DVec3::new(0.0, -0.2, 2.0),
+            DVec3::new(0.0, 0.0, 3.0),
+        );
+        assert!((shadowed[0] - 0.1).abs() < 1e-6, "{shadowed:?}");
+        // Without lighting the albedo is what is seen.
+        let flat = Scene {
+            lighting: None,
+            ..lit(false, 0.0)
+        };
+        assert_eq!(
+            shade_at(&flat, DVec3::new(0.0, -0.5, 0.0), DVec3::new(0.0, 0.0, 3.0)),
+            [1.0; 3]
+        );
+    }
+
+    #[test]
+    fn the_highlight_depends_on_the_view_and_peaks_at_the_mirror_direction() {
+        let scene = lit(false, 1.0);
+        let p = DVec3::new(0.0, 0.0, 3.0);
+        // Seen from straight above (the mirror direction of the light) and from the side.
+        let mirror = shade_at(&scene, DVec3::new(0.0, -0.5, 3.0), p);
+        let side = shade_at(&scene, DVec3::new(0.0, -0.5, 0.0), p);
+        assert!(mirror[0] > side[0] + 1e-4, "{mirror:?} vs {side:?}");
     }
 }

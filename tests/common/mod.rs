@@ -258,6 +258,7 @@ pub fn two_planes(d_back: f64, d_near: f64) -> LightField {
         quads: vec![back, near],
         background: [0.0; 3],
         solids: Vec::new(),
+        lighting: None,
     };
     let grid = tiltfield::lightfield::GridSize { cols: 5, rows: 5 };
     tiltfield::synth::render_light_field(&scene, "two-planes", grid, 64, 64, &rig, 2)

@@ -117,6 +117,7 @@ impl Rig {
             quads: vec![self.wall(frame), card],
             background: [0.0; 3],
             solids: Vec::new(),
+            lighting: None,
         }
     }
 
