@@ -390,6 +390,12 @@ fn without_depth_the_window_opens_at_once_and_depth_arrives_in_the_background() 
     assert_eq!(report["validation_errors"], 0, "{err}");
     let first = report["first_frame_ms"].as_f64().unwrap();
     let ready = report["depth_ready_ms"].as_f64().unwrap();
+    // The window shows the loading screen before the views are read and decoded.
+    let window = report["window_ms"].as_f64().unwrap();
+    assert!(
+        window < first,
+        "window after {window} ms, first frame {first} ms"
+    );
     assert!(first < 5000.0, "first frame after {first} ms");
     assert!(first < ready, "first frame {first} ms, depth {ready} ms");
     assert_eq!(
@@ -977,6 +983,25 @@ fn bad_scripts_are_refused_with_the_line_before_any_window_opens() {
     for (text, needles) in [
         ("wait 1\nfly 3\n", &["line 2", "unknown command 'fly'"][..]),
         ("key UP many\n", &["line 1", "count"][..]),
+    ] {
+        std::fs::write(&s, text).unwrap();
+        // No display is needed to be told: the script is checked before the window opens.
+        let o = Command::new(env!("CARGO_BIN_EXE_tiltfield"))
+            .args(["view", "builtin:planes", "--script", s_arg])
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .unwrap();
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{text}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "{text}: expected '{n}' in {err}");
+        }
+    }
+    // Positions are checked against the light field's size, known once it is read: the
+    // window (open from the start, showing the loading screen) closes with the line named.
+    for (text, needles) in [
         (
             "click refocus 64 3\n",
             &["line 1", "outside the 64×64 view"][..],
@@ -987,13 +1012,7 @@ fn bad_scripts_are_refused_with_the_line_before_any_window_opens() {
         ),
     ] {
         std::fs::write(&s, text).unwrap();
-        // No display is needed to be told: the script is checked before the window opens.
-        let o = Command::new(env!("CARGO_BIN_EXE_tiltfield"))
-            .args(["view", "builtin:planes", "--script", s_arg])
-            .env_remove("DISPLAY")
-            .env_remove("WAYLAND_DISPLAY")
-            .output()
-            .unwrap();
+        let o = view_in_xvfb(&["builtin:planes", "--script", s_arg]);
         let err = stderr(&o);
         assert!(!o.status.success(), "{text}: {err}");
         assert!(!err.contains("panicked"), "{err}");

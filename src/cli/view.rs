@@ -99,34 +99,53 @@ pub fn run(args: &ViewArgs) -> Result<()> {
     let aperture = args.aperture.aperture();
     aperture.validate()?;
     let focus = args.focus.request()?;
-    let path = args.light_field.as_deref().unwrap_or(DEFAULT_SCENE);
-    let lf = load_light_field(&LightFieldArgs::new(path, &args.read))?;
-    let video = match &args.light_field {
-        Some(path) if FrameSequence::is_video(std::path::Path::new(path)) => {
-            let sequence = FrameSequence::open(std::path::Path::new(path))?;
-            let frame = args.read.frame.unwrap_or_else(|| sequence.first());
-            Some((sequence, frame))
-        }
-        _ => None,
-    };
-    // The scene panel, clicks and anti-aliasing need depth: the light field's own map, else
-    // an estimate from its views (cached) that the viewer makes in the background while the
-    // window already shows the refocus image. Without depth the viewer still works (keys,
-    // scroll, scene without points), so a failed estimate is a message, not an error.
-    let depth_origin = crate::depth::cache::given_origin(&lf);
-    let normal_window = depth_origin
-        .as_ref()
-        .map_or(super::focus::GIVEN_DEPTH_WINDOW, |o| o.normal_window());
+    let path = args
+        .light_field
+        .as_deref()
+        .unwrap_or(DEFAULT_SCENE)
+        .to_string();
+    crate::jobs::render::check_source(&path, &args.read.options())?;
     // On by default wherever there is depth; with an estimate, once it arrives.
     let antialias_on = args.antialias.requested().unwrap_or(true);
-    let (name, grid, size) = (lf.name.clone(), lf.grid, (lf.width, lf.height));
-    let excluded = dark_views(&lf, args.aperture.include_dark);
+    // The window opens at once; the light field is read on a thread meanwhile (the loading
+    // screen shows its progress) and what depends on it comes back with it.
+    let load: viewer::Loader = {
+        let (path, read, include_dark) =
+            (path.clone(), args.read.clone(), args.aperture.include_dark);
+        Box::new(move || {
+            let lf = load_light_field(&LightFieldArgs::new(&path, &read))?;
+            let video = if FrameSequence::is_video(std::path::Path::new(&path)) {
+                let sequence = FrameSequence::open(std::path::Path::new(&path))?;
+                let frame = read.frame.unwrap_or_else(|| sequence.first());
+                Some((sequence, frame))
+            } else {
+                None
+            };
+            // The scene panel, clicks and anti-aliasing need depth: the light field's own
+            // map, else an estimate from its views (cached) that the viewer makes in the
+            // background while the window already shows the refocus image. Without depth the
+            // viewer still works (keys, scroll, scene without points), so a failed estimate
+            // is a message, not an error.
+            let depth = crate::depth::cache::given_origin(&lf);
+            let normal_window = depth
+                .as_ref()
+                .map_or(super::focus::GIVEN_DEPTH_WINDOW, |o| o.normal_window());
+            let excluded = dark_views(&lf, include_dark);
+            Ok(viewer::Loaded {
+                lf,
+                excluded,
+                normal_window,
+                depth,
+                video,
+            })
+        })
+    };
     let opts = ViewerOptions {
         focus,
         aperture,
         reference,
         averaging: args.aperture.average,
-        excluded,
+        excluded: Vec::new(),
         present: args.present,
         frame_budget_ms: args.frame_budget_ms,
         window,
@@ -136,14 +155,20 @@ pub fn run(args: &ViewArgs) -> Result<()> {
         filter: args.filter,
         strategy: args.strategy.0,
         screenshot_prefix: args.screenshot_prefix.clone(),
-        video,
-        normal_window,
+        video: None,
+        normal_window: super::focus::GIVEN_DEPTH_WINDOW,
         antialias,
         antialias_on,
-        depth: depth_origin,
+        depth: None,
         launched,
     };
-    let report = viewer::run(lf, opts)?;
+    let source = if args.light_field.is_some() {
+        path
+    } else {
+        "the demo scene".to_string()
+    };
+    let report = viewer::run(load, &source, opts)?;
+    let (name, grid, size) = report.light_field.clone();
     let depth_origin = report.depth.as_ref();
     let state = &report.state;
     if args.json {
@@ -156,6 +181,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             },
             "focus": focus_json(&state.resolved),
             "depth": depth_origin.map(super::depth::origin_json),
+            "window_ms": report.milestones.window_ms,
             "first_frame_ms": report.milestones.first_frame_ms,
             "depth_ready_ms": report.milestones.depth_ready_ms,
             "averaging": state.averaging(),

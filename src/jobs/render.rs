@@ -116,6 +116,30 @@ pub fn open_light_field(
     lightfield::open_frame_within(Path::new(source), &read.grid_cameras(), limits, read.frame)
 }
 
+/// What [`open_light_field`] would refuse before reading anything: an unknown built-in scene
+/// (or a frame of one), bad read options, a path that does not exist. The viewer checks this
+/// before its window opens, and reads the light field while the window shows the loading
+/// screen.
+pub fn check_source(source: &str, read: &ReadOptions) -> Result<()> {
+    if let Some(name) = source.strip_prefix("builtin:") {
+        if let Some(n) = read.frame {
+            return Err(Error::Invalid(format!(
+                "--frame {n}: builtin:{name} is a single light field, not a video"
+            )));
+        }
+        if crate::synth::builtin(name).is_none() {
+            return Err(Error::Invalid(format!(
+                "no built-in scene '{name}'; available: {}",
+                crate::synth::builtin_names().join(", ")
+            )));
+        }
+        return Ok(());
+    }
+    read.validate()?;
+    std::fs::metadata(source).map_err(|e| Error::io(Path::new(source), e))?;
+    Ok(())
+}
+
 /// Renders built-in scene `name` (2×2 supersampling).
 pub fn builtin_light_field(name: &str) -> Result<LightField> {
     let scene = crate::synth::builtin(name).ok_or_else(|| {

@@ -28,6 +28,41 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 
+/// How far the latest decode of views has come: views decoded and views in all. Process-wide,
+/// so that a front end can show it elsewhere than on the terminal (the viewer's loading
+/// screen, which opens before the light field is read) without a progress parameter through
+/// every loader. Concurrent decodes (two light fields opened at once) share it; it is for
+/// display only.
+#[derive(Debug, Default)]
+pub struct DecodeProgress {
+    done: std::sync::atomic::AtomicU64,
+    total: std::sync::atomic::AtomicU64,
+}
+
+impl DecodeProgress {
+    /// (views decoded, views in all) of the latest decode; (0, 0) before any.
+    pub fn get(&self) -> (u64, u64) {
+        use std::sync::atomic::Ordering::Relaxed;
+        (self.done.load(Relaxed), self.total.load(Relaxed))
+    }
+
+    fn start(&self, total: usize) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.done.store(0, Relaxed);
+        self.total.store(total as u64, Relaxed);
+    }
+
+    fn inc(&self) {
+        self.done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// The decode progress of this process ([`DecodeProgress`]).
+pub static DECODE_PROGRESS: DecodeProgress = DecodeProgress {
+    done: std::sync::atomic::AtomicU64::new(0),
+    total: std::sync::atomic::AtomicU64::new(0),
+};
+
 /// [`check_views`] against `limits`, then [`decode_views`].
 pub fn decode_views_within(
     paths: &[PathBuf],
@@ -72,11 +107,13 @@ fn decode_with_progress(paths: &[PathBuf], what: &str, progress: bool) -> Result
         bar.set_style(style.progress_chars("=> "));
     }
     bar.set_message(format!("decoding {} views of {what}", paths.len()));
+    DECODE_PROGRESS.start(paths.len());
     let decoded: Vec<Result<RgbaImage>> = paths
         .par_iter()
         .map(|p| {
             let r = decode_view(p);
             bar.inc(1);
+            DECODE_PROGRESS.inc();
             r
         })
         .collect();

@@ -94,6 +94,8 @@ pub struct ViewerOptions {
 
 /// The final state and what the session measured.
 pub struct ViewerReport {
+    /// The light field shown: its name, grid and view size.
+    pub light_field: (String, crate::lightfield::GridSize, (u32, u32)),
     pub state: ViewerState,
     pub frames: FrameStats,
     /// The window's context's and the depth estimate's together.
@@ -242,47 +244,111 @@ fn initial_state(lf: &LightField, opts: &ViewerOptions) -> Result<ViewerState> {
     Ok(state.with_antialias(opts.antialias_on && depth.is_some()))
 }
 
-/// Opens the window on `lf` and runs until the user or the script quits. Without a depth map
-/// of its own, `lf` gets one estimated in the background while the window shows it.
-pub fn run(lf: LightField, opts: ViewerOptions) -> Result<ViewerReport> {
+/// What a [`Loader`] hands over: the light field and the options that depend on it.
+pub struct Loaded {
+    pub lf: LightField,
+    /// Views left out of the aperture (dark corners).
+    pub excluded: Vec<bool>,
+    /// Normal window of clicks (see [`crate::depth::DepthOrigin::normal_window`]).
+    pub normal_window: u32,
+    /// Where `lf`'s depth comes from when it has its own map.
+    pub depth: Option<DepthOrigin>,
+    /// The video `lf` is a frame of, and that frame's number.
+    pub video: Option<(FrameSequence, u64)>,
+}
+
+/// Reads the light field, on a thread of its own while the window shows the loading screen.
+pub type Loader = Box<dyn FnOnce() -> Result<Loaded> + Send>;
+
+/// How often the loading screen is redrawn, seconds.
+const LOADING_POLL_S: f64 = 0.05;
+
+/// What the loading thread is doing (the loading screen says it).
+const STAGE_VIEWS: u8 = 0;
+const STAGE_DEPTH: u8 = 1;
+
+/// Opens the window at once, shows what is loading while `load` reads the light field on a
+/// thread (the views, then the depth and its point cloud), then runs until the user or the
+/// script quits. `source` names what is loading. Without a depth map of its own, the light
+/// field gets one estimated in the background while the window shows it.
+pub fn run(load: Loader, source: &str, mut opts: ViewerOptions) -> Result<ViewerReport> {
     if !(opts.frame_budget_ms.is_finite() && opts.frame_budget_ms > 0.0) {
         return Err(Error::Invalid(format!(
             "--frame-budget-ms must be a positive number of milliseconds, got {}",
             opts.frame_budget_ms
         )));
     }
-    let lf = Arc::new(lf);
-    let state = initial_state(&lf, &opts)?;
-    script::check(&opts.script, (lf.width, lf.height), opts.window).map_err(Error::Invalid)?;
-    let depth = DepthCache::new(&lf, lf.view_depth().ok())?;
-    let has_depth = depth.depth.is_some();
-    // The scene panel frames the cloud (where there is one) and the camera array.
-    let (centre, keep, cameras) = framing(&lf, &depth);
-    let panel = Layout::new(opts.window.0, opts.window.1, (lf.width, lf.height)).scene;
-    let aspect = panel.width.max(1.0) as f64 / panel.height.max(1.0) as f64;
-    let state = state.with_scene_framing(centre, keep, cameras, aspect);
-
     let mut glfw = init_glfw()?;
-    let title = format!("tiltfield — {}", lf.name);
-    let (mut window, events) = create_window(&mut glfw, opts.window, &title)?;
+    let (mut window, events) = create_window(&mut glfw, opts.window, "tiltfield — loading")?;
     let (ctx, surface) = create_context(&glfw, &mut window, &opts.gpu)?;
     let (fw, fh) = window.get_framebuffer_size();
-    let extent = vk::Extent2D {
-        width: fw.max(1) as u32,
-        height: fh.max(1) as u32,
-    };
-    let mut gpu = ViewerGpu::new(
+    let mut gpu = ViewerGpu::new_window(
         Arc::clone(&ctx),
-        &lf,
         surface,
-        extent,
+        extent_of(fw, fh),
         opts.present,
         opts.storage,
     )?;
+    let stage = Arc::new(std::sync::atomic::AtomicU8::new(STAGE_VIEWS));
+    let loading = {
+        let stage = Arc::clone(&stage);
+        std::thread::Builder::new()
+            .name("tiltfield-load".into())
+            .spawn(move || -> Result<(Loaded, DepthCache)> {
+                let loaded = load()?;
+                stage.store(STAGE_DEPTH, std::sync::atomic::Ordering::Relaxed);
+                let depth = DepthCache::new(&loaded.lf, loaded.lf.view_depth().ok())?;
+                Ok((loaded, depth))
+            })
+            .map_err(|e| Error::Window(format!("cannot start the loading thread: {e}")))?
+    };
+    let window_ms = show_loading(
+        &mut glfw,
+        &mut window,
+        &events,
+        &mut gpu,
+        &loading,
+        &stage,
+        source,
+        opts.launched,
+    )?;
+    let (loaded, depth) = loading
+        .join()
+        .map_err(|_| Error::Window("the light field's loading thread panicked".into()))??;
+    let Loaded {
+        lf,
+        excluded,
+        normal_window,
+        depth: depth_origin,
+        video,
+    } = loaded;
+    opts.excluded = excluded;
+    opts.normal_window = normal_window;
+    opts.depth = depth_origin;
+    opts.video = video;
+
+    let lf = Arc::new(lf);
+    let state = initial_state(&lf, &opts)?;
+    script::check(&opts.script, (lf.width, lf.height), opts.window).map_err(Error::Invalid)?;
+    let has_depth = depth.depth.is_some();
+    // The scene panel frames the cloud (where there is one) and the camera array.
+    let (centre, keep, cameras) = framing(&lf, &depth);
+    let (fw, fh) = window.get_framebuffer_size();
+    let extent = extent_of(fw, fh);
+    let layout = Layout::new(extent.width, extent.height, (lf.width, lf.height));
+    let panel = layout.scene;
+    let aspect = panel.width.max(1.0) as f64 / panel.height.max(1.0) as f64;
+    let state = state.with_scene_framing(centre, keep, cameras, aspect);
+
+    let title = format!("tiltfield — {}", lf.name);
+    window.set_title(&title);
+    if gpu.swapchain_info().0 != extent {
+        gpu.resize(extent, &layout)?;
+    }
+    gpu.attach_views(&lf)?;
     gpu.filter = opts.filter;
     let strategy = crate::jobs::strategy::choose(&ctx, opts.strategy)?;
     gpu.strategy = strategy.strategy;
-    let layout = Layout::new(extent.width, extent.height, (lf.width, lf.height));
     gpu.rebuild_panels(&layout)?;
     if let Some(c) = &depth.cloud {
         gpu.set_cloud(&c.vertices())?;
@@ -304,6 +370,7 @@ pub fn run(lf: LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         opts.launched,
     )
     .with_depth_origin(opts.depth.clone());
+    session.milestones.window_ms = window_ms;
     if let Some(plan) = depth_plan {
         session = session.with_depth_plan(plan);
     }
@@ -325,6 +392,91 @@ pub fn run(lf: LightField, opts: ViewerOptions) -> Result<ViewerReport> {
         strategy,
     };
     viewer.run()
+}
+
+fn extent_of(width: i32, height: i32) -> vk::Extent2D {
+    vk::Extent2D {
+        width: width.max(1) as u32,
+        height: height.max(1) as u32,
+    }
+}
+
+/// The loading screen: redrawn every [`LOADING_POLL_S`] with what `loading` is doing (the
+/// views decoded so far, then the depth and the point cloud) until it finishes; follows
+/// resizes. Returns when the first loading frame was presented (ms since `launched`). A window
+/// closed meanwhile is an error: the light field's reading cannot be interrupted, and there is
+/// nothing to report yet.
+#[allow(clippy::too_many_arguments)]
+fn show_loading<T>(
+    glfw: &mut glfw::Glfw,
+    window: &mut glfw::PWindow,
+    events: &glfw::GlfwReceiver<(f64, WindowEvent)>,
+    gpu: &mut ViewerGpu,
+    loading: &std::thread::JoinHandle<T>,
+    stage: &std::sync::atomic::AtomicU8,
+    source: &str,
+    launched: Instant,
+) -> Result<Option<f64>> {
+    let (fw, fh) = window.get_framebuffer_size();
+    let mut extent = extent_of(fw, fh);
+    let mut layout = Layout::new(extent.width, extent.height, (1, 1));
+    gpu.rebuild_panels(&layout)?;
+    let mut shown = None;
+    loop {
+        let mut canvas = super::text::Canvas::new(extent.width, extent.height);
+        let line = match stage.load(std::sync::atomic::Ordering::Relaxed) {
+            STAGE_VIEWS => match crate::lightfield::images::DECODE_PROGRESS.get() {
+                (_, 0) => format!("loading {source}: reading"),
+                (done, total) => format!(
+                    "loading {source}: decoding views {done}/{total} ({:.0} %)",
+                    100.0 * done as f64 / total as f64
+                ),
+            },
+            _ => format!("loading {source}: depth and point cloud"),
+        };
+        loading_text(&mut canvas, &layout, &line);
+        gpu.loading_frame(&mut canvas, &layout)?;
+        shown.get_or_insert_with(|| launched.elapsed().as_secs_f64() * 1e3);
+        if loading.is_finished() {
+            return Ok(shown);
+        }
+        glfw.wait_events_timeout(LOADING_POLL_S);
+        for (_, event) in glfw::flush_messages(events) {
+            if let WindowEvent::FramebufferSize(w, h) = event {
+                if w > 0 && h > 0 {
+                    extent = extent_of(w, h);
+                    layout = Layout::new(extent.width, extent.height, (1, 1));
+                    gpu.resize(extent, &layout)?;
+                }
+            }
+        }
+        if window.should_close() {
+            return Err(Error::Window(format!(
+                "the window was closed while {source} was loading"
+            )));
+        }
+    }
+}
+
+/// The loading screen's text: the program's name in the middle of the window and `line` in
+/// the status strip, over the strip's background.
+fn loading_text(canvas: &mut super::text::Canvas, layout: &Layout, line: &str) {
+    use super::text::{GLYPH, PANEL_BG, TEXT};
+    let (w, h) = (canvas.width as i64, canvas.height as i64);
+    let s = layout.status;
+    canvas.fill(
+        s.x as i64,
+        s.y as i64,
+        s.width as i64,
+        s.height as i64,
+        PANEL_BG,
+    );
+    let y = s.y as i64 + (s.height as i64 - GLYPH as i64) / 2;
+    canvas.text(s.x as i64 + 12, y, 1, line, TEXT);
+    let name = "tiltfield";
+    let scale = 3;
+    let x = (w - (name.len() as i64) * (GLYPH * scale) as i64) / 2;
+    canvas.text(x, (h - s.height as i64) / 2 - 12, scale, name, TEXT);
 }
 
 impl Viewer {
@@ -683,7 +835,10 @@ impl Viewer {
             session.surface.as_ref(),
             session.depth_origin.as_ref(),
         );
+        let lf = &session.lf;
+        let light_field = (lf.name.clone(), lf.grid, (lf.width, lf.height));
         Ok(ViewerReport {
+            light_field,
             frames: session.stats.report(),
             depth: session.depth_origin,
             milestones: session.milestones,
@@ -695,5 +850,50 @@ impl Viewer {
             present_mode: format!("{mode:?}").to_lowercase(),
             window: (extent.width, extent.height),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::viewer::text::{Canvas, TEXT};
+
+    #[test]
+    fn the_loading_screen_names_the_program_and_says_what_is_loading_in_the_strip() {
+        let layout = Layout::new(800, 600, (1, 1));
+        let mut canvas = Canvas::new(800, 600);
+        loading_text(
+            &mut canvas,
+            &layout,
+            "loading demo: decoding views 3/25 (12 %)",
+        );
+        if let Ok(path) = std::env::var("TILTFIELD_TEST_LOADING_PNG") {
+            image::RgbaImage::from_raw(800, 600, canvas.pixels.clone())
+                .unwrap()
+                .save(path)
+                .unwrap();
+        }
+        let text_in = |y0: u32, y1: u32| {
+            (y0..y1)
+                .flat_map(|y| (0..800u32).map(move |x| (x, y)))
+                .filter(|&(x, y)| {
+                    let i = ((y * 800 + x) * 4) as usize;
+                    canvas.pixels[i..i + 4] == TEXT
+                })
+                .count()
+        };
+        let strip = layout.status;
+        let (s0, s1) = (strip.y as u32, (strip.y + strip.height) as u32);
+        assert!(text_in(s0, s1) > 100, "the strip's line");
+        assert!(text_in(0, s0) > 100, "the name above the strip");
+        // The line's length shows: a longer line lights more of the strip.
+        let mut longer = Canvas::new(800, 600);
+        loading_text(
+            &mut longer,
+            &layout,
+            "loading demo: decoding views 3/25 (12 %) and more text",
+        );
+        let lit = |c: &Canvas| c.pixels.chunks(4).filter(|p| *p == TEXT).count();
+        assert!(lit(&longer) > lit(&canvas));
     }
 }

@@ -169,11 +169,12 @@ fn out_size(full: (u32, u32), divisor: u32) -> (u32, u32) {
 }
 
 impl ViewerGpu {
-    /// Uploads `lf` and builds everything for a window whose surface is `surface` (owned from
-    /// here on) of `extent`.
-    pub fn new(
+    /// Builds what a window whose surface is `surface` (owned from here on) of `extent` needs
+    /// before any light field: the swapchain, the compositor, the scene pass and the frames, so
+    /// the window can show the loading screen ([`ViewerGpu::loading_frame`]) while the views
+    /// are read; [`ViewerGpu::attach_views`] then uploads them.
+    pub fn new_window(
         ctx: Arc<GpuContext>,
-        lf: &LightField,
         surface: vk::SurfaceKHR,
         extent: vk::Extent2D,
         present: PresentMode,
@@ -196,7 +197,7 @@ impl ViewerGpu {
             compositor: None,
             swapchain: Some(swapchain),
             ctx,
-            full_size: (lf.width, lf.height),
+            full_size: (1, 1),
             strategy: Strategy::default(),
             filter: Filter::default(),
             storage,
@@ -212,13 +213,87 @@ impl ViewerGpu {
         for _ in 0..FRAMES_IN_FLIGHT {
             g.timestamps.push(Timestamps::new(&ctx, 3)?);
         }
-        let texture = LightFieldTexture::upload(&ctx, lf, storage)?;
-        let pass = RefocusPass::new(&ctx, &texture);
-        g.texture = Some(texture);
-        g.pass = Some(pass?);
         g.scene_pass = Some(ScenePass::new(&ctx, FRAMES_IN_FLIGHT)?);
         g.frames = Some(Frames::new(&ctx, FRAMES_IN_FLIGHT)?);
         Ok(g)
+    }
+
+    /// Uploads `lf`'s views and builds the refocus pass (once, after the loading screen);
+    /// [`ViewerGpu::rebuild_panels`] then makes the refocus targets.
+    pub fn attach_views(&mut self, lf: &LightField) -> Result<()> {
+        if self.texture.is_some() {
+            return Err(Error::Vulkan(
+                "the viewer's views are already uploaded".into(),
+            ));
+        }
+        self.wait_idle()?;
+        let ctx = Arc::clone(&self.ctx);
+        let texture = LightFieldTexture::upload(&ctx, lf, self.storage)?;
+        let pass = RefocusPass::new(&ctx, &texture);
+        self.texture = Some(texture);
+        self.pass = Some(pass?);
+        self.full_size = (lf.width, lf.height);
+        Ok(())
+    }
+
+    /// One frame of the loading screen: `canvas` (the window's text) composed over a cleared
+    /// window and presented; nothing else is drawn.
+    pub fn loading_frame(&mut self, canvas: &mut Canvas, layout: &Layout) -> Result<()> {
+        let ctx = Arc::clone(&self.ctx);
+        let d = &ctx.device;
+        let (Some(frames), Some(swapchain), Some(compositor), Some(overlay)) = (
+            self.frames.as_mut(),
+            self.swapchain.as_ref(),
+            self.compositor.as_ref(),
+            self.overlay.as_mut(),
+        ) else {
+            return Err(Error::Vulkan(
+                "the viewer's window was not fully created".into(),
+            ));
+        };
+        let frame = frames.begin(&ctx)?;
+        self.next_slot = (frame.slot + 1) % FRAMES_IN_FLIGHT;
+        let index = match swapchain.acquire(frame.image_available)? {
+            Acquire::Image { index, .. } => index,
+            Acquire::OutOfDate => {
+                frames.submit(&ctx, &[], &[])?;
+                return Ok(());
+            }
+        };
+        let cmd = frame.cmd;
+        let all = vk::PipelineStageFlags2::ALL_COMMANDS;
+        let any = vk::AccessFlags2::MEMORY_WRITE | vk::AccessFlags2::MEMORY_READ;
+        memory_barrier(d, cmd, (all, any), (all, any));
+        overlay.upload_rows(d, cmd, frame.slot, canvas);
+        let whole = [Rect::new(
+            0.0,
+            0.0,
+            canvas.width as f32,
+            canvas.height as f32,
+        )];
+        let sources = Sources {
+            refocus: None,
+            scene: None,
+            overlay: overlay.source(),
+            layout,
+            parts: &whole,
+        };
+        compose(&ctx, cmd, compositor, swapchain, index, &sources);
+        let to_present = ImageTransition {
+            from: stage::COLOR_WRITE,
+            to: stage::PRESENT,
+        };
+        image_barrier(d, cmd, swapchain.images[index as usize], 1, to_present);
+        frames.submit(
+            &ctx,
+            &[(
+                frame.image_available,
+                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+            )],
+            &[swapchain.render_finished[index as usize]],
+        )?;
+        swapchain.present(&ctx, index)?;
+        Ok(())
     }
 
     pub fn context(&self) -> &GpuContext {
@@ -359,10 +434,8 @@ impl ViewerGpu {
             }
         }
         self.overlay = Some(overlay);
-        if self.targets.is_none() {
-            let Some(pass) = self.pass.as_mut() else {
-                return Err(Error::Vulkan("the viewer was not fully created".into()));
-            };
+        // Before the views are attached (the loading screen) there is nothing to refocus into.
+        if let (None, Some(pass)) = (self.targets.as_ref(), self.pass.as_mut()) {
             let (w, h) = self.full_size;
             self.targets = Some(RefocusTargets {
                 full: pass.create_target(&ctx, w, h)?,

@@ -39,6 +39,6 @@ pub mod session;
 pub mod state;
 pub mod text;
 
-pub use app::{run, ViewerOptions, ViewerReport};
+pub use app::{run, Loaded, Loader, ViewerOptions, ViewerReport};
 pub use session::screenshot::screenshot_json;
 pub use session::stats::FrameStats;

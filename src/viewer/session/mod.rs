@@ -117,6 +117,8 @@ pub struct DepthPlan {
 /// When things happened, in milliseconds since the process started.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Milestones {
+    /// When the window first showed something (the loading screen, before the views are read).
+    pub window_ms: Option<f64>,
     pub first_frame_ms: Option<f64>,
     pub depth_ready_ms: Option<f64>,
 }
