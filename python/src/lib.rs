@@ -41,9 +41,9 @@ use tiltfield::jobs::refocus::GpuImage;
 use tiltfield::jobs::render::{self, ReadOptions, RenderOptions, Session};
 use tiltfield::jobs::strategy::{StrategyChoice, StrategySource};
 use tiltfield::lightfield::{self, GridSize};
-use tiltfield::passes::refocus::OutputFormat;
 use tiltfield::refocus::antialias::AntialiasSettings;
 use tiltfield::refocus::options::{numbers, plane_of, FocusOptions};
+use tiltfield::refocus::settings::OutputFormat;
 
 /// The process's Vulkan context (see the module docs).
 static CONTEXT: Mutex<Option<Arc<GpuContext>>> = Mutex::new(None);

@@ -18,8 +18,8 @@ use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, PassTimings, RenderSettings};
 use crate::lightfield::LightField;
-use crate::passes::refocus::OutputFormat;
 use crate::refocus::antialias::{plan_for, AntialiasPlan, AntialiasSettings};
+use crate::refocus::settings::OutputFormat;
 use crate::refocus::{RefocusImage, RefocusPlan};
 
 /// The settings the study measures: sub-sample caps per axis with the prefiltered lookup

@@ -40,9 +40,9 @@ use crate::geometry::plane::Plane;
 use crate::gpu::GpuContext;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::LightField;
-use crate::passes::refocus::{Accumulation, Filter, OutputFormat};
-use crate::passes::texture::ViewStorage;
 use crate::refocus::cpu::{self, Kernel};
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Accumulation, Filter, OutputFormat};
 use crate::refocus::{self as rf, Averaging, FocusSpec, RefocusImage, RefocusPlan, RefocusRequest};
 
 pub use roof::Peak;

@@ -16,7 +16,7 @@ use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::geometry::plane::Plane;
 use crate::jobs::refocus::HeadlessRenderer;
 use crate::jobs::refocus::RenderSettings;
-use crate::passes::refocus::OutputFormat;
+use crate::refocus::settings::OutputFormat;
 use crate::refocus::{self, FocusSpec, RefocusRequest};
 use crate::synth;
 

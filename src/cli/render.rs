@@ -18,10 +18,10 @@ use crate::io::OutputKind;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer};
 use crate::jobs::render::{check_output_fits, prepare, render, render_timed, RenderOptions};
 use crate::jobs::strategy::StrategyChoice;
-use crate::passes::refocus::{Accumulation, Filter, OutputFormat, WarpMemory};
-use crate::passes::texture::ViewStorage;
 use crate::refocus;
 use crate::refocus::antialias::antialias_json;
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Accumulation, Filter, OutputFormat, WarpMemory};
 
 /// Most `--repeat` timing frames.
 const MAX_REPEAT: usize = 10_000;

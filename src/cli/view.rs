@@ -13,7 +13,7 @@ use super::{load_light_field, AntialiasArgs, ApertureArgs, GpuArgs, LightFieldAr
 use crate::error::{Error, Result};
 use crate::gpu::swapchain::PresentMode;
 use crate::lightfield::video::FrameSequence;
-use crate::passes::texture::ViewStorage;
+use crate::refocus::settings::ViewStorage;
 use crate::viewer::{self, script, ViewerOptions};
 
 /// The light field `view` opens without one.
@@ -37,7 +37,7 @@ pub struct ViewArgs {
     /// bicubic (Catmull-Rom in the shader: sharper on a tilted plane, at several times the
     /// GPU time) or nearest.
     #[arg(long, value_name = "FILTER", default_value = "hardware")]
-    pub filter: crate::passes::refocus::Filter,
+    pub filter: crate::refocus::settings::Filter,
     /// How views are summed, as for `render`: auto (the device's fastest, measured once and
     /// cached), fragment, batched[:N] or compute.
     #[arg(long, value_name = "STRATEGY", default_value = "auto")]

@@ -25,8 +25,8 @@ use crate::gpu::GpuContext;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::video::{FrameLoader, FrameSequence};
 use crate::lightfield::{LightField, LoadLimits};
-use crate::passes::texture::ViewStorage;
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::settings::ViewStorage;
 use crate::refocus::surface::SurfacePlan;
 use crate::refocus::RefocusPlan;
 

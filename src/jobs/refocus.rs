@@ -18,12 +18,11 @@ use crate::gpu::timing::Timestamps;
 use crate::gpu::upload::Staging;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
-use crate::passes::refocus::{
-    Accumulate, Accumulation, ComputeShape, Filter, OutputFormat, RefocusPass, RefocusTarget,
-    Strategy, WarpMemory,
-};
-use crate::passes::texture::{LightFieldTexture, ViewStorage};
+use crate::passes::refocus::{Accumulate, ComputeShape, RefocusPass, RefocusTarget};
+use crate::passes::texture::LightFieldTexture;
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
 use crate::refocus::surface::{SurfacePlan, SurfaceRule};
 use crate::refocus::{Averaging, RefocusImage, RefocusPlan};
 

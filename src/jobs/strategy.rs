@@ -29,8 +29,8 @@ use crate::geometry::aperture::Aperture;
 use crate::gpu::GpuContext;
 use crate::jobs::refocus::{HeadlessRenderer, RenderSettings};
 use crate::lightfield::{GridCameraOptions, GridSize, LightField};
-use crate::passes::refocus::Strategy;
-use crate::passes::texture::ViewStorage;
+use crate::refocus::settings::Strategy;
+use crate::refocus::settings::ViewStorage;
 use crate::refocus::{FocusSpec, RefocusRequest};
 
 /// The strategies `auto` chooses between (the batch size is the bench's best on llvmpipe).

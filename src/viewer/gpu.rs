@@ -36,12 +36,12 @@ use crate::gpu::upload::Staging;
 use crate::gpu::GpuContext;
 use crate::lightfield::LightField;
 use crate::passes::panel::{Compositor, PanelMode, Rect};
-use crate::passes::refocus::{
-    Accumulate, Filter, OutputFormat, RefocusPass, RefocusTarget, Strategy,
-};
+use crate::passes::refocus::{Accumulate, RefocusPass, RefocusTarget};
 use crate::passes::scene::{SceneOverlay, ScenePass, SceneTarget, SceneView};
-use crate::passes::texture::{LightFieldTexture, ViewStorage};
+use crate::passes::texture::LightFieldTexture;
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Filter, OutputFormat, Strategy};
 use crate::refocus::surface::{SurfacePlan, SurfaceRule};
 use crate::refocus::{Averaging, RefocusPlan};
 

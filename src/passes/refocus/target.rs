@@ -14,15 +14,7 @@ use ash::vk;
 use crate::error::Result;
 use crate::gpu::resources::{Image, ImageDesc};
 use crate::gpu::GpuContext;
-
-/// Output format of a resolve.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OutputFormat {
-    /// 8-bit sRGB-encoded RGBA (PNG), rounded to nearest in the shader.
-    Srgb8,
-    /// 32-bit float RGBA in the averaging space (linear light for EXR).
-    Float,
-}
+use crate::refocus::settings::{Accumulation, OutputFormat};
 
 /// Accumulation and outputs of one output size.
 pub struct RefocusTarget {
@@ -185,10 +177,10 @@ impl RefocusTarget {
 
     /// The format the views are summed in.
     pub fn accumulation(&self) -> super::Accumulation {
-        if self.accum_format == super::Accumulation::Rgba16f.format() {
-            super::Accumulation::Rgba16f
+        if self.accum_format == super::accumulation_format(Accumulation::Rgba16f) {
+            Accumulation::Rgba16f
         } else {
-            super::Accumulation::Rgba32f
+            Accumulation::Rgba32f
         }
     }
 
