@@ -112,12 +112,9 @@ fn gpu_work<T: Send>(
             )));
         }
     };
-    let errors = validation_count() - before;
-    if errors > 0 {
-        return Err(PyRuntimeError::new_err(format!(
-            "{errors} validation errors while {what} (see the log above)"
-        )));
-    }
+    // Only this call's errors: the context and its count outlive every call.
+    tiltfield::gpu::validation::check_errors(validation_count() - before, &format!("while {what}"))
+        .map_err(py_err)?;
     Ok(value)
 }
 

@@ -268,13 +268,9 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
             times[k + 1].push(timed(h.render_timed_antialiased(a, &settings)?)?);
         }
     }
-    let errors = h.context().validation().errors();
+    let validated = h.context().check_validation("in the anti-aliasing study");
     drop(h);
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors in the anti-aliasing study"
-        )));
-    }
+    validated?;
     let medians: Vec<f64> = times
         .iter()
         .map(|t| stats::summarize(t).map_or(f64::NAN, |s| s.median))

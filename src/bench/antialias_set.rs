@@ -493,12 +493,7 @@ pub fn run(
         out.push(run_case(ctx, c, options, progress)?);
         progress.inc(1);
     }
-    let errors = ctx.validation().errors();
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors in the anti-aliasing set"
-        )));
-    }
+    ctx.check_validation("in the anti-aliasing set")?;
     Ok(out)
 }
 

@@ -862,13 +862,9 @@ pub fn run(
         scaling = scaling_points(r, lf, &prep, &default, frames, &bar)?;
     }
     bar.finish_and_clear();
-    let errors = ctx.validation().errors();
+    let validated = ctx.check_validation("while benchmarking");
     drop(renderers);
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors while benchmarking (see the log above)"
-        )));
-    }
+    validated?;
     Ok(report(
         &ctx, scene, &prep, &default, warmup, peak, variants, scaling,
     ))

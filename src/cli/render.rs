@@ -205,15 +205,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         bar.finish_and_clear();
     }
     let uncovered = save(&image, &args.output)?;
-    let errors = renderer.context().validation().errors();
+    let validated = renderer.context().check_validation("while rendering");
     let renderer_storage = renderer.storage();
     let device = renderer.context().info.name.clone();
     drop(renderer);
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors while rendering (see the log above)"
-        )));
-    }
+    validated?;
     let gpu_median = median(&gpu_times);
     let views_used = prepared.views_plan().views.len();
     let (out_w, out_h) = prepared.output_size();

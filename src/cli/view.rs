@@ -186,11 +186,6 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             serde_json::to_string_pretty(&out).map_err(|e| Error::Invalid(e.to_string()))?
         );
     }
-    if report.validation_errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{} validation errors in the viewer (see the log above)",
-            report.validation_errors
-        )));
-    }
-    Ok(())
+    // The viewer's and its depth jobs' contexts together (the report sums them).
+    crate::gpu::validation::check_errors(report.validation_errors, "in the viewer")
 }

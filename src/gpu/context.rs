@@ -438,6 +438,12 @@ impl GpuContext {
         &self.log
     }
 
+    /// Fails when the validation layer reported errors on this context so far, naming `what`
+    /// was being done ("while rendering"); see [`super::validation::check_errors`].
+    pub fn check_validation(&self, what: &str) -> Result<()> {
+        super::validation::check_errors(self.log.errors(), what)
+    }
+
     /// Names a Vulkan object for validation messages and debuggers (no-op without debug utils).
     pub fn name<H: vk::Handle>(&self, handle: H, name: &str) {
         if let Some(d) = &self.debug_device {
