@@ -80,7 +80,7 @@ fn py_err(e: Error) -> PyErr {
         Error::Invalid(_) | Error::Geometry(_) | Error::DeviceLimit(_) => {
             PyValueError::new_err(message)
         }
-        Error::Vulkan(_) | Error::Window(_) | Error::VkResult(_) => {
+        Error::Vulkan(_) | Error::Window(_) | Error::VkCall { .. } | Error::Internal(_) => {
             PyRuntimeError::new_err(message)
         }
     }

@@ -139,7 +139,7 @@ pub struct AntialiasReport {
 pub(super) fn float(img: GpuImage) -> Result<RefocusImage> {
     match img {
         GpuImage::Float(f) => Ok(f),
-        GpuImage::Srgb8(_) => Err(Error::Vulkan("asked for float output".into())),
+        GpuImage::Srgb8(_) => Err(Error::Internal("asked for float output".into())),
     }
 }
 

@@ -464,7 +464,7 @@ pub fn render_variant(
 ) -> Result<RefocusImage> {
     match r.render(plan, &settings_of(v, &scene.lf))?.0 {
         GpuImage::Float(img) => Ok(img),
-        GpuImage::Srgb8(_) => Err(Error::Vulkan("asked for float output".into())),
+        GpuImage::Srgb8(_) => Err(Error::Internal("asked for float output".into())),
     }
 }
 

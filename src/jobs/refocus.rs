@@ -155,7 +155,7 @@ impl HeadlessRenderer {
     /// with the same grid, cameras and view size — keeping the pass, target and plans valid.
     pub fn replace_views(&mut self, lf: &LightField) -> Result<()> {
         let Some(texture) = self.texture.as_mut() else {
-            return Err(Error::Vulkan("the renderer was not fully created".into()));
+            return Err(Error::Internal("the renderer was not fully created".into()));
         };
         if self.staging.is_none() {
             self.staging = Some(Staging::new(
@@ -165,7 +165,7 @@ impl HeadlessRenderer {
             )?);
         }
         let Some(staging) = self.staging.as_mut() else {
-            return Err(Error::Vulkan("no staging buffer".into()));
+            return Err(Error::Internal("no staging buffer".into()));
         };
         texture.reupload(&self.ctx, lf, staging)?;
         if let Some(pass) = self.pass.as_mut() {
@@ -179,7 +179,7 @@ impl HeadlessRenderer {
     pub fn set_compute_shape(&mut self, shape: ComputeShape) -> Result<()> {
         match self.pass.as_mut() {
             Some(p) => p.set_compute_shape(shape),
-            None => Err(Error::Vulkan("the renderer was not fully created".into())),
+            None => Err(Error::Internal("the renderer was not fully created".into())),
         }
     }
 
@@ -288,7 +288,7 @@ impl HeadlessRenderer {
     ) -> Result<Option<PassTimings>> {
         let ctx = Arc::clone(&self.ctx);
         let (Some(pass), Some(texture)) = (self.pass.as_mut(), self.texture.as_ref()) else {
-            return Err(Error::Vulkan("the renderer was not fully created".into()));
+            return Err(Error::Internal("the renderer was not fully created".into()));
         };
         let (w, h) = settings.size.unwrap_or((texture.width, texture.height));
         let want = (w, h, settings.accumulation);
@@ -330,7 +330,7 @@ impl HeadlessRenderer {
             self.submission.as_ref(),
             self.readback.as_ref(),
         ) else {
-            return Err(Error::Vulkan("no target".into()));
+            return Err(Error::Internal("no target".into()));
         };
         let m = plan.m.as_vec3();
         let accumulate = Accumulate {
@@ -392,7 +392,7 @@ impl HeadlessRenderer {
 
     fn read_image(&mut self, settings: &RenderSettings) -> Result<GpuImage> {
         let (Some(t), Some(buffer)) = (self.target.as_ref(), self.readback.as_mut()) else {
-            return Err(Error::Vulkan("no target".into()));
+            return Err(Error::Internal("no target".into()));
         };
         let (w, h) = (t.width, t.height);
         buffer.invalidate(&self.ctx)?;
@@ -402,7 +402,7 @@ impl HeadlessRenderer {
                 let raw = bytes[..(w * h * 4) as usize].to_vec();
                 GpuImage::Srgb8(
                     RgbaImage::from_raw(w, h, raw)
-                        .ok_or_else(|| Error::Vulkan("readback size mismatch".into()))?,
+                        .ok_or_else(|| Error::Internal("readback size mismatch".into()))?,
                 )
             }
             OutputFormat::Float => {

@@ -837,7 +837,7 @@ impl Session {
             )?);
         }
         let Some(renderer) = self.renderer.as_mut() else {
-            return Err(Error::Vulkan("no renderer".into()));
+            return Err(Error::Internal("no renderer".into()));
         };
         let (image, timings) = render(renderer, &prepared)?;
         Ok((image, timings, prepared))

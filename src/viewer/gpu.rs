@@ -255,7 +255,7 @@ impl ViewerGpu {
         self.wait_idle()?;
         let ctx = Arc::clone(&self.ctx);
         let Some(texture) = self.texture.as_mut() else {
-            return Err(Error::Vulkan("the viewer was not fully created".into()));
+            return Err(Error::Internal("the viewer was not fully created".into()));
         };
         if self.staging.is_none() {
             self.staging = Some(Staging::new(
@@ -266,7 +266,7 @@ impl ViewerGpu {
         }
         match self.staging.as_mut() {
             Some(staging) => texture.reupload(&ctx, lf, staging)?,
-            None => return Err(Error::Vulkan("no staging buffer".into())),
+            None => return Err(Error::Internal("no staging buffer".into())),
         }
         if let Some(pass) = self.pass.as_mut() {
             pass.views_reuploaded();
@@ -361,7 +361,7 @@ impl ViewerGpu {
         self.overlay = Some(overlay);
         if self.targets.is_none() {
             let Some(pass) = self.pass.as_mut() else {
-                return Err(Error::Vulkan("the viewer was not fully created".into()));
+                return Err(Error::Internal("the viewer was not fully created".into()));
             };
             let (w, h) = self.full_size;
             self.targets = Some(RefocusTargets {
@@ -381,7 +381,7 @@ impl ViewerGpu {
     fn make_sets(&mut self) -> Result<()> {
         let ctx = Arc::clone(&self.ctx);
         let Some(compositor) = self.compositor.as_ref() else {
-            return Err(Error::Vulkan("the viewer was not fully created".into()));
+            return Err(Error::Internal("the viewer was not fully created".into()));
         };
         compositor.reset(&ctx)?;
         if let Some(s) = self.scene.as_mut() {
@@ -412,7 +412,7 @@ impl ViewerGpu {
         self.wait_idle()?;
         let ctx = Arc::clone(&self.ctx);
         let (Some(pass), Some(targets)) = (self.pass.as_mut(), self.targets.as_mut()) else {
-            return Err(Error::Vulkan("the viewer was not fully created".into()));
+            return Err(Error::Internal("the viewer was not fully created".into()));
         };
         if let Some((_, t, _)) = targets.preview.take() {
             t.destroy(&ctx);
@@ -493,7 +493,7 @@ impl ViewerGpu {
             self.overlay.as_mut(),
         )
         else {
-            return Err(Error::Vulkan("the viewer was not fully created".into()));
+            return Err(Error::Internal("the viewer was not fully created".into()));
         };
         let frame = frames.begin(&ctx)?;
         let mut result = FrameResult::default();
@@ -609,7 +609,7 @@ impl ViewerGpu {
         let surface = active(surface);
         let ctx = Arc::clone(&self.ctx);
         let Some(pass) = self.pass.as_mut() else {
-            return Err(Error::Vulkan("the viewer was not fully created".into()));
+            return Err(Error::Internal("the viewer was not fully created".into()));
         };
         let plan = match aa {
             Some(aa) => {
@@ -674,7 +674,7 @@ impl ViewerGpu {
                 readback.invalidate(&ctx)?;
                 let raw = readback.bytes_mut()[..(w * h * 4) as usize].to_vec();
                 RgbaImage::from_raw(w, h, raw)
-                    .ok_or_else(|| Error::Vulkan("capture size mismatch".into()))
+                    .ok_or_else(|| Error::Internal("capture size mismatch".into()))
             });
             readback.destroy(&ctx);
             out
@@ -731,7 +731,7 @@ impl RefocusTargets {
         let target = if batch.divisor > 1 {
             match self.preview.as_mut() {
                 Some((_, t, _)) => t,
-                None => return Err(Error::Vulkan("no preview target".into())),
+                None => return Err(Error::Internal("no preview target".into())),
             }
         } else {
             &mut self.full

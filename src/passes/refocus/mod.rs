@@ -56,7 +56,7 @@ pub use interface::{GpuFootprint, GpuSurface, GpuViewWarp, RefocusPush};
 pub use target::RefocusTarget;
 
 use super::texture::{LightFieldTexture, VIEW_SRGB, VIEW_STORED};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, VkContext};
 use crate::gpu::commands::{
     begin_rendering, begin_rendering_in, image_barrier, stage, ImageTransition,
 };
@@ -1414,14 +1414,20 @@ impl PassObjects {
         };
         // SAFETY: valid device and create infos.
         unsafe {
-            self.sampler_linear = d.create_sampler(&sampler(vk::Filter::LINEAR), None)?;
-            self.sampler_nearest = d.create_sampler(&sampler(vk::Filter::NEAREST), None)?;
-            self.sampler_mip = d.create_sampler(
-                &sampler(vk::Filter::LINEAR)
-                    .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
-                    .max_lod(vk::LOD_CLAMP_NONE),
-                None,
-            )?;
+            self.sampler_linear = d
+                .create_sampler(&sampler(vk::Filter::LINEAR), None)
+                .vk("vkCreateSampler")?;
+            self.sampler_nearest = d
+                .create_sampler(&sampler(vk::Filter::NEAREST), None)
+                .vk("vkCreateSampler")?;
+            self.sampler_mip = d
+                .create_sampler(
+                    &sampler(vk::Filter::LINEAR)
+                        .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
+                        .max_lod(vk::LOD_CLAMP_NONE),
+                    None,
+                )
+                .vk("vkCreateSampler")?;
         }
         ctx.name(
             self.sampler_mip,
@@ -1441,22 +1447,28 @@ impl PassObjects {
             binding(7, T::COMBINED_IMAGE_SAMPLER, shading),
             binding(8, T::STORAGE_BUFFER, shading),
             binding(9, T::COMBINED_IMAGE_SAMPLER, shading),
-        ])?;
+        ])
+        .vk("vkCreateDescriptorSetLayout")?;
         self.resolve_set_layout = set_layout(&[binding(
             0,
             T::COMBINED_IMAGE_SAMPLER,
             vk::ShaderStageFlags::FRAGMENT,
-        )])?;
+        )])
+        .vk("vkCreateDescriptorSetLayout")?;
         self.storage_set_layout =
-            set_layout(&[binding(0, T::STORAGE_IMAGE, vk::ShaderStageFlags::COMPUTE)])?;
+            set_layout(&[binding(0, T::STORAGE_IMAGE, vk::ShaderStageFlags::COMPUTE)])
+                .vk("vkCreateDescriptorSetLayout")?;
         self.accum_layout =
-            pipeline_layout(&[self.input_set_layout], vk::ShaderStageFlags::FRAGMENT)?;
+            pipeline_layout(&[self.input_set_layout], vk::ShaderStageFlags::FRAGMENT)
+                .vk("vkCreatePipelineLayout")?;
         self.compute_layout = pipeline_layout(
             &[self.input_set_layout, self.storage_set_layout],
             vk::ShaderStageFlags::COMPUTE,
-        )?;
+        )
+        .vk("vkCreatePipelineLayout")?;
         self.resolve_layout =
-            pipeline_layout(&[self.resolve_set_layout], vk::ShaderStageFlags::empty())?;
+            pipeline_layout(&[self.resolve_set_layout], vk::ShaderStageFlags::empty())
+                .vk("vkCreatePipelineLayout")?;
         let n = input_sets as u32;
         let sizes = [
             vk::DescriptorPoolSize {
@@ -1480,7 +1492,8 @@ impl PassObjects {
                     .pool_sizes(&sizes),
                 None,
             )
-        }?;
+        }
+        .vk("vkCreateDescriptorPool")?;
         let layouts = vec![self.input_set_layout; input_sets];
         // SAFETY: the pool has room for these sets.
         let sets = unsafe {
@@ -1489,7 +1502,8 @@ impl PassObjects {
                     .descriptor_pool(self.descriptor_pool)
                     .set_layouts(&layouts),
             )
-        }?;
+        }
+        .vk("vkAllocateDescriptorSets")?;
         Ok(sets)
     }
 

@@ -11,7 +11,7 @@
 
 use ash::vk;
 
-use crate::error::Result;
+use crate::error::{Result, VkContext};
 use crate::gpu::resources::{Image, ImageDesc};
 use crate::gpu::GpuContext;
 use crate::refocus::settings::{Accumulation, OutputFormat};
@@ -131,7 +131,8 @@ impl RefocusTarget {
                     .pool_sizes(&sizes),
                 None,
             )
-        }?;
+        }
+        .vk("vkCreateDescriptorPool")?;
         ctx.name(self.pool, "refocus target descriptors");
         let layouts: Vec<_> = if storage {
             vec![resolve_layout, storage_layout]
@@ -145,7 +146,8 @@ impl RefocusTarget {
                     .descriptor_pool(self.pool)
                     .set_layouts(&layouts),
             )
-        }?;
+        }
+        .vk("vkAllocateDescriptorSets")?;
         self.resolve_set = sets[0];
         let view = self.accum.views[0];
         let sampled = [vk::DescriptorImageInfo::default()
