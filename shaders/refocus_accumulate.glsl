@@ -22,7 +22,7 @@ layout(constant_id = 1) const uint TEXEL = 0;
 // buffer load indexed by the loop counter into a loop over the SIMD lanes with a bounds check
 // and branch per lane, a uniform buffer load into one gather: measured ~10x faster there.
 layout(constant_id = 2) const uint UNIFORM_WARPS = 1;
-const uint UBO_WARPS = 256; // passes::refocus::UBO_WARPS
+const uint UBO_WARPS = 256; // refocus::settings::UBO_WARPS
 // ANTIALIAS 0: the plain sum (one sample per view, the method's definition). N > 0: each view
 // is integrated over its aperture cell's footprint with at most N x N sub-samples
 // (refocus::antialias; footprints in binding 4, the scene's inverse depth per reference pixel

@@ -37,9 +37,30 @@ pub enum Error {
     /// The window system is unusable (no display, no Vulkan presentation).
     #[error("window: {0}")]
     Window(String),
-    /// A Vulkan call failed.
-    #[error("vulkan call failed: {0}")]
-    VkResult(#[from] vk::Result),
+    /// A Vulkan call failed: `call` names it (`vkCreateImage`), so a report says which of the
+    /// hundreds of calls the device refused; `result` is the code it returned.
+    #[error("vulkan: {call} failed: {result} ({result:?})")]
+    VkCall {
+        call: &'static str,
+        result: vk::Result,
+    },
+    /// An internal invariant does not hold (an object used before it was fully created, a
+    /// readback of the wrong size): a bug in tiltfield, not bad input or a device failure.
+    #[error("internal error (a bug in tiltfield): {0}")]
+    Internal(String),
+}
+
+/// Gives a Vulkan call's `vk::Result` the name of the call, e.g.
+/// `unsafe { d.create_image(&info, None) }.vk("vkCreateImage")?`.
+pub trait VkContext<T> {
+    /// [`Error::VkCall`] naming `call` on failure.
+    fn vk(self, call: &'static str) -> Result<T>;
+}
+
+impl<T> VkContext<T> for std::result::Result<T, vk::Result> {
+    fn vk(self, call: &'static str) -> Result<T> {
+        self.map_err(|result| Error::VkCall { call, result })
+    }
 }
 
 /// Result alias used throughout the crate.
@@ -87,7 +108,28 @@ pub fn compact(v: f64) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::compact;
+    use super::*;
+
+    #[test]
+    fn a_failed_vulkan_call_names_the_call_and_its_result() {
+        let failed: std::result::Result<(), vk::Result> =
+            Err(vk::Result::ERROR_OUT_OF_DEVICE_MEMORY);
+        let e = failed.vk("vkCreateImage").unwrap_err();
+        assert!(
+            matches!(
+                e,
+                Error::VkCall {
+                    call: "vkCreateImage",
+                    result: vk::Result::ERROR_OUT_OF_DEVICE_MEMORY
+                }
+            ),
+            "{e:?}"
+        );
+        let text = e.to_string();
+        assert!(text.starts_with("vulkan: vkCreateImage failed: "), "{text}");
+        assert!(text.contains("ERROR_OUT_OF_DEVICE_MEMORY"), "{text}");
+        assert_eq!(Ok::<u32, vk::Result>(7).vk("vkCreateImage").unwrap(), 7);
+    }
 
     #[test]
     fn huge_and_tiny_numbers_are_compact_others_as_typed() {

@@ -16,8 +16,8 @@ use tiltfield::geometry::plane::Plane;
 use tiltfield::jobs::raster::{render_light_field, Rasterizer};
 use tiltfield::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use tiltfield::lightfield::{DepthKind, GridSize, LightField};
-use tiltfield::passes::refocus::{Filter, OutputFormat};
 use tiltfield::refocus::antialias::{plan_antialias, AntialiasPlan, AntialiasSettings};
+use tiltfield::refocus::settings::{Filter, OutputFormat};
 use tiltfield::refocus::{self, cpu, Averaging, FocusSpec, RefocusPlan, RefocusRequest};
 use tiltfield::synth::{synth_scene, RigKind, SynthRig};
 

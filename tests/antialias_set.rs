@@ -11,8 +11,8 @@ use std::sync::Arc;
 use common::gpu_options;
 use tiltfield::bench::antialias_set::{self, SetOptions};
 use tiltfield::gpu::GpuContext;
-use tiltfield::passes::refocus::Filter;
 use tiltfield::refocus::antialias::AntialiasSettings;
+use tiltfield::refocus::settings::Filter;
 
 #[test]
 fn antialiasing_beats_the_plain_sum_on_every_case_of_the_set() {

@@ -103,6 +103,54 @@ fn layers_import_only_downwards() {
     );
 }
 
+/// The front ends that only build requests and report results: the command line, the bench and
+/// the Python module (its own crate, `python/src`). They name the refocus settings through
+/// `refocus::settings`, never through the passes that implement them.
+const REQUEST_FRONT_ENDS: &[&str] = &["src/cli", "src/bench", "python/src"];
+
+/// `passes::…` paths a request front end may still name, by file: synth's fit check reads the
+/// device's texture limits (moving it into `jobs` is the rest of issue 43).
+const PASSES_ALLOWED: &[(&str, &str)] = &[("src/cli/synth.rs", "passes::texture")];
+
+#[test]
+fn request_front_ends_import_no_pass() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut violations = Vec::new();
+    for dir in REQUEST_FRONT_ENDS {
+        let mut files = Vec::new();
+        rust_files(&root.join(dir), &mut files);
+        assert!(!files.is_empty(), "no Rust files under {dir}");
+        for file in files {
+            let rel = file
+                .strip_prefix(root)
+                .unwrap()
+                .to_string_lossy()
+                .to_string();
+            let text = std::fs::read_to_string(&file).unwrap();
+            let code = text.split("#[cfg(test)]").next().unwrap();
+            for (n, line) in code.lines().enumerate() {
+                let line = line.split("//").next().unwrap();
+                for (i, _) in line.match_indices("passes::") {
+                    let path: String = line[i..]
+                        .chars()
+                        .take_while(|c| c.is_alphanumeric() || *c == '_' || *c == ':')
+                        .collect();
+                    let allowed = PASSES_ALLOWED
+                        .iter()
+                        .any(|(f, p)| *f == rel && path.trim_end_matches(':') == *p);
+                    if !allowed {
+                        violations.push(format!("{rel}:{}: {path}", n + 1));
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        violations.is_empty(),
+        "front ends naming the passes (settings are in refocus::settings): {violations:?}"
+    );
+}
+
 #[test]
 fn no_cycle_between_top_level_modules() {
     let graph = module_graph();

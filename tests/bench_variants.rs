@@ -16,9 +16,9 @@ use tiltfield::bench::{self, variant, Variant};
 use tiltfield::gpu::GpuContext;
 use tiltfield::jobs::refocus::{GpuImage, HeadlessRenderer};
 use tiltfield::lightfield::LightField;
-use tiltfield::passes::refocus::{Accumulation, Filter, Strategy};
-use tiltfield::passes::texture::ViewStorage;
 use tiltfield::refocus::cpu::{self, Kernel};
+use tiltfield::refocus::settings::ViewStorage;
+use tiltfield::refocus::settings::{Accumulation, Filter, Strategy};
 use tiltfield::refocus::{self, Averaging, FocusSpec, RefocusImage, RefocusPlan};
 
 fn float(
@@ -226,7 +226,7 @@ fn exported_homographies_are_the_plans_warps() {
 fn more_views_than_the_uniform_buffer_holds_fall_back_to_the_storage_buffer() {
     use tiltfield::jobs::refocus::RenderSettings;
     use tiltfield::lightfield::GridSize;
-    use tiltfield::passes::refocus::{OutputFormat, WarpMemory, UBO_WARPS};
+    use tiltfield::refocus::settings::{OutputFormat, WarpMemory, UBO_WARPS};
     use tiltfield::synth::{Quad, Scene, Texture};
     // 17 × 17 = 289 views of 8 × 8: more than the uniform buffer's 256 records.
     let rig = TWO_PLANE_RIG;

@@ -166,7 +166,7 @@ fn more_views_than_array_layers_is_a_clear_error() {
     let limits = TextureLimits::of(&ctx);
     let lf = tiny_light_field(limits.max_layers as usize + 1);
     let ctx = std::sync::Arc::new(ctx);
-    let storage = tiltfield::passes::texture::ViewStorage::default();
+    let storage = tiltfield::refocus::settings::ViewStorage::default();
     let err = match tiltfield::jobs::refocus::HeadlessRenderer::with_context(ctx, &lf, storage) {
         Ok(_) => panic!("uploading {} layers should fail", limits.max_layers + 1),
         Err(e) => e.to_string(),

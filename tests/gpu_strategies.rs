@@ -11,8 +11,10 @@ use common::*;
 use tiltfield::gpu::GpuContext;
 use tiltfield::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use tiltfield::lightfield::LightField;
-use tiltfield::passes::refocus::{ComputeShape, Filter, OutputFormat, RefocusPass, Strategy};
-use tiltfield::passes::texture::{LightFieldTexture, ViewStorage};
+use tiltfield::passes::refocus::{ComputeShape, RefocusPass};
+use tiltfield::passes::texture::LightFieldTexture;
+use tiltfield::refocus::settings::ViewStorage;
+use tiltfield::refocus::settings::{Filter, OutputFormat, Strategy};
 use tiltfield::refocus::{self, cpu, Averaging, FocusSpec, RefocusImage, RefocusPlan};
 
 const STRATEGIES: [Strategy; 3] = [

@@ -41,9 +41,9 @@ use tiltfield::jobs::refocus::GpuImage;
 use tiltfield::jobs::render::{self, ReadOptions, RenderOptions, Session};
 use tiltfield::jobs::strategy::{StrategyChoice, StrategySource};
 use tiltfield::lightfield::{self, GridSize};
-use tiltfield::passes::refocus::OutputFormat;
 use tiltfield::refocus::antialias::AntialiasSettings;
 use tiltfield::refocus::options::{numbers, plane_of, FocusOptions};
+use tiltfield::refocus::settings::OutputFormat;
 
 /// The process's Vulkan context (see the module docs).
 static CONTEXT: Mutex<Option<Arc<GpuContext>>> = Mutex::new(None);
@@ -80,7 +80,7 @@ fn py_err(e: Error) -> PyErr {
         Error::Invalid(_) | Error::Geometry(_) | Error::DeviceLimit(_) => {
             PyValueError::new_err(message)
         }
-        Error::Vulkan(_) | Error::Window(_) | Error::VkResult(_) => {
+        Error::Vulkan(_) | Error::Window(_) | Error::VkCall { .. } | Error::Internal(_) => {
             PyRuntimeError::new_err(message)
         }
     }
@@ -112,12 +112,9 @@ fn gpu_work<T: Send>(
             )));
         }
     };
-    let errors = validation_count() - before;
-    if errors > 0 {
-        return Err(PyRuntimeError::new_err(format!(
-            "{errors} validation errors while {what} (see the log above)"
-        )));
-    }
+    // Only this call's errors: the context and its count outlive every call.
+    tiltfield::gpu::validation::check_errors(validation_count() - before, &format!("while {what}"))
+        .map_err(py_err)?;
     Ok(value)
 }
 

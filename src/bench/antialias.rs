@@ -18,8 +18,8 @@ use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, PassTimings, RenderSettings};
 use crate::lightfield::LightField;
-use crate::passes::refocus::OutputFormat;
 use crate::refocus::antialias::{plan_for, AntialiasPlan, AntialiasSettings};
+use crate::refocus::settings::OutputFormat;
 use crate::refocus::{RefocusImage, RefocusPlan};
 
 /// The settings the study measures: sub-sample caps per axis with the prefiltered lookup
@@ -139,7 +139,7 @@ pub struct AntialiasReport {
 pub(super) fn float(img: GpuImage) -> Result<RefocusImage> {
     match img {
         GpuImage::Float(f) => Ok(f),
-        GpuImage::Srgb8(_) => Err(Error::Vulkan("asked for float output".into())),
+        GpuImage::Srgb8(_) => Err(Error::Internal("asked for float output".into())),
     }
 }
 
@@ -268,13 +268,9 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
             times[k + 1].push(timed(h.render_timed_antialiased(a, &settings)?)?);
         }
     }
-    let errors = h.context().validation().errors();
+    let validated = h.context().check_validation("in the anti-aliasing study");
     drop(h);
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors in the anti-aliasing study"
-        )));
-    }
+    validated?;
     let medians: Vec<f64> = times
         .iter()
         .map(|t| stats::summarize(t).map_or(f64::NAN, |s| s.median))

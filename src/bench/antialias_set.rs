@@ -35,8 +35,8 @@ use crate::gpu::GpuContext;
 use crate::jobs::raster::{render_light_field, Rasterizer};
 use crate::jobs::refocus::{HeadlessRenderer, PassTimings, RenderSettings};
 use crate::lightfield::{GridSize, LightField};
-use crate::passes::refocus::{Filter, OutputFormat};
 use crate::refocus::antialias::{plan_for, AntialiasSettings};
+use crate::refocus::settings::{Filter, OutputFormat};
 use crate::refocus::{self, FocusSpec, RefocusPlan, RefocusRequest};
 use crate::synth::scenes::LAYER_DEPTHS;
 use crate::synth::{synth_scene, RigKind, SynthRig};
@@ -493,12 +493,7 @@ pub fn run(
         out.push(run_case(ctx, c, options, progress)?);
         progress.inc(1);
     }
-    let errors = ctx.validation().errors();
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors in the anti-aliasing set"
-        )));
-    }
+    ctx.check_validation("in the anti-aliasing set")?;
     Ok(out)
 }
 

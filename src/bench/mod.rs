@@ -40,9 +40,9 @@ use crate::geometry::plane::Plane;
 use crate::gpu::GpuContext;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::LightField;
-use crate::passes::refocus::{Accumulation, Filter, OutputFormat};
-use crate::passes::texture::ViewStorage;
 use crate::refocus::cpu::{self, Kernel};
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Accumulation, Filter, OutputFormat};
 use crate::refocus::{self as rf, Averaging, FocusSpec, RefocusImage, RefocusPlan, RefocusRequest};
 
 pub use roof::Peak;
@@ -464,7 +464,7 @@ pub fn render_variant(
 ) -> Result<RefocusImage> {
     match r.render(plan, &settings_of(v, &scene.lf))?.0 {
         GpuImage::Float(img) => Ok(img),
-        GpuImage::Srgb8(_) => Err(Error::Vulkan("asked for float output".into())),
+        GpuImage::Srgb8(_) => Err(Error::Internal("asked for float output".into())),
     }
 }
 
@@ -862,13 +862,9 @@ pub fn run(
         scaling = scaling_points(r, lf, &prep, &default, frames, &bar)?;
     }
     bar.finish_and_clear();
-    let errors = ctx.validation().errors();
+    let validated = ctx.check_validation("while benchmarking");
     drop(renderers);
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors while benchmarking (see the log above)"
-        )));
-    }
+    validated?;
     Ok(report(
         &ctx, scene, &prep, &default, warmup, peak, variants, scaling,
     ))

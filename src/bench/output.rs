@@ -38,8 +38,8 @@ pub fn csv(report: &BenchReport) -> String {
             quote(&v.strategy),
             v.filter.name(),
             match v.storage {
-                crate::passes::texture::ViewStorage::Srgb8 => "srgb8",
-                crate::passes::texture::ViewStorage::Linear16 => "linear16",
+                crate::refocus::settings::ViewStorage::Srgb8 => "srgb8",
+                crate::refocus::settings::ViewStorage::Linear16 => "linear16",
             },
             v.accumulation.name(),
             v.views,

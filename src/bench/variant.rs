@@ -11,9 +11,9 @@
 //! if given: `compute/bicubic/linear16/rgba32f/r2/x0.5/ssbo`.
 
 use crate::error::{Error, Result};
-use crate::passes::refocus::{Accumulation, Filter, Strategy, WarpMemory};
-use crate::passes::texture::ViewStorage;
 use crate::refocus::cpu::Kernel;
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Accumulation, Filter, Strategy, WarpMemory};
 
 /// Largest output side a variant may ask for: each variant is checked against an f64 CPU
 /// model of the same size, which costs minutes beyond 2048² (and 99999² overflowed).

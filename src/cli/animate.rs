@@ -136,12 +136,7 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
     depth_bar.finish_and_clear();
     bar.finish_and_clear();
     let (report, written) = result?;
-    let errors = ctx.validation().errors();
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors while rendering (see the log above)"
-        )));
-    }
+    ctx.check_validation("while rendering")?;
     drop(session);
     let first = &report.first;
     let views = first.views_plan().views.len();

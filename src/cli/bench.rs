@@ -303,7 +303,7 @@ pub struct AntialiasSetArgs {
     /// How every image samples the views (as for `render`): hardware (bilinear), shader,
     /// bicubic or nearest.
     #[arg(long, value_name = "FILTER", default_value = "hardware")]
-    pub filter: crate::passes::refocus::Filter,
+    pub filter: crate::refocus::settings::Filter,
     /// Jittered samples per pixel and axis of the rendered views (and of the lens).
     #[arg(long, value_name = "N", default_value_t = crate::bench::antialias_set::SUPERSAMPLES, allow_negative_numbers = true)]
     pub supersamples: u32,

@@ -16,7 +16,7 @@ use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::geometry::plane::Plane;
 use crate::jobs::refocus::HeadlessRenderer;
 use crate::jobs::refocus::RenderSettings;
-use crate::passes::refocus::OutputFormat;
+use crate::refocus::settings::OutputFormat;
 use crate::refocus::{self, FocusSpec, RefocusRequest};
 use crate::synth;
 
@@ -158,13 +158,10 @@ pub fn run(args: &DemoArgs) -> Result<()> {
         }
         written.push(entry);
     }
-    let errors = renderer.context().validation().errors();
+    // Counted before the renderer is freed, as every command does.
+    let validated = renderer.context().check_validation("during the demo");
     drop(renderer);
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors during the demo"
-        )));
-    }
+    validated?;
     let summary = json!({"scene": args.scene, "device": device, "images": written});
     let summary_path = folder.write_bytes(
         "demo.json",

@@ -176,12 +176,7 @@ pub fn run_set(args: &DepthSetArgs) -> Result<()> {
     if let Some(dir) = maps {
         dir.finish();
     }
-    let errors = ctx.validation().errors();
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors while scoring the set (see the log above)"
-        )));
-    }
+    ctx.check_validation("while scoring the set")?;
     let table = format!(
         "{}\nConfidence calibration (pooled over the scenes):\n\n{}",
         testset::markdown(&rows),
@@ -325,12 +320,7 @@ pub fn run(args: &DepthArgs) -> Result<()> {
     );
     let est = estimate(&ctx, &lf, &options, &bar)?;
     bar.finish_and_clear();
-    let errors = ctx.validation().errors();
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors during the sweep (see the log above)"
-        )));
-    }
+    ctx.check_validation("during the sweep")?;
     let kind = match &args.kind {
         Some(k) => parse_kind(k)?,
         None => est.natural_kind(),

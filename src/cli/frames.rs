@@ -73,12 +73,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         |_| bar.inc(1),
     )?;
     bar.finish_and_clear();
-    let errors = ctx.validation().errors();
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors while rendering (see the log above)"
-        )));
-    }
+    ctx.check_validation("while rendering")?;
     let plan = frame_plan
         .antialias
         .as_ref()

@@ -215,12 +215,7 @@ fn calibrate(args: &DevicesArgs) -> Result<()> {
     let ctx = std::sync::Arc::new(crate::gpu::GpuContext::new(&args.gpu.options())?);
     eprintln!("timing the refocus strategies on {} …", ctx.info.name);
     let (c, path) = crate::jobs::strategy::recalibrate(&ctx)?;
-    let errors = ctx.validation().errors();
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors while calibrating (see the log above)"
-        )));
-    }
+    ctx.check_validation("while calibrating")?;
     if args.json {
         let mut v = serde_json::to_value(&c).map_err(|e| Error::Invalid(e.to_string()))?;
         if let Some(o) = v.as_object_mut() {

@@ -18,10 +18,10 @@ use crate::io::OutputKind;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer};
 use crate::jobs::render::{check_output_fits, prepare, render, render_timed, RenderOptions};
 use crate::jobs::strategy::StrategyChoice;
-use crate::passes::refocus::{Accumulation, Filter, OutputFormat, WarpMemory};
-use crate::passes::texture::ViewStorage;
 use crate::refocus;
 use crate::refocus::antialias::antialias_json;
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Accumulation, Filter, OutputFormat, WarpMemory};
 
 /// Most `--repeat` timing frames.
 const MAX_REPEAT: usize = 10_000;
@@ -205,15 +205,11 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         bar.finish_and_clear();
     }
     let uncovered = save(&image, &args.output)?;
-    let errors = renderer.context().validation().errors();
+    let validated = renderer.context().check_validation("while rendering");
     let renderer_storage = renderer.storage();
     let device = renderer.context().info.name.clone();
     drop(renderer);
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors while rendering (see the log above)"
-        )));
-    }
+    validated?;
     let gpu_median = median(&gpu_times);
     let views_used = prepared.views_plan().views.len();
     let (out_w, out_h) = prepared.output_size();

@@ -576,13 +576,9 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         Some(focus) => optical_truth(&mut r, args, &rig, lf, focus, &folder, &mut written)?,
         None => serde_json::Value::Null,
     };
-    let errors = r.context().validation().errors();
+    let validated = r.context().check_validation("while rendering");
     drop(r);
-    if errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{errors} validation errors while rendering (see the log above)"
-        )));
-    }
+    validated?;
     folder.finish();
     let rot = |m: DMat3| m == DMat3::IDENTITY;
     let report = json!({

@@ -13,7 +13,7 @@ use super::{load_light_field, AntialiasArgs, ApertureArgs, GpuArgs, LightFieldAr
 use crate::error::{Error, Result};
 use crate::gpu::swapchain::PresentMode;
 use crate::lightfield::video::FrameSequence;
-use crate::passes::texture::ViewStorage;
+use crate::refocus::settings::ViewStorage;
 use crate::viewer::{self, script, ViewerOptions};
 
 /// The light field `view` opens without one.
@@ -37,7 +37,7 @@ pub struct ViewArgs {
     /// bicubic (Catmull-Rom in the shader: sharper on a tilted plane, at several times the
     /// GPU time) or nearest.
     #[arg(long, value_name = "FILTER", default_value = "hardware")]
-    pub filter: crate::passes::refocus::Filter,
+    pub filter: crate::refocus::settings::Filter,
     /// How views are summed, as for `render`: auto (the device's fastest, measured once and
     /// cached), fragment, batched[:N] or compute.
     #[arg(long, value_name = "STRATEGY", default_value = "auto")]
@@ -212,11 +212,6 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             serde_json::to_string_pretty(&out).map_err(|e| Error::Invalid(e.to_string()))?
         );
     }
-    if report.validation_errors > 0 {
-        return Err(Error::Vulkan(format!(
-            "{} validation errors in the viewer (see the log above)",
-            report.validation_errors
-        )));
-    }
-    Ok(())
+    // The viewer's and its depth jobs' contexts together (the report sums them).
+    crate::gpu::validation::check_errors(report.validation_errors, "in the viewer")
 }

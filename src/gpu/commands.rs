@@ -4,7 +4,7 @@ use ash::vk;
 
 use super::context::GpuContext;
 use super::resources::{color_range, range_of};
-use crate::error::Result;
+use crate::error::{Result, VkContext};
 
 /// A primary command buffer and the fence of its submission, reused across frames.
 pub struct Submission {
@@ -20,17 +20,20 @@ impl Submission {
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
         // SAFETY: valid pool of this device.
-        let cmd = unsafe { ctx.device.allocate_command_buffers(&info) }?[0];
+        let cmd = unsafe { ctx.device.allocate_command_buffers(&info) }
+            .vk("vkAllocateCommandBuffers")?[0];
         // SAFETY: valid device.
         let fence = match unsafe {
             ctx.device
                 .create_fence(&vk::FenceCreateInfo::default(), None)
-        } {
+        }
+        .vk("vkCreateFence")
+        {
             Ok(f) => f,
             Err(e) => {
                 // SAFETY: the command buffer was never submitted.
                 unsafe { ctx.device.free_command_buffers(ctx.command_pool, &[cmd]) };
-                return Err(e.into());
+                return Err(e);
             }
         };
         ctx.name(cmd, name);
@@ -47,22 +50,26 @@ impl Submission {
         let d = &ctx.device;
         // SAFETY: the previous submission of this buffer completed (run always waits).
         unsafe {
-            d.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())?;
+            d.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())
+                .vk("vkResetCommandBuffer")?;
             d.begin_command_buffer(
                 self.cmd,
                 &vk::CommandBufferBeginInfo::default()
                     .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-            )?;
+            )
+            .vk("vkBeginCommandBuffer")?;
         }
         record(d, self.cmd);
         let cmd_infos = [vk::CommandBufferSubmitInfo::default().command_buffer(self.cmd)];
         let submit = [vk::SubmitInfo2::default().command_buffer_infos(&cmd_infos)];
         // SAFETY: recorded buffer, unsignalled fence; we wait before returning.
         unsafe {
-            d.end_command_buffer(self.cmd)?;
-            d.queue_submit2(ctx.queue, &submit, self.fence)?;
-            d.wait_for_fences(&[self.fence], true, u64::MAX)?;
-            d.reset_fences(&[self.fence])?;
+            d.end_command_buffer(self.cmd).vk("vkEndCommandBuffer")?;
+            d.queue_submit2(ctx.queue, &submit, self.fence)
+                .vk("vkQueueSubmit2")?;
+            d.wait_for_fences(&[self.fence], true, u64::MAX)
+                .vk("vkWaitForFences")?;
+            d.reset_fences(&[self.fence]).vk("vkResetFences")?;
         }
         Ok(())
     }

@@ -10,7 +10,7 @@ use std::sync::Arc;
 use ash::vk;
 
 use super::validation::{debug_callback, ValidationLog};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, VkContext};
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -192,7 +192,8 @@ fn create_instance(
     log: &Arc<ValidationLog>,
 ) -> Result<(ash::Instance, bool)> {
     // SAFETY: plain enumeration calls.
-    let layers = unsafe { entry.enumerate_instance_layer_properties() }?;
+    let layers = unsafe { entry.enumerate_instance_layer_properties() }
+        .vk("vkEnumerateInstanceLayerProperties")?;
     let has_layer = |name: &CStr| {
         layers
             .iter()
@@ -206,7 +207,8 @@ fn create_instance(
         ));
     }
     // SAFETY: plain enumeration call.
-    let extensions = unsafe { entry.enumerate_instance_extension_properties(None) }?;
+    let extensions = unsafe { entry.enumerate_instance_extension_properties(None) }
+        .vk("vkEnumerateInstanceExtensionProperties")?;
     let has_debug_utils = extensions.iter().any(|e| {
         e.extension_name_as_c_str()
             .is_ok_and(|n| n == ash::ext::debug_utils::NAME)
@@ -293,7 +295,7 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>> {
                 .map(|(i, &pd)| describe(&instance, i, pd))
                 .collect()
         })
-        .map_err(Error::from);
+        .vk("vkEnumeratePhysicalDevices");
     // SAFETY: no child objects exist.
     unsafe { instance.destroy_instance(None) };
     result
@@ -315,12 +317,14 @@ impl GpuContext {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = messenger_create_info(&log);
             // SAFETY: info's user data outlives the messenger (both owned by the context).
-            match unsafe { loader.create_debug_utils_messenger(&info, None) } {
+            match unsafe { loader.create_debug_utils_messenger(&info, None) }
+                .vk("vkCreateDebugUtilsMessengerEXT")
+            {
                 Ok(m) => Some((loader, m)),
                 Err(e) => {
                     // SAFETY: no child objects exist.
                     unsafe { instance.destroy_instance(None) };
-                    return Err(e.into());
+                    return Err(e);
                 }
             }
         } else {
@@ -372,11 +376,13 @@ impl GpuContext {
             .enabled_features(&core)
             .push_next(&mut f13);
         // SAFETY: physical comes from this instance; the features were checked.
-        let device = match unsafe { instance.create_device(physical, &device_info, None) } {
+        let device = match unsafe { instance.create_device(physical, &device_info, None) }
+            .vk("vkCreateDevice")
+        {
             Ok(d) => d,
             Err(e) => {
                 destroy_instance(&debug);
-                return Err(e.into());
+                return Err(e);
             }
         };
         // SAFETY: queue family and index 0 were requested at device creation.
@@ -385,13 +391,15 @@ impl GpuContext {
             .queue_family_index(queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: valid device.
-        let command_pool = match unsafe { device.create_command_pool(&pool_info, None) } {
+        let command_pool = match unsafe { device.create_command_pool(&pool_info, None) }
+            .vk("vkCreateCommandPool")
+        {
             Ok(p) => p,
             Err(e) => {
                 // SAFETY: no children of the device exist yet.
                 unsafe { device.destroy_device(None) };
                 destroy_instance(&debug);
-                return Err(e.into());
+                return Err(e);
             }
         };
         // SAFETY: physical comes from this instance.
@@ -436,6 +444,12 @@ impl GpuContext {
     /// The validation message log of this context.
     pub fn validation(&self) -> &ValidationLog {
         &self.log
+    }
+
+    /// Fails when the validation layer reported errors on this context so far, naming `what`
+    /// was being done ("while rendering"); see [`super::validation::check_errors`].
+    pub fn check_validation(&self, what: &str) -> Result<()> {
+        super::validation::check_errors(self.log.errors(), what)
     }
 
     /// Names a Vulkan object for validation messages and debuggers (no-op without debug utils).

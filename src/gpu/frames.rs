@@ -12,7 +12,7 @@
 use ash::vk;
 
 use super::context::GpuContext;
-use crate::error::Result;
+use crate::error::{Result, VkContext};
 
 /// A release to run once the frame that used the object has completed.
 pub type Release = Box<dyn FnOnce(&GpuContext)>;
@@ -59,27 +59,35 @@ impl Frames {
             // SAFETY: valid pool and create infos; each object is pushed (and so freed by
             // `destroy`) as soon as it exists.
             let made = unsafe {
-                d.allocate_command_buffers(&alloc).and_then(|cmds| {
-                    let fence = d.create_fence(
-                        &vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED),
-                        None,
-                    );
-                    let fence = match fence {
-                        Ok(f) => f,
-                        Err(e) => {
-                            d.free_command_buffers(ctx.command_pool, &cmds);
-                            return Err(e);
+                d.allocate_command_buffers(&alloc)
+                    .vk("vkAllocateCommandBuffers")
+                    .and_then(|cmds| {
+                        let fence = d
+                            .create_fence(
+                                &vk::FenceCreateInfo::default()
+                                    .flags(vk::FenceCreateFlags::SIGNALED),
+                                None,
+                            )
+                            .vk("vkCreateFence");
+                        let fence = match fence {
+                            Ok(f) => f,
+                            Err(e) => {
+                                d.free_command_buffers(ctx.command_pool, &cmds);
+                                return Err(e);
+                            }
+                        };
+                        match d
+                            .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
+                            .vk("vkCreateSemaphore")
+                        {
+                            Ok(s) => Ok((cmds[0], fence, s)),
+                            Err(e) => {
+                                d.destroy_fence(fence, None);
+                                d.free_command_buffers(ctx.command_pool, &cmds);
+                                Err(e)
+                            }
                         }
-                    };
-                    match d.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) {
-                        Ok(s) => Ok((cmds[0], fence, s)),
-                        Err(e) => {
-                            d.destroy_fence(fence, None);
-                            d.free_command_buffers(ctx.command_pool, &cmds);
-                            Err(e)
-                        }
-                    }
-                })
+                    })
             };
             match made {
                 Ok((cmd, fence, image_available)) => {
@@ -95,7 +103,7 @@ impl Frames {
                 }
                 Err(e) => {
                     frames.destroy(ctx);
-                    return Err(e.into());
+                    return Err(e);
                 }
             }
         }
@@ -120,16 +128,19 @@ impl Frames {
         // SAFETY: the fence belongs to this device; after the wait the command buffer and
         // everything the deferred releases free are no longer in use.
         unsafe {
-            d.wait_for_fences(&[slot.fence], true, u64::MAX)?;
+            d.wait_for_fences(&[slot.fence], true, u64::MAX)
+                .vk("vkWaitForFences")?;
             for release in slot.deferred.drain(..) {
                 release(ctx);
             }
-            d.reset_command_buffer(slot.cmd, vk::CommandBufferResetFlags::empty())?;
+            d.reset_command_buffer(slot.cmd, vk::CommandBufferResetFlags::empty())
+                .vk("vkResetCommandBuffer")?;
             d.begin_command_buffer(
                 slot.cmd,
                 &vk::CommandBufferBeginInfo::default()
                     .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-            )?;
+            )
+            .vk("vkBeginCommandBuffer")?;
         }
         self.recording = true;
         Ok(Frame {
@@ -178,9 +189,10 @@ impl Frames {
         self.recording = false;
         // SAFETY: the buffer is recording (begin) and its fence is signalled and unused.
         unsafe {
-            d.end_command_buffer(slot.cmd)?;
-            d.reset_fences(&[slot.fence])?;
-            d.queue_submit2(ctx.queue, &submit, slot.fence)?;
+            d.end_command_buffer(slot.cmd).vk("vkEndCommandBuffer")?;
+            d.reset_fences(&[slot.fence]).vk("vkResetFences")?;
+            d.queue_submit2(ctx.queue, &submit, slot.fence)
+                .vk("vkQueueSubmit2")?;
         }
         self.current = (self.current + 1) % self.slots.len();
         Ok(())
@@ -190,7 +202,7 @@ impl Frames {
     pub fn wait_all(&mut self, ctx: &GpuContext) -> Result<()> {
         let fences: Vec<_> = self.slots.iter().map(|s| s.fence).collect();
         // SAFETY: fences of this device.
-        unsafe { ctx.device.wait_for_fences(&fences, true, u64::MAX) }?;
+        unsafe { ctx.device.wait_for_fences(&fences, true, u64::MAX) }.vk("vkWaitForFences")?;
         // Oldest first: `current` is the slot submitted longest ago.
         let n = self.slots.len();
         for k in 0..n {

@@ -11,6 +11,9 @@
 //! - Validation messages are counted per context (through the messenger's user data), so tests
 //!   assert zero errors for the context they used.
 //! - Objects are named through `VK_EXT_debug_utils`, so messages say "accumulation target".
+//! - A failed call names itself: `vk::Result` does not convert into the crate's error by `?`;
+//!   each call site says which call it was (`.vk("vkCreateImage")?`,
+//!   [`crate::error::VkContext`]), so a report reads "vkCreateImage failed: …".
 
 pub mod commands;
 pub mod context;

@@ -9,7 +9,7 @@
 use ash::vk;
 
 use super::context::GpuContext;
-use crate::error::{Error, Result};
+use crate::error::{Result, VkContext};
 
 /// Depth test of a pipeline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -172,7 +172,8 @@ pub fn graphics_pipeline(ctx: &GpuContext, desc: &PipelineDesc) -> Result<vk::Pi
         ctx.device
             .create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
     }
-    .map_err(|(_, e)| Error::from(e))?;
+    .map_err(|(_, e)| e)
+    .vk("vkCreateGraphicsPipelines")?;
     Ok(pipelines[0])
 }
 
@@ -200,6 +201,7 @@ pub fn compute_pipeline(
         ctx.device
             .create_compute_pipelines(vk::PipelineCache::null(), &[info], None)
     }
-    .map_err(|(_, e)| Error::from(e))?;
+    .map_err(|(_, e)| e)
+    .vk("vkCreateComputePipelines")?;
     Ok(pipelines[0])
 }

@@ -5,7 +5,7 @@
 use ash::vk;
 
 use super::context::GpuContext;
-use crate::error::Result;
+use crate::error::{Result, VkContext};
 
 /// A buffer with its own memory. Host-visible buffers stay mapped for their whole life.
 pub struct Buffer {
@@ -67,7 +67,7 @@ impl Buffer {
             .usage(usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
         // SAFETY: valid device and create info.
-        let buffer = unsafe { d.create_buffer(&info, None) }?;
+        let buffer = unsafe { d.create_buffer(&info, None) }.vk("vkCreateBuffer")?;
         // SAFETY: buffer belongs to d.
         let req = unsafe { d.get_buffer_memory_requirements(buffer) };
         let chosen = preferences.iter().find_map(|&f| {
@@ -93,15 +93,18 @@ impl Buffer {
         };
         let host = flags.contains(vk::MemoryPropertyFlags::HOST_VISIBLE);
         // SAFETY: memory was allocated for this buffer's requirements.
-        let bound = unsafe { d.bind_buffer_memory(buffer, memory, 0) }.and_then(|()| {
-            if host {
-                // SAFETY: host-visible memory, not mapped yet.
-                unsafe { d.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
-                    .map(|p| Some(p as *mut u8))
-            } else {
-                Ok(None)
-            }
-        });
+        let bound = unsafe { d.bind_buffer_memory(buffer, memory, 0) }
+            .vk("vkBindBufferMemory")
+            .and_then(|()| {
+                if host {
+                    // SAFETY: host-visible memory, not mapped yet.
+                    unsafe { d.map_memory(memory, 0, vk::WHOLE_SIZE, vk::MemoryMapFlags::empty()) }
+                        .map(|p| Some(p as *mut u8))
+                        .vk("vkMapMemory")
+                } else {
+                    Ok(None)
+                }
+            });
         let mapped = match bound {
             Ok(m) => m,
             Err(e) => {
@@ -110,7 +113,7 @@ impl Buffer {
                     d.destroy_buffer(buffer, None);
                     d.free_memory(memory, None);
                 }
-                return Err(e.into());
+                return Err(e);
             }
         };
         ctx.name(buffer, name);
@@ -135,7 +138,8 @@ impl Buffer {
             .offset(0)
             .size(vk::WHOLE_SIZE);
         // SAFETY: the memory is mapped; the GPU finished writing it.
-        unsafe { ctx.device.invalidate_mapped_memory_ranges(&[range]) }?;
+        unsafe { ctx.device.invalidate_mapped_memory_ranges(&[range]) }
+            .vk("vkInvalidateMappedMemoryRanges")?;
         Ok(())
     }
 
@@ -276,7 +280,7 @@ impl Image {
     ) -> Result<Self> {
         let d = &ctx.device;
         // SAFETY: valid device and create info.
-        let image = unsafe { d.create_image(&desc.create_info(), None) }?;
+        let image = unsafe { d.create_image(&desc.create_info(), None) }.vk("vkCreateImage")?;
         // SAFETY: image belongs to d.
         let req = unsafe { d.get_image_memory_requirements(image) };
         let memory = match allocate(ctx, req, vk::MemoryPropertyFlags::DEVICE_LOCAL) {
@@ -294,9 +298,9 @@ impl Image {
             views: Vec::new(),
         };
         // SAFETY: memory allocated for this image's requirements.
-        if let Err(e) = unsafe { d.bind_image_memory(image, memory, 0) } {
+        if let Err(e) = unsafe { d.bind_image_memory(image, memory, 0) }.vk("vkBindImageMemory") {
             img.destroy(ctx);
-            return Err(e.into());
+            return Err(e);
         }
         for &format in view_formats {
             let info = vk::ImageViewCreateInfo::default()
@@ -312,14 +316,14 @@ impl Image {
                     ..range_of(desc.format, desc.layers)
                 });
             // SAFETY: the format is the image's or compatible with it (MUTABLE_FORMAT).
-            match unsafe { d.create_image_view(&info, None) } {
+            match unsafe { d.create_image_view(&info, None) }.vk("vkCreateImageView") {
                 Ok(v) => {
                     ctx.name(v, &format!("{name} ({format:?} view)"));
                     img.views.push(v);
                 }
                 Err(e) => {
                     img.destroy(ctx);
-                    return Err(e.into());
+                    return Err(e);
                 }
             }
         }
@@ -394,6 +398,9 @@ fn allocate_type(
                 req.size as f64 / (1024.0 * 1024.0)
             ))
         }
-        e => e.into(),
+        result => crate::error::Error::VkCall {
+            call: "vkAllocateMemory",
+            result,
+        },
     })
 }

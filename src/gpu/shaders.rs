@@ -3,7 +3,7 @@
 use ash::vk;
 
 use super::context::GpuContext;
-use crate::error::Result;
+use crate::error::{Result, VkContext};
 
 macro_rules! spirv {
     ($name:literal) => {
@@ -34,7 +34,7 @@ pub fn module(ctx: &GpuContext, spirv: &[u8], name: &str) -> Result<vk::ShaderMo
         .map_err(|e| crate::error::Error::Vulkan(format!("shader {name} is not SPIR-V: {e}")))?;
     let info = vk::ShaderModuleCreateInfo::default().code(&words);
     // SAFETY: valid SPIR-V produced by shaderc at build time.
-    let m = unsafe { ctx.device.create_shader_module(&info, None) }?;
+    let m = unsafe { ctx.device.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
     ctx.name(m, name);
     Ok(m)
 }

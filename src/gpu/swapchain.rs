@@ -12,7 +12,7 @@
 use ash::vk;
 
 use super::context::GpuContext;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, VkContext};
 
 /// How frames are paced.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
@@ -129,16 +129,19 @@ impl Swapchain {
     pub fn recreate(&mut self, ctx: &GpuContext, extent: vk::Extent2D) -> Result<()> {
         let d = &ctx.device;
         // SAFETY: waiting has no preconditions.
-        unsafe { d.device_wait_idle() }?;
+        unsafe { d.device_wait_idle() }.vk("vkDeviceWaitIdle")?;
         // SAFETY: valid physical device and surface.
         let (caps, formats, modes) = unsafe {
             (
                 self.surface_loader
-                    .get_physical_device_surface_capabilities(ctx.physical, self.surface)?,
+                    .get_physical_device_surface_capabilities(ctx.physical, self.surface)
+                    .vk("vkGetPhysicalDeviceSurfaceCapabilitiesKHR")?,
                 self.surface_loader
-                    .get_physical_device_surface_formats(ctx.physical, self.surface)?,
+                    .get_physical_device_surface_formats(ctx.physical, self.surface)
+                    .vk("vkGetPhysicalDeviceSurfaceFormatsKHR")?,
                 self.surface_loader
-                    .get_physical_device_surface_present_modes(ctx.physical, self.surface)?,
+                    .get_physical_device_surface_present_modes(ctx.physical, self.surface)
+                    .vk("vkGetPhysicalDeviceSurfacePresentModesKHR")?,
             )
         };
         // UNORM formats: tiltfield's shaders write exactly rounded sRGB-encoded values
@@ -193,12 +196,14 @@ impl Swapchain {
             .old_swapchain(old);
         self.release_images(ctx);
         // SAFETY: valid surface; the old swapchain is retired by this call and idle.
-        self.handle = unsafe { self.loader.create_swapchain(&info, None) }?;
+        self.handle =
+            unsafe { self.loader.create_swapchain(&info, None) }.vk("vkCreateSwapchainKHR")?;
         // SAFETY: the old swapchain is retired and no longer used (device idle).
         unsafe { self.loader.destroy_swapchain(old, None) };
         self.format = format.format;
         // SAFETY: valid swapchain.
-        self.images = unsafe { self.loader.get_swapchain_images(self.handle) }?;
+        self.images = unsafe { self.loader.get_swapchain_images(self.handle) }
+            .vk("vkGetSwapchainImagesKHR")?;
         for (i, &image) in self.images.iter().enumerate() {
             let view_info = vk::ImageViewCreateInfo::default()
                 .image(image)
@@ -208,9 +213,14 @@ impl Swapchain {
             // SAFETY: the image belongs to the swapchain; each object is pushed (and so freed
             // by `release_images`) as soon as it exists.
             unsafe {
-                self.views.push(d.create_image_view(&view_info, None)?);
-                self.render_finished
-                    .push(d.create_semaphore(&vk::SemaphoreCreateInfo::default(), None)?);
+                self.views.push(
+                    d.create_image_view(&view_info, None)
+                        .vk("vkCreateImageView")?,
+                );
+                self.render_finished.push(
+                    d.create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
+                        .vk("vkCreateSemaphore")?,
+                );
             }
             ctx.name(self.views[i], &format!("swapchain image {i}"));
             ctx.name(
@@ -238,7 +248,10 @@ impl Swapchain {
         } {
             Ok((index, suboptimal)) => Ok(Acquire::Image { index, suboptimal }),
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(Acquire::OutOfDate),
-            Err(e) => Err(e.into()),
+            Err(result) => Err(Error::VkCall {
+                call: "vkAcquireNextImageKHR",
+                result,
+            }),
         }
     }
 
@@ -256,7 +269,10 @@ impl Swapchain {
         match unsafe { self.loader.queue_present(ctx.queue, &info) } {
             Ok(suboptimal) => Ok(suboptimal),
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(true),
-            Err(e) => Err(e.into()),
+            Err(result) => Err(Error::VkCall {
+                call: "vkQueuePresentKHR",
+                result,
+            }),
         }
     }
 

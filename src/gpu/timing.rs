@@ -3,7 +3,7 @@
 use ash::vk;
 
 use super::context::GpuContext;
-use crate::error::Result;
+use crate::error::{Error, Result, VkContext};
 
 /// A pool of `count` timestamp queries. `None`-like when the queue has no timestamps.
 pub struct Timestamps {
@@ -24,7 +24,7 @@ impl Timestamps {
             .query_type(vk::QueryType::TIMESTAMP)
             .query_count(count);
         // SAFETY: valid device.
-        let pool = unsafe { ctx.device.create_query_pool(&info, None) }?;
+        let pool = unsafe { ctx.device.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
         ctx.name(pool, "timestamps");
         Ok(Some(Timestamps {
             pool,
@@ -69,7 +69,12 @@ impl Timestamps {
         match r {
             Ok(()) => {}
             Err(vk::Result::NOT_READY) => return Ok(None),
-            Err(e) => return Err(e.into()),
+            Err(result) => {
+                return Err(Error::VkCall {
+                    call: "vkGetQueryPoolResults",
+                    result,
+                })
+            }
         }
         Ok(Some(
             raw.windows(2)

@@ -6,6 +6,8 @@ use std::sync::Mutex;
 
 use ash::vk;
 
+use crate::error::{Error, Result};
+
 /// Message counts of one context. Owned (through an `Arc`) by the context; the messenger only
 /// borrows it through its user-data pointer and is destroyed first.
 #[derive(Debug, Default)]
@@ -13,6 +15,18 @@ pub struct ValidationLog {
     errors: AtomicUsize,
     warnings: AtomicUsize,
     messages: Mutex<Vec<String>>,
+}
+
+/// Fails when `errors` validation errors were reported while doing `what` ("while rendering",
+/// "in the viewer"): a run the validation layer objected to may have drawn anything, so every
+/// front end refuses its result with this one message. The messages themselves are in the log.
+pub fn check_errors(errors: usize, what: &str) -> Result<()> {
+    if errors > 0 {
+        return Err(Error::Vulkan(format!(
+            "{errors} validation errors {what} (see the log above)"
+        )));
+    }
+    Ok(())
 }
 
 /// At most this many messages are kept for reports.
@@ -86,4 +100,20 @@ pub unsafe extern "system" fn debug_callback(
         }
     });
     vk::FALSE
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn no_validation_error_passes_any_other_count_names_it_and_the_work() {
+        assert!(check_errors(0, "while rendering").is_ok());
+        let e = check_errors(3, "while rendering").unwrap_err();
+        assert!(matches!(e, Error::Vulkan(_)), "{e:?}");
+        assert_eq!(
+            e.to_string(),
+            "vulkan: 3 validation errors while rendering (see the log above)"
+        );
+    }
 }

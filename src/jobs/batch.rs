@@ -25,8 +25,8 @@ use crate::gpu::GpuContext;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use crate::lightfield::video::{FrameLoader, FrameSequence};
 use crate::lightfield::{LightField, LoadLimits};
-use crate::passes::texture::ViewStorage;
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::settings::ViewStorage;
 use crate::refocus::surface::SurfacePlan;
 use crate::refocus::RefocusPlan;
 
@@ -253,7 +253,7 @@ pub fn render_frames(
             let upload_ms = tu.elapsed().as_secs_f64() * 1e3;
             drop(lf);
             let (Some(r), Some(p)) = (renderer.as_mut(), plan.as_ref()) else {
-                return Err(Error::Vulkan("no renderer".into()));
+                return Err(Error::Internal("no renderer".into()));
             };
             let tr = Instant::now();
             let (image, gpu) = match (&p.surface, &p.antialias) {

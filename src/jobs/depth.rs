@@ -308,12 +308,7 @@ pub fn ensure_for(
             estimate.reference_st.1
         );
     }
-    let errors = ctx.validation().errors();
-    if errors > 0 {
-        return Err(crate::error::Error::Vulkan(format!(
-            "{errors} validation errors while estimating depth (see the log above)"
-        )));
-    }
+    ctx.check_validation("while estimating depth")?;
     let window = origin.normal_window();
     Ok((origin, window))
 }

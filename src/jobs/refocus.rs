@@ -18,12 +18,11 @@ use crate::gpu::timing::Timestamps;
 use crate::gpu::upload::Staging;
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::lightfield::LightField;
-use crate::passes::refocus::{
-    Accumulate, Accumulation, ComputeShape, Filter, OutputFormat, RefocusPass, RefocusTarget,
-    Strategy, WarpMemory,
-};
-use crate::passes::texture::{LightFieldTexture, ViewStorage};
+use crate::passes::refocus::{Accumulate, ComputeShape, RefocusPass, RefocusTarget};
+use crate::passes::texture::LightFieldTexture;
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
 use crate::refocus::surface::{SurfacePlan, SurfaceRule};
 use crate::refocus::{Averaging, RefocusImage, RefocusPlan};
 
@@ -156,7 +155,7 @@ impl HeadlessRenderer {
     /// with the same grid, cameras and view size — keeping the pass, target and plans valid.
     pub fn replace_views(&mut self, lf: &LightField) -> Result<()> {
         let Some(texture) = self.texture.as_mut() else {
-            return Err(Error::Vulkan("the renderer was not fully created".into()));
+            return Err(Error::Internal("the renderer was not fully created".into()));
         };
         if self.staging.is_none() {
             self.staging = Some(Staging::new(
@@ -166,7 +165,7 @@ impl HeadlessRenderer {
             )?);
         }
         let Some(staging) = self.staging.as_mut() else {
-            return Err(Error::Vulkan("no staging buffer".into()));
+            return Err(Error::Internal("no staging buffer".into()));
         };
         texture.reupload(&self.ctx, lf, staging)?;
         if let Some(pass) = self.pass.as_mut() {
@@ -180,7 +179,7 @@ impl HeadlessRenderer {
     pub fn set_compute_shape(&mut self, shape: ComputeShape) -> Result<()> {
         match self.pass.as_mut() {
             Some(p) => p.set_compute_shape(shape),
-            None => Err(Error::Vulkan("the renderer was not fully created".into())),
+            None => Err(Error::Internal("the renderer was not fully created".into())),
         }
     }
 
@@ -289,7 +288,7 @@ impl HeadlessRenderer {
     ) -> Result<Option<PassTimings>> {
         let ctx = Arc::clone(&self.ctx);
         let (Some(pass), Some(texture)) = (self.pass.as_mut(), self.texture.as_ref()) else {
-            return Err(Error::Vulkan("the renderer was not fully created".into()));
+            return Err(Error::Internal("the renderer was not fully created".into()));
         };
         let (w, h) = settings.size.unwrap_or((texture.width, texture.height));
         let want = (w, h, settings.accumulation);
@@ -331,7 +330,7 @@ impl HeadlessRenderer {
             self.submission.as_ref(),
             self.readback.as_ref(),
         ) else {
-            return Err(Error::Vulkan("no target".into()));
+            return Err(Error::Internal("no target".into()));
         };
         let m = plan.m.as_vec3();
         let accumulate = Accumulate {
@@ -393,7 +392,7 @@ impl HeadlessRenderer {
 
     fn read_image(&mut self, settings: &RenderSettings) -> Result<GpuImage> {
         let (Some(t), Some(buffer)) = (self.target.as_ref(), self.readback.as_mut()) else {
-            return Err(Error::Vulkan("no target".into()));
+            return Err(Error::Internal("no target".into()));
         };
         let (w, h) = (t.width, t.height);
         buffer.invalidate(&self.ctx)?;
@@ -403,7 +402,7 @@ impl HeadlessRenderer {
                 let raw = bytes[..(w * h * 4) as usize].to_vec();
                 GpuImage::Srgb8(
                     RgbaImage::from_raw(w, h, raw)
-                        .ok_or_else(|| Error::Vulkan("readback size mismatch".into()))?,
+                        .ok_or_else(|| Error::Internal("readback size mismatch".into()))?,
                 )
             }
             OutputFormat::Float => {

@@ -21,10 +21,11 @@ use crate::gpu::GpuContext;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, PassTimings, RenderSettings};
 use crate::jobs::strategy::StrategySource;
 use crate::lightfield::{self, GridCameraOptions, LightField, LoadLimits};
-use crate::passes::refocus::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
-use crate::passes::texture::{TextureLimits, ViewStorage};
+use crate::passes::texture::TextureLimits;
 use crate::refocus::antialias::{AntialiasPlan, AntialiasSettings};
 use crate::refocus::options::FocusOptions;
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Accumulation, Filter, OutputFormat, Strategy, WarpMemory};
 use crate::refocus::surface::{FocusSurface, SurfacePlan};
 use crate::refocus::{self, Averaging, FocusSpec, RefocusPlan, ResolvedFocus};
 
@@ -860,7 +861,7 @@ impl Session {
             )?);
         }
         let Some(renderer) = self.renderer.as_mut() else {
-            return Err(Error::Vulkan("no renderer".into()));
+            return Err(Error::Internal("no renderer".into()));
         };
         let (image, timings) = render(renderer, &prepared)?;
         Ok((image, timings, prepared))

@@ -29,8 +29,8 @@ use crate::geometry::aperture::Aperture;
 use crate::gpu::GpuContext;
 use crate::jobs::refocus::{HeadlessRenderer, RenderSettings};
 use crate::lightfield::{GridCameraOptions, GridSize, LightField};
-use crate::passes::refocus::Strategy;
-use crate::passes::texture::ViewStorage;
+use crate::refocus::settings::Strategy;
+use crate::refocus::settings::ViewStorage;
 use crate::refocus::{FocusSpec, RefocusRequest};
 
 /// The strategies `auto` chooses between (the batch size is the bench's best on llvmpipe).
@@ -139,9 +139,9 @@ pub fn choose(ctx: &Arc<GpuContext>, asked: Option<Strategy>) -> Result<Chosen> 
     // whoever waited finds the choice made.
     static CHOSEN: OnceLock<Mutex<HashMap<String, Strategy>>> = OnceLock::new();
     let memo = CHOSEN.get_or_init(|| Mutex::new(HashMap::new()));
-    let mut memo = memo
-        .lock()
-        .map_err(|_| Error::Vulkan("the strategy calibration panicked in another thread".into()))?;
+    let mut memo = memo.lock().map_err(|_| {
+        Error::Internal("the strategy calibration panicked in another thread".into())
+    })?;
     let strategy = match memo.get(&key).copied() {
         Some(s) => s,
         None => {

@@ -14,7 +14,7 @@
 
 use ash::vk;
 
-use crate::error::Result;
+use crate::error::{Result, VkContext};
 use crate::gpu::pipeline::{graphics_pipeline, Blend, PipelineDesc};
 use crate::gpu::pod::{as_bytes, Pod};
 use crate::gpu::{shaders, GpuContext};
@@ -114,35 +114,41 @@ impl Compositor {
         // SAFETY: valid device and create infos; each handle is stored as soon as it exists,
         // so `destroy` frees it when a later step fails.
         unsafe {
-            self.sampler = d.create_sampler(&sampler, None)?;
+            self.sampler = d.create_sampler(&sampler, None).vk("vkCreateSampler")?;
             let bindings = [vk::DescriptorSetLayoutBinding::default()
                 .binding(0)
                 .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
                 .descriptor_count(1)
                 .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
-            self.set_layout = d.create_descriptor_set_layout(
-                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                None,
-            )?;
+            self.set_layout = d
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                    None,
+                )
+                .vk("vkCreateDescriptorSetLayout")?;
             let sizes = [vk::DescriptorPoolSize::default()
                 .ty(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
                 .descriptor_count(MAX_SETS)];
-            self.pool = d.create_descriptor_pool(
-                &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(MAX_SETS)
-                    .pool_sizes(&sizes),
-                None,
-            )?;
+            self.pool = d
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(MAX_SETS)
+                        .pool_sizes(&sizes),
+                    None,
+                )
+                .vk("vkCreateDescriptorPool")?;
             let push = [vk::PushConstantRange::default()
                 .stage_flags(vk::ShaderStageFlags::FRAGMENT)
                 .size(std::mem::size_of::<PanelPush>() as u32)];
             let set_layouts = [self.set_layout];
-            self.layout = d.create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default()
-                    .set_layouts(&set_layouts)
-                    .push_constant_ranges(&push),
-                None,
-            )?;
+            self.layout = d
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&set_layouts)
+                        .push_constant_ranges(&push),
+                    None,
+                )
+                .vk("vkCreatePipelineLayout")?;
         }
         ctx.name(self.sampler, "panel sampler");
         let vert = shaders::module(ctx, shaders::FULLSCREEN_VERT, "fullscreen.vert")?;
@@ -190,7 +196,8 @@ impl Compositor {
             .descriptor_pool(self.pool)
             .set_layouts(&layouts);
         // SAFETY: valid pool and layout; the pool is sized for MAX_SETS sets between resets.
-        let set = unsafe { ctx.device.allocate_descriptor_sets(&alloc) }?[0];
+        let set = unsafe { ctx.device.allocate_descriptor_sets(&alloc) }
+            .vk("vkAllocateDescriptorSets")?[0];
         let image = [vk::DescriptorImageInfo::default()
             .sampler(self.sampler)
             .image_view(view)
@@ -211,7 +218,8 @@ impl Compositor {
         unsafe {
             ctx.device
                 .reset_descriptor_pool(self.pool, vk::DescriptorPoolResetFlags::empty())
-        }?;
+        }
+        .vk("vkResetDescriptorPool")?;
         Ok(())
     }
 

@@ -32,7 +32,7 @@
 use ash::vk;
 use glam::{DMat3, DMat4, DVec2, DVec3, DVec4};
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, VkContext};
 use crate::geometry::camera::Camera;
 use crate::gpu::commands::{
     begin_rendering, format_barrier, image_barrier, record_readback, stage, ImageReadback,
@@ -234,7 +234,7 @@ impl RasterPass {
                     (b.vertices.take(), b.indices.take(), b.submission.take())
                 else {
                     b.destroy(ctx);
-                    return Err(Error::Vulkan("raster pass set-up incomplete".into()));
+                    return Err(Error::Internal("raster pass set-up incomplete".into()));
                 };
                 Ok(RasterPass {
                     b,
@@ -478,10 +478,12 @@ impl PassBuilder {
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
         // SAFETY: valid device and create infos throughout this block.
         unsafe {
-            self.sampler_clamp =
-                d.create_sampler(&sampler(vk::SamplerAddressMode::CLAMP_TO_EDGE), None)?;
-            self.sampler_repeat =
-                d.create_sampler(&sampler(vk::SamplerAddressMode::REPEAT), None)?;
+            self.sampler_clamp = d
+                .create_sampler(&sampler(vk::SamplerAddressMode::CLAMP_TO_EDGE), None)
+                .vk("vkCreateSampler")?;
+            self.sampler_repeat = d
+                .create_sampler(&sampler(vk::SamplerAddressMode::REPEAT), None)
+                .vk("vkCreateSampler")?;
             ctx.name(self.sampler_clamp, "mesh texture sampler (clamp)");
             ctx.name(self.sampler_repeat, "mesh texture sampler (repeat)");
             let bindings = [vk::DescriptorSetLayoutBinding::default()
@@ -489,21 +491,25 @@ impl PassBuilder {
                 .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
                 .descriptor_count(1)
                 .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
-            self.set_layout = d.create_descriptor_set_layout(
-                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                None,
-            )?;
+            self.set_layout = d
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                    None,
+                )
+                .vk("vkCreateDescriptorSetLayout")?;
             let push = [vk::PushConstantRange::default()
                 .stage_flags(stages)
                 .offset(0)
                 .size(PUSH_BYTES as u32)];
             let set_layouts = [self.set_layout];
-            self.layout = d.create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default()
-                    .set_layouts(&set_layouts)
-                    .push_constant_ranges(&push),
-                None,
-            )?;
+            self.layout = d
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&set_layouts)
+                        .push_constant_ranges(&push),
+                    None,
+                )
+                .vk("vkCreatePipelineLayout")?;
         }
         let vert = shaders::module(ctx, shaders::MESH_VERT, "mesh.vert")?;
         let accum = shaders::module(ctx, shaders::MESH_ACCUM_FRAG, "mesh_accum.frag");
@@ -611,18 +617,22 @@ impl PassBuilder {
         }];
         // SAFETY: valid device; the sets are written with live views and samplers.
         let sets = unsafe {
-            self.pool = d.create_descriptor_pool(
-                &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(n)
-                    .pool_sizes(&sizes),
-                None,
-            )?;
+            self.pool = d
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(n)
+                        .pool_sizes(&sizes),
+                    None,
+                )
+                .vk("vkCreateDescriptorPool")?;
             let layouts = vec![self.set_layout; n as usize];
-            let sets = d.allocate_descriptor_sets(
-                &vk::DescriptorSetAllocateInfo::default()
-                    .descriptor_pool(self.pool)
-                    .set_layouts(&layouts),
-            )?;
+            let sets = d
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default()
+                        .descriptor_pool(self.pool)
+                        .set_layouts(&layouts),
+                )
+                .vk("vkAllocateDescriptorSets")?;
             for (i, set) in sets.iter().enumerate() {
                 let sampler = if all[i].3 {
                     self.sampler_repeat

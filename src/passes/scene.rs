@@ -30,7 +30,7 @@
 
 use ash::vk;
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, VkContext};
 use image::RgbaImage;
 
 use crate::gpu::commands::{
@@ -183,7 +183,7 @@ impl SceneTarget {
                 p[3] = 255;
             }
             RgbaImage::from_raw(w, h, raw)
-                .ok_or_else(|| Error::Vulkan("scene readback size mismatch".into()))
+                .ok_or_else(|| Error::Internal("scene readback size mismatch".into()))
         });
         readback.destroy(ctx);
         image
@@ -220,7 +220,8 @@ impl ScenePass {
             .size(PUSH_BYTES)];
         let info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&push);
         // SAFETY: valid device and create info.
-        let layout = unsafe { d.create_pipeline_layout(&info, None) }?;
+        let layout =
+            unsafe { d.create_pipeline_layout(&info, None) }.vk("vkCreatePipelineLayout")?;
         let range = ctx.properties.limits.point_size_range;
         let mut pass = ScenePass {
             overlay: (0..slots.max(1)).map(|_| None).collect(),

@@ -21,57 +21,21 @@ use crate::gpu::upload::{upload_images, ImageRegion, Staging};
 use crate::gpu::GpuContext;
 use crate::lightfield::LightField;
 use crate::refocus::prefilter;
+use crate::refocus::settings::ViewStorage;
 
-/// How the views are stored on the GPU (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ViewStorage {
-    /// RGBA8 sRGB-encoded, as loaded (4 bytes per texel).
-    Srgb8,
-    /// RGBA16 UNORM linear light, decoded exactly on upload (8 bytes per texel). The default:
-    /// hardware filtering then averages exact linear values (an unbiased 8-bit output on
-    /// every device), at the speed of 8-bit sRGB storage on lavapipe (measured 0.99× its
-    /// time for 81 × 512²).
-    #[default]
-    Linear16,
-}
-
-impl ViewStorage {
-    /// The storage to use for `averaging` when none is asked for: exact linear light for
-    /// linear averaging; for encoded averaging the texels as loaded, which the hardware can
-    /// filter directly (linear storage would need a per-texel re-encode in the shader).
-    pub fn for_averaging(averaging: crate::refocus::Averaging) -> Self {
-        match averaging {
-            crate::refocus::Averaging::Linear => ViewStorage::Linear16,
-            crate::refocus::Averaging::Encoded => ViewStorage::Srgb8,
-        }
-    }
-
-    fn format(self) -> vk::Format {
-        match self {
-            ViewStorage::Srgb8 => vk::Format::R8G8B8A8_UNORM,
-            ViewStorage::Linear16 => vk::Format::R16G16B16A16_UNORM,
-        }
-    }
-
-    fn texel_bytes(self) -> u64 {
-        match self {
-            ViewStorage::Srgb8 => 4,
-            ViewStorage::Linear16 => 8,
-        }
+/// The Vulkan format of the views in `storage`.
+fn storage_format(storage: ViewStorage) -> vk::Format {
+    match storage {
+        ViewStorage::Srgb8 => vk::Format::R8G8B8A8_UNORM,
+        ViewStorage::Linear16 => vk::Format::R16G16B16A16_UNORM,
     }
 }
 
-impl std::str::FromStr for ViewStorage {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "srgb8" => Ok(Self::Srgb8),
-            "linear16" => Ok(Self::Linear16),
-            _ => Err(Error::Invalid(format!(
-                "unknown view storage '{s}': expected srgb8 or linear16"
-            ))),
-        }
+/// Bytes of one texel in `storage`.
+fn texel_bytes(storage: ViewStorage) -> u64 {
+    match storage {
+        ViewStorage::Srgb8 => 4,
+        ViewStorage::Linear16 => 8,
     }
 }
 
@@ -161,7 +125,7 @@ impl LightFieldTexture {
     pub fn upload(ctx: &GpuContext, lf: &LightField, storage: ViewStorage) -> Result<Self> {
         let (w, h) = (lf.width, lf.height);
         let layers = lf.views.len();
-        let format = storage.format();
+        let format = storage_format(storage);
         let desc = ImageDesc {
             format,
             width: w,
@@ -268,7 +232,7 @@ fn write_views(
 /// Bytes of one view's level `l` (of a `w × h` view) in `storage`.
 fn level_bytes(storage: ViewStorage, (w, h): (u32, u32), l: u32) -> usize {
     let (lw, lh) = prefilter::level_size(w, h, l);
-    lw as usize * lh as usize * storage.texel_bytes() as usize
+    lw as usize * lh as usize * texel_bytes(storage) as usize
 }
 
 /// Where each level of `layers` views of `w × h` starts in the staging buffer (level after

@@ -46,7 +46,7 @@ use crate::lightfield::LightField;
 pub const MAX_SAMPLES_LIMIT: u32 = 16;
 
 /// Most views an anti-aliased aperture may hold: the pass reads the footprints from a
-/// uniform buffer of this many records (`passes::refocus::UBO_WARPS`).
+/// uniform buffer of this many records (`refocus::settings::UBO_WARPS`).
 pub const MAX_VIEWS: usize = 256;
 
 /// Sub-samples of the aperture cells per grid step of the area weights' quadrature.

@@ -1,6 +1,7 @@
 //! Refocus requests: the focus and its plane ([`focus`]), their resolution into per-view warps
-//! ([`mod@plan`]), the f64 CPU reference renderer ([`cpu`]) and the refocus image type shared
-//! with the GPU pass. Writing images to files is [`crate::io`]'s job.
+//! ([`mod@plan`]), the f64 CPU reference renderer ([`cpu`]), the settings a front end picks for
+//! the GPU pass ([`settings`]) and the refocus image type shared with the GPU pass. Writing
+//! images to files is [`crate::io`]'s job.
 
 pub mod antialias;
 pub mod cpu;
@@ -9,6 +10,7 @@ pub mod focus;
 pub mod options;
 pub mod plan;
 pub mod prefilter;
+pub mod settings;
 pub mod surface;
 
 use image::RgbaImage;

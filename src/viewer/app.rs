@@ -36,9 +36,9 @@ use crate::gpu::{GpuContext, GpuOptions};
 use crate::jobs::strategy::Chosen;
 use crate::lightfield::video::FrameSequence;
 use crate::lightfield::LightField;
-use crate::passes::refocus::{Filter, Strategy};
-use crate::passes::texture::ViewStorage;
 use crate::refocus::antialias::AntialiasSettings;
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Filter, Strategy};
 use crate::refocus::{Averaging, FocusRequest};
 
 /// How long after the last input the view counts as "being interacted with".

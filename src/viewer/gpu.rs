@@ -36,12 +36,12 @@ use crate::gpu::upload::Staging;
 use crate::gpu::GpuContext;
 use crate::lightfield::LightField;
 use crate::passes::panel::{Compositor, PanelMode, Rect};
-use crate::passes::refocus::{
-    Accumulate, Filter, OutputFormat, RefocusPass, RefocusTarget, Strategy,
-};
+use crate::passes::refocus::{Accumulate, RefocusPass, RefocusTarget};
 use crate::passes::scene::{SceneOverlay, ScenePass, SceneTarget, SceneView};
-use crate::passes::texture::{LightFieldTexture, ViewStorage};
+use crate::passes::texture::LightFieldTexture;
 use crate::refocus::antialias::AntialiasPlan;
+use crate::refocus::settings::ViewStorage;
+use crate::refocus::settings::{Filter, OutputFormat, Strategy};
 use crate::refocus::surface::{SurfacePlan, SurfaceRule};
 use crate::refocus::{Averaging, RefocusPlan};
 
@@ -330,7 +330,7 @@ impl ViewerGpu {
         self.wait_idle()?;
         let ctx = Arc::clone(&self.ctx);
         let Some(texture) = self.texture.as_mut() else {
-            return Err(Error::Vulkan("the viewer was not fully created".into()));
+            return Err(Error::Internal("the viewer was not fully created".into()));
         };
         if self.staging.is_none() {
             self.staging = Some(Staging::new(
@@ -341,7 +341,7 @@ impl ViewerGpu {
         }
         match self.staging.as_mut() {
             Some(staging) => texture.reupload(&ctx, lf, staging)?,
-            None => return Err(Error::Vulkan("no staging buffer".into())),
+            None => return Err(Error::Internal("no staging buffer".into())),
         }
         if let Some(pass) = self.pass.as_mut() {
             pass.views_reuploaded();
@@ -454,7 +454,7 @@ impl ViewerGpu {
     fn make_sets(&mut self) -> Result<()> {
         let ctx = Arc::clone(&self.ctx);
         let Some(compositor) = self.compositor.as_ref() else {
-            return Err(Error::Vulkan("the viewer was not fully created".into()));
+            return Err(Error::Internal("the viewer was not fully created".into()));
         };
         compositor.reset(&ctx)?;
         if let Some(s) = self.scene.as_mut() {
@@ -485,7 +485,7 @@ impl ViewerGpu {
         self.wait_idle()?;
         let ctx = Arc::clone(&self.ctx);
         let (Some(pass), Some(targets)) = (self.pass.as_mut(), self.targets.as_mut()) else {
-            return Err(Error::Vulkan("the viewer was not fully created".into()));
+            return Err(Error::Internal("the viewer was not fully created".into()));
         };
         if let Some((_, t, _)) = targets.preview.take() {
             t.destroy(&ctx);
@@ -566,7 +566,7 @@ impl ViewerGpu {
             self.overlay.as_mut(),
         )
         else {
-            return Err(Error::Vulkan("the viewer was not fully created".into()));
+            return Err(Error::Internal("the viewer was not fully created".into()));
         };
         let frame = frames.begin(&ctx)?;
         let mut result = FrameResult::default();
@@ -682,7 +682,7 @@ impl ViewerGpu {
         let surface = active(surface);
         let ctx = Arc::clone(&self.ctx);
         let Some(pass) = self.pass.as_mut() else {
-            return Err(Error::Vulkan("the viewer was not fully created".into()));
+            return Err(Error::Internal("the viewer was not fully created".into()));
         };
         let plan = match aa {
             Some(aa) => {
@@ -747,7 +747,7 @@ impl ViewerGpu {
                 readback.invalidate(&ctx)?;
                 let raw = readback.bytes_mut()[..(w * h * 4) as usize].to_vec();
                 RgbaImage::from_raw(w, h, raw)
-                    .ok_or_else(|| Error::Vulkan("capture size mismatch".into()))
+                    .ok_or_else(|| Error::Internal("capture size mismatch".into()))
             });
             readback.destroy(&ctx);
             out
@@ -804,7 +804,7 @@ impl RefocusTargets {
         let target = if batch.divisor > 1 {
             match self.preview.as_mut() {
                 Some((_, t, _)) => t,
-                None => return Err(Error::Vulkan("no preview target".into())),
+                None => return Err(Error::Internal("no preview target".into())),
             }
         } else {
             &mut self.full

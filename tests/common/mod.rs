@@ -6,7 +6,7 @@ use tiltfield::color;
 use tiltfield::gpu::GpuOptions;
 use tiltfield::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use tiltfield::lightfield::LightField;
-use tiltfield::passes::refocus::{OutputFormat, Strategy};
+use tiltfield::refocus::settings::{OutputFormat, Strategy};
 use tiltfield::refocus::{Averaging, RefocusImage, RefocusPlan};
 
 /// A request with the default aperture (all views) at the grid centre.

@@ -27,7 +27,7 @@ pub use interface::{DepthPush, GpuSweepView};
 use crate::depth::guide::{guide_pixels, GuidePixel};
 use crate::depth::sweep::SweepPlan;
 use crate::depth::{Aggregation, CostKind, Refine, SweepOutput, SweepParams};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, VkContext};
 use crate::gpu::commands::{memory_barrier, Submission};
 use crate::gpu::pipeline::compute_pipeline;
 use crate::gpu::pod::{as_bytes, Pod};
@@ -360,7 +360,8 @@ impl SweepPass {
                 &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
                 None,
             )
-        }?;
+        }
+        .vk("vkCreateDescriptorSetLayout")?;
         ctx.name(self.set_layout, "depth sweep set layout");
         let push = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
@@ -375,7 +376,8 @@ impl SweepPass {
                     .push_constant_ranges(&push),
                 None,
             )
-        }?;
+        }
+        .vk("vkCreatePipelineLayout")?;
         ctx.name(self.layout, "depth sweep pipeline layout");
         let sizes = [vk::DescriptorPoolSize {
             ty: vk::DescriptorType::STORAGE_BUFFER,
@@ -389,7 +391,8 @@ impl SweepPass {
                     .pool_sizes(&sizes),
                 None,
             )
-        }?;
+        }
+        .vk("vkCreateDescriptorPool")?;
         // SAFETY: the pool has room for this set.
         let set = unsafe {
             d.allocate_descriptor_sets(
@@ -397,7 +400,8 @@ impl SweepPass {
                     .descriptor_pool(self.pool)
                     .set_layouts(&layouts),
             )
-        }?[0];
+        }
+        .vk("vkAllocateDescriptorSets")?[0];
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = self
             .buffers
             .iter()

@@ -15,7 +15,7 @@ use std::ops::Range;
 use ash::vk;
 
 use super::interface::RefocusPush;
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, VkContext};
 use crate::gpu::commands::{image_barrier, memory_barrier, stage, ImageTransition, Submission};
 use crate::gpu::pipeline::compute_pipeline;
 use crate::gpu::pod::as_bytes;
@@ -106,32 +106,40 @@ impl DefocusStage {
         // SAFETY: valid device and create infos; each handle is stored before the next call,
         // so a failure leaves only live handles for destroy().
         unsafe {
-            self.set_layout = d.create_descriptor_set_layout(
-                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                None,
-            )?;
-            self.pool = d.create_descriptor_pool(
-                &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(1)
-                    .pool_sizes(&sizes),
-                None,
-            )?;
-            self.set = d.allocate_descriptor_sets(
-                &vk::DescriptorSetAllocateInfo::default()
-                    .descriptor_pool(self.pool)
-                    .set_layouts(&[self.set_layout]),
-            )?[0];
+            self.set_layout = d
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                    None,
+                )
+                .vk("vkCreateDescriptorSetLayout")?;
+            self.pool = d
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(1)
+                        .pool_sizes(&sizes),
+                    None,
+                )
+                .vk("vkCreateDescriptorPool")?;
+            self.set = d
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default()
+                        .descriptor_pool(self.pool)
+                        .set_layouts(&[self.set_layout]),
+                )
+                .vk("vkAllocateDescriptorSets")?[0];
             let push = [vk::PushConstantRange::default()
                 .stage_flags(vk::ShaderStageFlags::COMPUTE)
                 .offset(0)
                 .size(std::mem::size_of::<RefocusPush>() as u32)];
             let sets = [input_layout, self.set_layout];
-            self.layout = d.create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default()
-                    .set_layouts(&sets)
-                    .push_constant_ranges(&push),
-                None,
-            )?;
+            self.layout = d
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&sets)
+                        .push_constant_ranges(&push),
+                    None,
+                )
+                .vk("vkCreatePipelineLayout")?;
         }
         self.reserve(ctx, 1).map(drop)
     }

@@ -53,10 +53,10 @@ use ash::vk;
 use crate::gpu::pod::as_bytes;
 use defocus::{DefocusKey, DefocusStage};
 pub use interface::{GpuFootprint, GpuSurface, GpuViewWarp, RefocusPush};
-pub use target::{OutputFormat, RefocusTarget};
+pub use target::RefocusTarget;
 
-use super::texture::{LightFieldTexture, ViewStorage, VIEW_SRGB, VIEW_STORED};
-use crate::error::{Error, Result};
+use super::texture::{LightFieldTexture, VIEW_SRGB, VIEW_STORED};
+use crate::error::{Error, Result, VkContext};
 use crate::gpu::commands::{
     begin_rendering, begin_rendering_in, image_barrier, stage, ImageTransition,
 };
@@ -65,223 +65,34 @@ use crate::gpu::resources::Buffer;
 use crate::gpu::shaders;
 use crate::gpu::GpuContext;
 use crate::refocus::antialias::{AntialiasPlan, MAX_VISIBILITY_BYTES};
+use crate::refocus::settings::{
+    Accumulation, Filter, OutputFormat, Strategy, ViewStorage, WarpMemory, UBO_WARPS,
+};
 use crate::refocus::surface::{SurfacePlan, SurfaceRule, MAX_PLANES};
 use crate::refocus::{Averaging, RefocusPlan};
 
-/// How the views are summed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
-#[serde(rename_all = "lowercase", tag = "kind")]
-pub enum Strategy {
-    /// One fullscreen draw loops over every view.
-    #[default]
-    Fragment,
-    /// Draws of at most `views_per_draw` views, summed by additive blending.
-    Batched { views_per_draw: usize },
-    /// One compute dispatch per range of views, summed in a storage image.
-    Compute,
-}
-
-impl Strategy {
-    /// Batch size of `batched` when none is given.
-    pub const DEFAULT_BATCH: usize = 9;
-
-    /// A short name: `fragment`, `batched:N`, `compute`.
-    pub fn name(&self) -> String {
-        match self {
-            Strategy::Fragment => "fragment".into(),
-            Strategy::Batched { views_per_draw } => format!("batched:{views_per_draw}"),
-            Strategy::Compute => "compute".into(),
-        }
+/// The Vulkan format a target sums in with `accumulation`.
+pub fn accumulation_format(accumulation: Accumulation) -> vk::Format {
+    match accumulation {
+        Accumulation::Rgba32f => vk::Format::R32G32B32A32_SFLOAT,
+        Accumulation::Rgba16f => vk::Format::R16G16B16A16_SFLOAT,
     }
 }
 
-impl std::str::FromStr for Strategy {
-    type Err = Error;
-    /// `fragment`, `batched`, `batched:N` or `compute`.
-    fn from_str(s: &str) -> Result<Self> {
-        let bad = || {
-            Error::Invalid(format!(
-                "unknown strategy '{s}': expected fragment, batched, batched:N (N ≥ 1) or compute"
-            ))
-        };
-        match s.split_once(':') {
-            None => match s {
-                "fragment" => Ok(Self::Fragment),
-                "batched" => Ok(Self::Batched {
-                    views_per_draw: Self::DEFAULT_BATCH,
-                }),
-                "compute" => Ok(Self::Compute),
-                _ => Err(bad()),
-            },
-            Some(("batched", n)) => match n.parse::<usize>() {
-                Ok(n) if n >= 1 => Ok(Self::Batched { views_per_draw: n }),
-                _ => Err(bad()),
-            },
-            Some(_) => Err(bad()),
-        }
-    }
+/// The accumulation whose Vulkan format is `format`, if any.
+fn accumulation_of_format(format: vk::Format) -> Option<Accumulation> {
+    [Accumulation::Rgba32f, Accumulation::Rgba16f]
+        .into_iter()
+        .find(|a| accumulation_format(*a) == format)
 }
 
-/// How a view is sampled at a warped position.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Filter {
-    /// The sampler's bilinear filter: one fetch, positions snapped to 8 fractional bits.
-    #[default]
-    Hardware,
-    /// The nearest texel.
-    Nearest,
-    /// Bilinear in the shader from four texel fetches with f32 weights.
-    Shader,
-    /// Bicubic (Catmull-Rom, a = −½) in the shader from sixteen texel fetches with f32
-    /// weights: sharper than bilinear at fractional shifts, interpolating (texel centres are
-    /// reproduced exactly), and may overshoot near edges (no clamping before the average).
-    Bicubic,
-}
-
-impl Filter {
-    /// Every filter, in the order the CLI lists them.
-    pub const ALL: [Filter; 4] = [
-        Filter::Hardware,
-        Filter::Shader,
-        Filter::Bicubic,
-        Filter::Nearest,
-    ];
-
-    fn code(self) -> u32 {
-        match self {
-            Filter::Hardware => 0,
-            Filter::Nearest => 1,
-            Filter::Shader => 2,
-            Filter::Bicubic => 3,
-        }
-    }
-
-    /// The name the CLI accepts.
-    pub fn name(self) -> &'static str {
-        match self {
-            Filter::Hardware => "hardware",
-            Filter::Nearest => "nearest",
-            Filter::Shader => "shader",
-            Filter::Bicubic => "bicubic",
-        }
-    }
-}
-
-impl std::str::FromStr for Filter {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "hardware" => Ok(Self::Hardware),
-            "nearest" => Ok(Self::Nearest),
-            "shader" => Ok(Self::Shader),
-            "bicubic" => Ok(Self::Bicubic),
-            _ => Err(Error::Invalid(format!(
-                "unknown filter '{s}': expected hardware, shader, bicubic or nearest"
-            ))),
-        }
-    }
-}
-
-/// The float format the views are summed in (a property of the [`RefocusTarget`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Accumulation {
-    /// RGBA32F: 24-bit mantissas, exact for any practical number of views. The default.
-    #[default]
-    Rgba32f,
-    /// RGBA16F: half the memory and bandwidth. The fragment and compute strategies write
-    /// each pixel's sum once (one rounding, relative error ≤ 2⁻¹¹); batched draws round after
-    /// every draw.
-    Rgba16f,
-}
-
-impl Accumulation {
-    /// The Vulkan format.
-    pub fn format(self) -> vk::Format {
-        match self {
-            Accumulation::Rgba32f => vk::Format::R32G32B32A32_SFLOAT,
-            Accumulation::Rgba16f => vk::Format::R16G16B16A16_SFLOAT,
-        }
-    }
-
-    /// The name the CLI accepts.
-    pub fn name(self) -> &'static str {
-        match self {
-            Accumulation::Rgba32f => "rgba32f",
-            Accumulation::Rgba16f => "rgba16f",
-        }
-    }
-
-    fn of_format(format: vk::Format) -> Option<Self> {
-        [Accumulation::Rgba32f, Accumulation::Rgba16f]
-            .into_iter()
-            .find(|a| a.format() == format)
-    }
-}
-
-impl std::str::FromStr for Accumulation {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "rgba32f" => Ok(Self::Rgba32f),
-            "rgba16f" => Ok(Self::Rgba16f),
-            _ => Err(Error::Invalid(format!(
-                "unknown accumulation '{s}': expected rgba32f or rgba16f"
-            ))),
-        }
-    }
-}
-
-/// Records in the uniform-buffer binding of the warps: 16 KiB, the least
-/// `maxUniformBufferRange` Vulkan guarantees.
-pub const UBO_WARPS: usize = 256;
-
-/// Where the accumulation shaders read the per-view warps from.
-///
-/// Measured on lavapipe (llvmpipe, Mesa 22.3): a storage-buffer load whose index is the loop
-/// counter is compiled as a loop over the SIMD lanes with a bounds check and a branch per
-/// lane, while a uniform-buffer load is one vector gather; with 81 views the storage path
-/// spent about 90 % of the refocus time loading warps. GPUs serve both from the same caches.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum WarpMemory {
-    /// A uniform buffer of at most [`UBO_WARPS`] records (the default where the views fit).
-    #[default]
-    Uniform,
-    /// A storage buffer: any number of views.
-    Storage,
-}
-
-impl WarpMemory {
-    /// The default for a light field of `views` views.
-    pub fn for_views(views: usize) -> Self {
-        if views <= UBO_WARPS {
-            WarpMemory::Uniform
-        } else {
-            WarpMemory::Storage
-        }
-    }
-
-    /// The name the CLI accepts (`ubo`, `ssbo`).
-    pub fn name(self) -> &'static str {
-        match self {
-            WarpMemory::Uniform => "ubo",
-            WarpMemory::Storage => "ssbo",
-        }
-    }
-}
-
-impl std::str::FromStr for WarpMemory {
-    type Err = Error;
-    fn from_str(s: &str) -> Result<Self> {
-        match s {
-            "ubo" => Ok(Self::Uniform),
-            "ssbo" => Ok(Self::Storage),
-            _ => Err(Error::Invalid(format!(
-                "unknown warp memory '{s}': expected ubo or ssbo"
-            ))),
-        }
+/// The `FILTER` code the accumulation shaders read (shaders/refocus_accumulate.glsl).
+fn filter_code(filter: Filter) -> u32 {
+    match filter {
+        Filter::Hardware => 0,
+        Filter::Nearest => 1,
+        Filter::Shader => 2,
+        Filter::Bicubic => 3,
     }
 }
 
@@ -484,7 +295,7 @@ pub struct RefocusPass {
 pub fn pick_accum_format(ctx: &GpuContext) -> Result<(vk::Format, bool)> {
     for a in [Accumulation::Rgba32f, Accumulation::Rgba16f] {
         if let Some(storage) = accum_support(ctx, a) {
-            return Ok((a.format(), storage));
+            return Ok((accumulation_format(a), storage));
         }
     }
     Err(Error::Vulkan(format!(
@@ -501,7 +312,7 @@ fn accum_support(ctx: &GpuContext, a: Accumulation) -> Option<bool> {
     // SAFETY: valid physical device.
     let props = unsafe {
         ctx.instance
-            .get_physical_device_format_properties(ctx.physical, a.format())
+            .get_physical_device_format_properties(ctx.physical, accumulation_format(a))
     };
     let features = props.optimal_tiling_features;
     features
@@ -857,7 +668,13 @@ impl RefocusPass {
                 Accumulation::Rgba16f.name()
             ))
         })?;
-        self.target_of(ctx, width, height, accumulation.format(), storage)
+        self.target_of(
+            ctx,
+            width,
+            height,
+            accumulation_format(accumulation),
+            storage,
+        )
     }
 
     fn target_of(
@@ -1113,12 +930,12 @@ impl RefocusPass {
             return Err(Error::DeviceLimit(format!(
                 "{} cannot store to an {} image: use a fragment strategy",
                 ctx.info.name,
-                Accumulation::of_format(target.accum_format).map_or("accumulation", |a| a.name())
+                accumulation_of_format(target.accum_format).map_or("accumulation", |a| a.name())
             )));
         }
         let key = AccumKey {
             compute,
-            filter: filter.code(),
+            filter: filter_code(filter),
             texel: texel as u32,
             format: target.accum_format,
             uniform_warps: self.warp_memory == WarpMemory::Uniform,
@@ -1415,7 +1232,7 @@ impl RefocusPass {
         };
         let pipeline = if key.compute {
             // The storage image's format is part of the shader: one module per format.
-            let (spirv, file) = if key.format == Accumulation::Rgba16f.format() {
+            let (spirv, file) = if key.format == accumulation_format(Accumulation::Rgba16f) {
                 (shaders::REFOCUS_HALF_COMP, "refocus_half.comp")
             } else {
                 (shaders::REFOCUS_COMP, "refocus.comp")
@@ -1597,14 +1414,20 @@ impl PassObjects {
         };
         // SAFETY: valid device and create infos.
         unsafe {
-            self.sampler_linear = d.create_sampler(&sampler(vk::Filter::LINEAR), None)?;
-            self.sampler_nearest = d.create_sampler(&sampler(vk::Filter::NEAREST), None)?;
-            self.sampler_mip = d.create_sampler(
-                &sampler(vk::Filter::LINEAR)
-                    .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
-                    .max_lod(vk::LOD_CLAMP_NONE),
-                None,
-            )?;
+            self.sampler_linear = d
+                .create_sampler(&sampler(vk::Filter::LINEAR), None)
+                .vk("vkCreateSampler")?;
+            self.sampler_nearest = d
+                .create_sampler(&sampler(vk::Filter::NEAREST), None)
+                .vk("vkCreateSampler")?;
+            self.sampler_mip = d
+                .create_sampler(
+                    &sampler(vk::Filter::LINEAR)
+                        .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
+                        .max_lod(vk::LOD_CLAMP_NONE),
+                    None,
+                )
+                .vk("vkCreateSampler")?;
         }
         ctx.name(
             self.sampler_mip,
@@ -1624,22 +1447,28 @@ impl PassObjects {
             binding(7, T::COMBINED_IMAGE_SAMPLER, shading),
             binding(8, T::STORAGE_BUFFER, shading),
             binding(9, T::COMBINED_IMAGE_SAMPLER, shading),
-        ])?;
+        ])
+        .vk("vkCreateDescriptorSetLayout")?;
         self.resolve_set_layout = set_layout(&[binding(
             0,
             T::COMBINED_IMAGE_SAMPLER,
             vk::ShaderStageFlags::FRAGMENT,
-        )])?;
+        )])
+        .vk("vkCreateDescriptorSetLayout")?;
         self.storage_set_layout =
-            set_layout(&[binding(0, T::STORAGE_IMAGE, vk::ShaderStageFlags::COMPUTE)])?;
+            set_layout(&[binding(0, T::STORAGE_IMAGE, vk::ShaderStageFlags::COMPUTE)])
+                .vk("vkCreateDescriptorSetLayout")?;
         self.accum_layout =
-            pipeline_layout(&[self.input_set_layout], vk::ShaderStageFlags::FRAGMENT)?;
+            pipeline_layout(&[self.input_set_layout], vk::ShaderStageFlags::FRAGMENT)
+                .vk("vkCreatePipelineLayout")?;
         self.compute_layout = pipeline_layout(
             &[self.input_set_layout, self.storage_set_layout],
             vk::ShaderStageFlags::COMPUTE,
-        )?;
+        )
+        .vk("vkCreatePipelineLayout")?;
         self.resolve_layout =
-            pipeline_layout(&[self.resolve_set_layout], vk::ShaderStageFlags::empty())?;
+            pipeline_layout(&[self.resolve_set_layout], vk::ShaderStageFlags::empty())
+                .vk("vkCreatePipelineLayout")?;
         let n = input_sets as u32;
         let sizes = [
             vk::DescriptorPoolSize {
@@ -1663,7 +1492,8 @@ impl PassObjects {
                     .pool_sizes(&sizes),
                 None,
             )
-        }?;
+        }
+        .vk("vkCreateDescriptorPool")?;
         let layouts = vec![self.input_set_layout; input_sets];
         // SAFETY: the pool has room for these sets.
         let sets = unsafe {
@@ -1672,7 +1502,8 @@ impl PassObjects {
                     .descriptor_pool(self.descriptor_pool)
                     .set_layouts(&layouts),
             )
-        }?;
+        }
+        .vk("vkAllocateDescriptorSets")?;
         Ok(sets)
     }
 
@@ -1712,23 +1543,6 @@ mod tests {
     #[test]
     fn antialiasing_view_limit_is_the_uniform_buffers() {
         assert_eq!(crate::refocus::antialias::MAX_VIEWS, UBO_WARPS);
-    }
-
-    #[test]
-    fn strategies_parse_and_name_round_trip() {
-        for s in ["fragment", "batched:4", "compute"] {
-            assert_eq!(s.parse::<Strategy>().unwrap().name(), s);
-        }
-        assert_eq!(
-            "batched".parse::<Strategy>().unwrap(),
-            Strategy::Batched {
-                views_per_draw: Strategy::DEFAULT_BATCH
-            }
-        );
-        for bad in ["batched:0", "batched:x", "vertex", "compute:2"] {
-            let e = bad.parse::<Strategy>().unwrap_err().to_string();
-            assert!(e.contains(bad), "{e}");
-        }
     }
 
     #[test]

@@ -11,18 +11,10 @@
 
 use ash::vk;
 
-use crate::error::Result;
+use crate::error::{Result, VkContext};
 use crate::gpu::resources::{Image, ImageDesc};
 use crate::gpu::GpuContext;
-
-/// Output format of a resolve.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OutputFormat {
-    /// 8-bit sRGB-encoded RGBA (PNG), rounded to nearest in the shader.
-    Srgb8,
-    /// 32-bit float RGBA in the averaging space (linear light for EXR).
-    Float,
-}
+use crate::refocus::settings::{Accumulation, OutputFormat};
 
 /// Accumulation and outputs of one output size.
 pub struct RefocusTarget {
@@ -139,7 +131,8 @@ impl RefocusTarget {
                     .pool_sizes(&sizes),
                 None,
             )
-        }?;
+        }
+        .vk("vkCreateDescriptorPool")?;
         ctx.name(self.pool, "refocus target descriptors");
         let layouts: Vec<_> = if storage {
             vec![resolve_layout, storage_layout]
@@ -153,7 +146,8 @@ impl RefocusTarget {
                     .descriptor_pool(self.pool)
                     .set_layouts(&layouts),
             )
-        }?;
+        }
+        .vk("vkAllocateDescriptorSets")?;
         self.resolve_set = sets[0];
         let view = self.accum.views[0];
         let sampled = [vk::DescriptorImageInfo::default()
@@ -185,10 +179,10 @@ impl RefocusTarget {
 
     /// The format the views are summed in.
     pub fn accumulation(&self) -> super::Accumulation {
-        if self.accum_format == super::Accumulation::Rgba16f.format() {
-            super::Accumulation::Rgba16f
+        if self.accum_format == super::accumulation_format(Accumulation::Rgba16f) {
+            Accumulation::Rgba16f
         } else {
-            super::Accumulation::Rgba32f
+            Accumulation::Rgba32f
         }
     }
 

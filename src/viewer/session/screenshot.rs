@@ -60,7 +60,7 @@ pub fn screenshot_json(
     aa: Option<&AntialiasPlan>,
     surface: Option<&SurfacePlan>,
     depth: Option<&DepthOrigin>,
-    filter: crate::passes::refocus::Filter,
+    filter: crate::refocus::settings::Filter,
 ) -> serde_json::Value {
     let mut v = crate::refocus::plan_json(aa.map_or(&state.plan, |a| &a.plan));
     if let Some(obj) = v.as_object_mut() {
