@@ -40,6 +40,17 @@ from ._tiltfield import (  # noqa: F401  (re-exported API)
     validation_errors,
 )
 
+
+
+# Pickling (LightField.__reduce__): a light field travels as what made it, never as GPU state.
+def _reopen(source, frame, focal_px, baseline):  # type: ignore[no-untyped-def]
+    return open(source, frame, focal_px=focal_px, baseline=baseline)
+
+
+def _rebuild(views, focal_px, baseline, depth):  # type: ignore[no-untyped-def]
+    return from_array(views, focal_px=focal_px, baseline=baseline, depth=depth)
+
+
 __all__ = [
     "LightField",
     "__version__",
