@@ -1397,26 +1397,31 @@ fn open(
 }
 
 /// Linear light to 8-bit sRGB exactly as the library's `color::encode_srgb8` (so arrays give
-/// the bytes the CLI stores), at the cost of a table look-up instead of a `powf` per value.
+/// the bytes the CLI stores), at the cost of two table look-ups instead of a `powf` per value.
 ///
-/// `thresholds[k]` is the smallest `f32` that encodes to `k` or more (found by bisection over
-/// the bit patterns with the library's own function, which is monotone on [0, 1]); `coarse`
-/// holds the code of each bucket of 2^12 bit patterns, which spans at most a couple of codes,
-/// so a value takes one look-up and rarely a step or two.
+/// Each code's threshold, the smallest `f32` that encodes to it or more, is found by bisection
+/// over the bit patterns with the library's own function (monotone on [0, 1]). The tables
+/// hold, per bucket of 2^16 bit patterns, the code of the bucket's first value and the next
+/// code's threshold. A bucket is at most 1/128 of its value wide, and codes lie at least
+/// 1/113 of theirs apart (the steepest part of the curve, near 1; 1/k in the linear part near
+/// 0), so a bucket holds at most one threshold: a value is its bucket's code, plus one if it
+/// reaches that threshold. The two look-ups are independent (no chain of loads), and
+/// tests/python checks every value around every threshold against the library.
 struct SrgbEncoder {
-    thresholds: [f32; 256],
-    coarse: Vec<u8>,
+    code: Vec<u8>,
+    next: Vec<f32>,
 }
 
-const COARSE_SHIFT: u32 = 12;
+const COARSE_SHIFT: u32 = 16;
 
 impl SrgbEncoder {
     fn get() -> &'static SrgbEncoder {
         static ENCODER: OnceLock<SrgbEncoder> = OnceLock::new();
         ENCODER.get_or_init(|| {
             let one = 1.0f32.to_bits();
-            let mut thresholds = [0.0f32; 256];
-            for (k, t) in thresholds.iter_mut().enumerate().skip(1) {
+            // thresholds[256] is infinite: no code above 255.
+            let mut thresholds = [f32::INFINITY; 257];
+            for (k, t) in thresholds.iter_mut().enumerate().take(256).skip(1) {
                 let (mut lo, mut hi) = (0u32, one);
                 while lo < hi {
                     let mid = lo + (hi - lo) / 2;
@@ -1428,77 +1433,139 @@ impl SrgbEncoder {
                 }
                 *t = f32::from_bits(lo);
             }
-            let coarse = (0..=one >> COARSE_SHIFT)
+            let code: Vec<u8> = (0..=one >> COARSE_SHIFT)
                 .map(|i| {
                     let v = f32::from_bits(i << COARSE_SHIFT);
-                    thresholds[1..].partition_point(|&t| t <= v) as u8
+                    thresholds[1..256].partition_point(|&t| t <= v) as u8
                 })
                 .collect();
-            SrgbEncoder { thresholds, coarse }
+            let next = code
+                .iter()
+                .map(|&k| thresholds[usize::from(k) + 1])
+                .collect();
+            SrgbEncoder { code, next }
         })
     }
 
-    /// The code of `v`, which must lie in [0, 1] (-0.0 included).
-    #[inline]
-    fn encode(&self, v: f32) -> u8 {
-        let mut k = self.coarse[((v.to_bits() & 0x7fff_ffff) >> COARSE_SHIFT) as usize];
-        while k < 255 && v >= self.thresholds[usize::from(k) + 1] {
-            k += 1;
+    /// The tables as slices, held in registers by the conversion loop (through the static,
+    /// every byte written would make the compiler reload them).
+    fn tables(&self) -> Srgb<'_> {
+        Srgb {
+            code: &self.code,
+            next: &self.next,
         }
-        k
     }
 }
 
-/// One view (H, W, C) as an RGBA8 image, each pixel through `pixel` (its channels, the rest
-/// of the four left at `T::default()`); `Err((y, x))` at the first pixel it refuses.
-/// Contiguous views (the usual case) are read as one slice; strided ones (a transposed array)
+/// [`SrgbEncoder`]'s tables, borrowed for a conversion.
+#[derive(Clone, Copy)]
+struct Srgb<'a> {
+    code: &'a [u8],
+    next: &'a [f32],
+}
+
+impl Srgb<'_> {
+    /// The code of `v` if it lies in [0, 1] (-0.0 included); any other value gives some code
+    /// (the conversion checks values in the same pass and drops such a view).
+    #[inline(always)]
+    fn encode(self, v: f32) -> u8 {
+        let i = (((v.to_bits() & 0x7fff_ffff) >> COARSE_SHIFT) as usize).min(self.code.len() - 1);
+        // No overflow: the threshold after code 255 is infinite.
+        self.code[i].wrapping_add(u8::from(v >= self.next[i]))
+    }
+}
+
+/// How `convert_view` reads one dtype: which values it takes and how colour and alpha become
+/// bytes. A trait with inlined methods rather than closures: called per value, a call would
+/// cost more than the conversion, and closures were not inlined at the tests' opt-level.
+trait Channels<T: Copy> {
+    fn valid(&self, v: T) -> bool;
+    fn colour(&self, v: T) -> u8;
+    fn alpha(&self, v: T) -> u8;
+}
+
+/// sRGB bytes as given.
+struct Bytes;
+
+impl Channels<u8> for Bytes {
+    #[inline(always)]
+    fn valid(&self, _: u8) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn colour(&self, v: u8) -> u8 {
+        v
+    }
+    #[inline(always)]
+    fn alpha(&self, v: u8) -> u8 {
+        v
+    }
+}
+
+/// Linear light in [0, 1]: colour encoded as sRGB, alpha (coverage) only quantised.
+impl Channels<f32> for Srgb<'_> {
+    #[inline(always)]
+    fn valid(&self, v: f32) -> bool {
+        (0.0..=1.0).contains(&v)
+    }
+    #[inline(always)]
+    fn colour(&self, v: f32) -> u8 {
+        self.encode(v)
+    }
+    #[inline(always)]
+    fn alpha(&self, v: f32) -> u8 {
+        tiltfield::color::to_u8(f64::from(v))
+    }
+}
+
+/// One view (H, W, C) as an RGBA8 image: every value checked by `ch.valid` first
+/// (`Err((y, x))` at the first pixel holding one it refuses), then colour channels through
+/// `ch.colour`, alpha through `ch.alpha` (255 without one). Contiguous views (the usual case) are read as one slice,
+/// in loops the compiler vectorises or keeps branch-free; strided ones (a transposed array)
 /// pixel by pixel.
-fn convert_view<T: Copy + Default>(
+#[inline(always)]
+fn convert_view<T: Copy>(
     view: ArrayView3<'_, T>,
-    pixel: impl Fn([T; 4]) -> Option<[u8; 4]>,
+    ch: impl Channels<T>,
 ) -> Result<image::RgbaImage, (usize, usize)> {
     let (h, w, c) = view.dim();
-    let mut out = vec![0u8; h * w * 4];
-    let gather = |src: &mut dyn Iterator<Item = T>| {
-        let mut px = [T::default(); 4];
-        for (p, v) in px.iter_mut().zip(src) {
-            *p = v;
-        }
-        px
-    };
-    let mut bad = None;
+    let mut out = vec![255u8; h * w * 4];
     if let Some(flat) = view.as_slice() {
-        for (i, (src, dst)) in flat
-            .chunks_exact(c)
-            .zip(out.chunks_exact_mut(4))
-            .enumerate()
-        {
-            match pixel(gather(&mut src.iter().copied())) {
-                Some(rgba) => dst.copy_from_slice(&rgba),
-                None => {
-                    bad = Some((i / w, i % w));
-                    break;
-                }
+        // One pass that converts and checks without a branch (a second pass over the values
+        // would cost more than the conversion); the position only on failure.
+        let mut all_valid = true;
+        for (src, dst) in flat.chunks_exact(c).zip(out.chunks_exact_mut(4)) {
+            all_valid &= ch.valid(src[0]) & ch.valid(src[1]) & ch.valid(src[2]);
+            dst[0] = ch.colour(src[0]);
+            dst[1] = ch.colour(src[1]);
+            dst[2] = ch.colour(src[2]);
+            if c == 4 {
+                all_valid &= ch.valid(src[3]);
+                dst[3] = ch.alpha(src[3]);
             }
+        }
+        if !all_valid {
+            let i = flat.iter().position(|&v| !ch.valid(v)).unwrap_or(0) / c;
+            return Err((i / w, i % w));
         }
     } else {
-        'rows: for (y, row) in view.outer_iter().enumerate() {
+        for (y, row) in view.outer_iter().enumerate() {
             for (x, src) in row.outer_iter().enumerate() {
-                match pixel(gather(&mut src.iter().copied())) {
-                    Some(rgba) => out[(y * w + x) * 4..][..4].copy_from_slice(&rgba),
-                    None => {
-                        bad = Some((y, x));
-                        break 'rows;
-                    }
+                if !src.iter().all(|&v| ch.valid(v)) {
+                    return Err((y, x));
+                }
+                let dst = &mut out[(y * w + x) * 4..][..4];
+                dst[0] = ch.colour(src[0]);
+                dst[1] = ch.colour(src[1]);
+                dst[2] = ch.colour(src[2]);
+                if c == 4 {
+                    dst[3] = ch.alpha(src[3]);
                 }
             }
         }
     }
-    match bad {
-        Some(at) => Err(at),
-        None => Ok(image::RgbaImage::from_raw(w as u32, h as u32, out)
-            .unwrap_or_else(|| image::RgbaImage::new(w as u32, h as u32))),
-    }
+    Ok(image::RgbaImage::from_raw(w as u32, h as u32, out)
+        .unwrap_or_else(|| image::RgbaImage::new(w as u32, h as u32)))
 }
 
 /// `views` as a numpy array: an ndarray as it is, a DLPack producer (a torch or JAX array)
@@ -1627,14 +1694,11 @@ fn views_of(
             .as_array()
             .into_dimensionality::<Ix5>()
             .map_err(shape_err)?;
-        let opaque = a.dim().4 == 3;
         for t in 0..rows {
             for s in 0..cols {
                 let view = a.slice(s![t, s, .., .., ..]);
-                let img = convert_view(view, |[r, g, b, alpha]| {
-                    Some([r, g, b, if opaque { 255 } else { alpha }])
-                })
-                .map_err(|_| PyRuntimeError::new_err("uint8 views cannot be refused"))?;
+                let img = convert_view(view, Bytes)
+                    .map_err(|_| PyRuntimeError::new_err("uint8 views cannot be refused"))?;
                 images.push(img);
             }
             py.check_signals()?;
@@ -1645,24 +1709,12 @@ fn views_of(
             .as_array()
             .into_dimensionality::<Ix5>()
             .map_err(shape_err)?;
-        let opaque = a.dim().4 == 3;
-        let enc = SrgbEncoder::get();
-        let ok = |v: f32| (0.0..=1.0).contains(&v);
+        let enc = SrgbEncoder::get().tables();
         for t in 0..rows {
             for s in 0..cols {
                 let view = a.slice(s![t, s, .., .., ..]);
                 // Colour channels are linear light; alpha is coverage and is not encoded.
-                let img = convert_view(view, |[r, g, b, alpha]| {
-                    let alpha = if opaque { 1.0 } else { alpha };
-                    (ok(r) && ok(g) && ok(b) && ok(alpha)).then(|| {
-                        [
-                            enc.encode(r),
-                            enc.encode(g),
-                            enc.encode(b),
-                            tiltfield::color::to_u8(f64::from(alpha)),
-                        ]
-                    })
-                });
+                let img = convert_view(view, enc);
                 match img {
                     Ok(img) => images.push(img),
                     Err((y, x)) => {
@@ -1670,7 +1722,7 @@ fn views_of(
                         let (ch, v) = pixel
                             .iter()
                             .enumerate()
-                            .find(|(_, v)| !ok(**v))
+                            .find(|(_, v)| !enc.valid(**v))
                             .map_or((0, f32::NAN), |(ch, v)| (ch, *v));
                         return Err(PyValueError::new_err(format!(
                             "views: float32 values are linear light from 0 to 1, got {v} at \
@@ -1696,7 +1748,7 @@ fn shape_err(e: numpy::ndarray::ShapeError) -> PyErr {
 fn _srgb_table_mismatches(py: Python<'_>, lo: u32, hi: u32) -> Vec<u32> {
     let hi = hi.min(1.0f32.to_bits() + 1);
     py.allow_threads(|| {
-        let enc = SrgbEncoder::get();
+        let enc = SrgbEncoder::get().tables();
         (lo..hi)
             .filter(|&bits| {
                 let v = f32::from_bits(bits);
