@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The Python release set: one wheel, abi3 (CPython 3.8 and every later version), tagged
+# The Python release set: one wheel built by `pip wheel .`, abi3 (CPython 3.8 and every later version), tagged
 # manylinux by maturin's own audit (the lowest manylinux_2_N the module's glibc symbols allow;
 # it links only glibc, libm and libgcc_s, and loads Vulkan at run time). Then checks the wheel:
 # its tag, the type stubs and py.typed inside, and that it installs into a fresh virtual
@@ -15,9 +15,12 @@ venv="${TILTFIELD_VENV:-$HOME/.cache/tiltfield/python-venv}"
 [ -x "$venv/bin/maturin" ] || { echo "wheel: no maturin in $venv (tools/test.sh makes it)" >&2; exit 1; }
 mkdir -p "$out"
 
-echo "== maturin build --release --compatibility pypi" >&2
+# `pip wheel .`, as a user builds it (pyproject.toml and its backend, tools/pep517), with the
+# build's progress shown (-v). No build isolation: maturin comes from the venv, so no index is
+# needed.
+echo "== pip wheel . -v" >&2
 start=$(date +%s)
-PATH="$venv/bin:$PATH" maturin build --release --compatibility pypi --interpreter "$venv/bin/python" --out "$out" >&2
+PATH="$venv/bin:$PATH" "$venv/bin/pip" wheel . --no-deps --no-build-isolation -v -w "$out" >&2
 echo "   built in $(( $(date +%s) - start )) s" >&2
 
 wheel=$(ls -t "$out"/tiltfield-*.whl | head -n 1)

@@ -874,9 +874,11 @@ impl LightField {
     /// PNG ``tiltfield render`` writes; with ``linear=True`` a ``float32`` array (H, W, 4) of
     /// linear-light RGBA, the values of its EXR. Alpha is 0 where no view reached the pixel.
     ///
-    /// Raises ``ValueError`` for a bad argument or an impossible focus, ``RuntimeError`` for
-    /// the GPU. The views are uploaded on the first call; later calls cost the GPU time and a
-    /// readback (:attr:`last_gpu_ms` is the GPU part).
+    /// Raises ``ValueError`` for a bad argument or an impossible focus and ``TypeError`` for
+    /// an argument of the wrong type, naming the keyword; ``RuntimeError`` for the GPU. Ctrl-C
+    /// raises ``KeyboardInterrupt`` at once (the render finishes in the background; the next
+    /// call waits for it). The views are uploaded on the first call; later calls cost the GPU
+    /// time and a readback (:attr:`last_gpu_ms` is the GPU part).
     #[pyo3(signature = (
         *, disparity=None, plane=None, focus=None, tilt=None, swing=None, click=None,
         points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
@@ -995,8 +997,8 @@ impl LightField {
     /// keyword is :meth:`refocus`'s (``linear=True``: float32 linear light).
     ///
     /// ``progress``, if given, is called as ``progress(done, total)`` after each plane. Ctrl-C
-    /// (or any pending signal) is honoured between planes: ``KeyboardInterrupt`` after the
-    /// plane in progress, and the light field stays usable.
+    /// raises ``KeyboardInterrupt`` at once, between planes or within one (the plane in
+    /// progress then finishes in the background), and the light field stays usable.
     ///
     /// Returns a ``uint8`` array (N, H, W, 4) of sRGB RGBA, or ``float32`` with ``linear=True``.
     /// Note that anti-aliasing is on by default where the light field has depth (several
@@ -1359,7 +1361,8 @@ fn image_to_numpy(py: Python<'_>, image: GpuImage) -> PyResult<Bound<'_, PyAny>>
 /// max(W, H) px, baseline 1), as ``--focal-px`` and ``--baseline`` do.
 ///
 /// Raises ``OSError`` for a missing or unreadable file and ``ValueError`` for bad arguments,
-/// with the CLI's messages. The GPU context is made on first use (one per process).
+/// naming the keyword. The GPU context is made on first use (one per process). A pickled
+/// ``LightField`` from here is opened again from ``source`` (made absolute).
 #[pyfunction]
 #[pyo3(signature = (source, frame=None, *, focal_px=None, baseline=1.0))]
 fn open(
@@ -1408,17 +1411,22 @@ fn open(
 /// reaches that threshold. The two look-ups are independent (no chain of loads), and
 /// tests/python checks every value around every threshold against the library.
 struct SrgbEncoder {
-    code: Vec<u8>,
-    next: Vec<f32>,
+    code: Box<[u8; TABLE]>,
+    next: Box<[f32; TABLE]>,
 }
 
 const COARSE_SHIFT: u32 = 16;
+/// The bits of 1.0f32, the last value in range.
+const ONE_BITS: u32 = 0x3f80_0000;
+/// Buckets up to 1.0 inclusive; a fixed size, so that indices clamped below it need no
+/// bounds checks.
+const TABLE: usize = (ONE_BITS >> COARSE_SHIFT) as usize + 1;
 
 impl SrgbEncoder {
     fn get() -> &'static SrgbEncoder {
         static ENCODER: OnceLock<SrgbEncoder> = OnceLock::new();
         ENCODER.get_or_init(|| {
-            let one = 1.0f32.to_bits();
+            let one = ONE_BITS;
             // thresholds[256] is infinite: no code above 255.
             let mut thresholds = [f32::INFINITY; 257];
             for (k, t) in thresholds.iter_mut().enumerate().take(256).skip(1) {
@@ -1433,16 +1441,13 @@ impl SrgbEncoder {
                 }
                 *t = f32::from_bits(lo);
             }
-            let code: Vec<u8> = (0..=one >> COARSE_SHIFT)
-                .map(|i| {
-                    let v = f32::from_bits(i << COARSE_SHIFT);
-                    thresholds[1..256].partition_point(|&t| t <= v) as u8
-                })
-                .collect();
-            let next = code
-                .iter()
-                .map(|&k| thresholds[usize::from(k) + 1])
-                .collect();
+            let mut code = Box::new([0u8; TABLE]);
+            let mut next = Box::new([0f32; TABLE]);
+            for (i, (k, t)) in code.iter_mut().zip(next.iter_mut()).enumerate() {
+                let v = f32::from_bits((i as u32) << COARSE_SHIFT);
+                *k = thresholds[1..256].partition_point(|&t| t <= v) as u8;
+                *t = thresholds[usize::from(*k) + 1];
+            }
             SrgbEncoder { code, next }
         })
     }
@@ -1460,8 +1465,8 @@ impl SrgbEncoder {
 /// [`SrgbEncoder`]'s tables, borrowed for a conversion.
 #[derive(Clone, Copy)]
 struct Srgb<'a> {
-    code: &'a [u8],
-    next: &'a [f32],
+    code: &'a [u8; TABLE],
+    next: &'a [f32; TABLE],
 }
 
 impl Srgb<'_> {
@@ -1469,7 +1474,7 @@ impl Srgb<'_> {
     /// (the conversion checks values in the same pass and drops such a view).
     #[inline(always)]
     fn encode(self, v: f32) -> u8 {
-        let i = (((v.to_bits() & 0x7fff_ffff) >> COARSE_SHIFT) as usize).min(self.code.len() - 1);
+        let i = (((v.to_bits() & 0x7fff_ffff) >> COARSE_SHIFT) as usize).min(TABLE - 1);
         // No overflow: the threshold after code 255 is infinite.
         self.code[i].wrapping_add(u8::from(v >= self.next[i]))
     }
@@ -1531,19 +1536,11 @@ fn convert_view<T: Copy>(
     let (h, w, c) = view.dim();
     let mut out = vec![255u8; h * w * 4];
     if let Some(flat) = view.as_slice() {
-        // One pass that converts and checks without a branch (a second pass over the values
-        // would cost more than the conversion); the position only on failure.
-        let mut all_valid = true;
-        for (src, dst) in flat.chunks_exact(c).zip(out.chunks_exact_mut(4)) {
-            all_valid &= ch.valid(src[0]) & ch.valid(src[1]) & ch.valid(src[2]);
-            dst[0] = ch.colour(src[0]);
-            dst[1] = ch.colour(src[1]);
-            dst[2] = ch.colour(src[2]);
-            if c == 4 {
-                all_valid &= ch.valid(src[3]);
-                dst[3] = ch.alpha(src[3]);
-            }
-        }
+        let all_valid = if c == 4 {
+            convert_flat::<T, 4>(flat, &mut out, &ch)
+        } else {
+            convert_flat::<T, 3>(flat, &mut out, &ch)
+        };
         if !all_valid {
             let i = flat.iter().position(|&v| !ch.valid(v)).unwrap_or(0) / c;
             return Err((i / w, i % w));
@@ -1566,6 +1563,37 @@ fn convert_view<T: Copy>(
     }
     Ok(image::RgbaImage::from_raw(w as u32, h as u32, out)
         .unwrap_or_else(|| image::RgbaImage::new(w as u32, h as u32)))
+}
+
+/// The contiguous pixels of `flat` (C channels each) into RGBA `out`, converting and checking
+/// in one pass without a branch (a second pass over the values would cost more than the
+/// conversion); false if any value is invalid. C is a constant so that each pixel's channels
+/// are fixed-size loads.
+#[inline(always)]
+fn convert_flat<T: Copy, const C: usize>(
+    flat: &[T],
+    out: &mut [u8],
+    ch: &impl Channels<T>,
+) -> bool {
+    let mut all_valid = true;
+    for (src, dst) in flat.chunks_exact(C).zip(out.chunks_exact_mut(4)) {
+        // Element by element: `copy_from_slice` of three bytes is a memmove call at the
+        // tests' opt-level.
+        let mut px = [src[0]; 4];
+        #[allow(clippy::manual_memcpy)]
+        for k in 1..C {
+            px[k] = src[k];
+        }
+        all_valid &= ch.valid(px[0]) & ch.valid(px[1]) & ch.valid(px[2]);
+        dst[0] = ch.colour(px[0]);
+        dst[1] = ch.colour(px[1]);
+        dst[2] = ch.colour(px[2]);
+        if C == 4 {
+            all_valid &= ch.valid(px[3]);
+            dst[3] = ch.alpha(px[3]);
+        }
+    }
+    all_valid
 }
 
 /// `views` as a numpy array: an ndarray as it is, a DLPack producer (a torch or JAX array)
@@ -1746,7 +1774,7 @@ fn shape_err(e: numpy::ndarray::ShapeError) -> PyErr {
 /// `color::encode_srgb8`, for the tests (at most 16 reported).
 #[pyfunction]
 fn _srgb_table_mismatches(py: Python<'_>, lo: u32, hi: u32) -> Vec<u32> {
-    let hi = hi.min(1.0f32.to_bits() + 1);
+    let hi = hi.min(ONE_BITS + 1);
     py.allow_threads(|| {
         let enc = SrgbEncoder::get().tables();
         (lo..hi)
@@ -1786,6 +1814,11 @@ fn type_name(value: &Bound<'_, PyAny>) -> String {
 ///   and column) read with ``scipy.io.loadmat`` is already (rows, cols, H, W, C) — drop its
 ///   weight channel, ``LF[..., :3]``, when the 4th is a weight rather than alpha; a v7.3
 ///   file read with h5py comes reversed, (c, u, v, s, t): ``numpy.transpose(a, (4, 3, 2, 1, 0))``.
+///
+/// Any array will do: a numpy array, an object with ``__array__``, or a DLPack producer (a
+/// torch or JAX array, read through ``numpy.from_dlpack``). The shape is checked against the
+/// device's limits and the machine's free memory before any value is read (``ValueError``);
+/// ``float32`` values outside [0, 1] (or not finite) are refused with their index.
 ///
 /// ``depth``: an optional (H, W) ``float32`` classic disparity map of the middle view
 /// (cols // 2, rows // 2), px per grid step (view (s, t) sees that view's pixel x at
