@@ -630,9 +630,6 @@ fn motion_of(sweep: Option<&Bound<'_, PyAny>>, orbit: Option<f64>) -> PyResult<M
     }
 }
 
-/// A plane as `((px, py, pz), (nx, ny, nz))`.
-type PointNormal = ((f64, f64, f64), (f64, f64, f64));
-
 /// A [`Session`] that may move between threads (Python may hand a `LightField` to any thread,
 /// and its renders run with the GIL released).
 struct SendSession(Session);
@@ -1189,11 +1186,16 @@ impl LightField {
     /// A click or three pixels estimate the depth first when the light field has none.
     /// Takes the focus keywords of :meth:`refocus` and ``view``, ``aperture``,
     /// ``aperture_radius``, ``include_dark`` (the aperture is checked first, as a render does).
+    ///
+    /// With ``confidence=True`` the tuple has a third element: the pick's confidence in
+    /// [0, 1] for ``click``, ``points`` and ``points_3d`` (what ``tiltfield render --json``
+    /// reports as the focus's ``confidence``: the normal's for a click, the triangle's shape
+    /// for three points), ``None`` for a focus given as numbers.
     #[pyo3(signature = (
         *, disparity=None, plane=None, focus=None, tilt=None, swing=None, click=None,
         points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
         normal_window=None, normal_method="inverse-depth", aperture="disk",
-        aperture_radius=None, view=None, include_dark=false
+        aperture_radius=None, view=None, include_dark=false, confidence=false
     ))]
     #[allow(clippy::too_many_arguments)] // the focus keywords of `refocus`
     fn plane<'py>(
@@ -1216,7 +1218,8 @@ impl LightField {
         aperture_radius: Option<f64>,
         view: Option<&Bound<'py, PyAny>>,
         include_dark: bool,
-    ) -> PyResult<Option<PointNormal>> {
+        confidence: bool,
+    ) -> PyResult<Option<Bound<'py, PyTuple>>> {
         let focus = focus_options(
             disparity,
             plane,
@@ -1242,11 +1245,16 @@ impl LightField {
             let progress = indicatif::ProgressBar::hidden();
             lock(&shared).0.resolve(&options, &progress)
         })?;
-        Ok(resolved.plane.map(|p| {
-            (
-                (p.point.x, p.point.y, p.point.z),
-                (p.normal.x, p.normal.y, p.normal.z),
-            )
+        let Some(p) = resolved.plane else {
+            return Ok(None);
+        };
+        let point = (p.point.x, p.point.y, p.point.z);
+        let normal = (p.normal.x, p.normal.y, p.normal.z);
+        Ok(Some(if confidence {
+            let pick_confidence = resolved.pick.map(|pick| pick.confidence);
+            (point, normal, pick_confidence).into_pyobject(py)?
+        } else {
+            (point, normal).into_pyobject(py)?
         }))
     }
 

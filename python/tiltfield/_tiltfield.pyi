@@ -170,6 +170,7 @@ class LightField:
         path: Union[str, PathLike[str]],
         **options: Any,
     ) -> None: ...
+    @overload
     def plane(
         self,
         *,
@@ -190,7 +191,31 @@ class LightField:
         aperture_radius: Optional[float] = None,
         view: Optional[_Vector] = None,
         include_dark: bool = False,
+        confidence: Literal[False] = False,
     ) -> Optional[_PointNormal]: ...
+    @overload
+    def plane(
+        self,
+        *,
+        disparity: Optional[_Numbers] = None,
+        plane: Optional[Union[_Vector, Sequence[_Vector]]] = None,
+        focus: Optional[_Numbers] = None,
+        tilt: Optional[_Numbers] = None,
+        swing: Optional[_Numbers] = None,
+        click: Optional[_Vector] = None,
+        points: Optional[_Vector] = None,
+        points_3d: Optional[_Vector] = None,
+        nudge_distance: Optional[float] = None,
+        nudge_tilt: Optional[float] = None,
+        nudge_swing: Optional[float] = None,
+        normal_window: Optional[int] = None,
+        normal_method: _NormalMethod = "inverse-depth",
+        aperture: _Aperture = "disk",
+        aperture_radius: Optional[float] = None,
+        view: Optional[_Vector] = None,
+        include_dark: bool = False,
+        confidence: Literal[True],
+    ) -> Optional[Tuple[Tuple[float, float, float], Tuple[float, float, float], Optional[float]]]: ...
     @overload
     def depth(
         self,

@@ -52,6 +52,10 @@ lin: npt.NDArray[np.float32] = lf.refocus(focus=3.0, tilt=5, linear=True)
 stack: npt.NDArray[np.uint8] = lf.focal_stack(disparity=np.linspace(-1, 1, 5), antialias=False)
 depth, confidence = lf.depth(confidence=True)
 plane = lf.plane(click=(20, 30))
+found = lf.plane(click=(20, 30), confidence=True)
+if found is not None:
+    (px, py, pz), normal, pick_confidence = found
+    sure: float = pick_confidence if pick_confidence is not None else 0.0
 rows, cols = lf.grid
 copy = tiltfield.from_array(lf.views(), depth=depth)
 """
