@@ -8,7 +8,8 @@
 #           from-source fallback on systems without those packages)
 #   Window: X11 headers for GLFW's bundled build, xvfb for headless window tests
 #   Python: venv and headers for the Python module (tools/test.sh builds it into a virtual
-#           environment; pyo3 needs the interpreter's headers and `python3 -m venv`)
+#           environment; pyo3 needs the interpreter's headers and `python3 -m venv`); mypy,
+#           which checks the module's type stubs (tests/python/test_types.py)
 #   Video:  ffmpeg (`tiltfield animate -o OUT.mp4` pipes its frames to it for H.264; its tests
 #           count the frames with ffprobe, which comes with it)
 # Needs root or sudo for apt-get; installs Rust with rustup only if cargo is missing.
@@ -17,7 +18,7 @@ set -euo pipefail
 packages=(
   mesa-vulkan-drivers libvulkan1 libvulkan-dev vulkan-validationlayers vulkan-tools
   libshaderc-dev glslang-dev spirv-tools glslc
-  cmake python3 python3-venv python3-dev g++ pkg-config
+  cmake python3 python3-venv python3-dev python3-mypy g++ pkg-config
   libx11-dev libxrandr-dev libxinerama-dev libxcursor-dev libxi-dev libxkbcommon-dev xvfb
   ffmpeg
 )

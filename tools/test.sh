@@ -38,6 +38,8 @@ set -e
 awk '/^test result:/ { p += $4; f += $6 } END { printf "tests: %d passed, %d failed\n", p, f }' "$log"
 rm -f "$log"
 
+# tests/python/test_types.py runs mypy --strict on the type stubs (Debian's python3-mypy, from
+# tools/setup.sh) against this venv's numpy and the module just built.
 echo "== Python module: maturin develop, pytest tests/python" >&2
 # Built into the virtual environment with this target folder (incremental); the tests compare
 # with the command line of the same tree, so it is built first.

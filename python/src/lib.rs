@@ -19,13 +19,17 @@
 //!   and `RuntimeError` (the GPU, validation errors), and a panic inside the library becomes
 //!   a `RuntimeError` too.
 
+use std::ops::RangeInclusive;
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use std::sync::{Arc, Mutex, MutexGuard};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, RecvTimeoutError};
+use std::sync::{Arc, Mutex, MutexGuard, OnceLock};
+use std::time::Duration;
 
 use glam::{DVec2, DVec3};
-use numpy::ndarray::{Array2, Array3, Array4};
-use numpy::{IntoPyArray, PyReadonlyArrayDyn, PyUntypedArrayMethods};
-use pyo3::exceptions::{PyOSError, PyRuntimeError, PyTypeError, PyValueError};
+use numpy::ndarray::{s, Array2, Array3, Array4, ArrayView3, Ix5};
+use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use pyo3::exceptions::{PyOSError, PyOverflowError, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 
@@ -40,9 +44,10 @@ use tiltfield::jobs::animate::{self, Animation, Motion, SweepKey};
 use tiltfield::jobs::refocus::GpuImage;
 use tiltfield::jobs::render::{self, ReadOptions, RenderOptions, Session};
 use tiltfield::jobs::strategy::{StrategyChoice, StrategySource};
+use tiltfield::lightfield::images::LoadLimits;
 use tiltfield::lightfield::{self, GridSize};
 use tiltfield::refocus::antialias::AntialiasSettings;
-use tiltfield::refocus::options::{numbers, plane_of, FocusOptions};
+use tiltfield::refocus::options::{plane_of, FocusOptions};
 use tiltfield::refocus::settings::OutputFormat;
 
 /// The process's Vulkan context (see the module docs).
@@ -70,7 +75,8 @@ fn context() -> tiltfield::Result<Arc<GpuContext>> {
     Ok(ctx)
 }
 
-/// The Python exception of a library error, with the message the CLI prints after `error:`.
+/// The Python exception of a library error: the message the CLI prints after `error:`, with
+/// the options it names spelled as this module's keywords ([`pythonic`]).
 fn py_err(e: Error) -> PyErr {
     let message = e.to_string();
     match e {
@@ -78,7 +84,7 @@ fn py_err(e: Error) -> PyErr {
             PyOSError::new_err(message)
         }
         Error::Invalid(_) | Error::Geometry(_) | Error::DeviceLimit(_) => {
-            PyValueError::new_err(message)
+            PyValueError::new_err(pythonic(&message))
         }
         Error::Vulkan(_) | Error::Window(_) | Error::VkCall { .. } | Error::Internal(_) => {
             PyRuntimeError::new_err(message)
@@ -86,19 +92,119 @@ fn py_err(e: Error) -> PyErr {
     }
 }
 
-/// Runs `work` with the GIL released, turning a library error into its Python exception, a
-/// panic into a `RuntimeError`, and validation errors the work caused into a `RuntimeError`
-/// naming `what` (as the CLI fails a render that drew any).
-fn gpu_work<T: Send>(
+/// A library message in Python's words: the library checks every request with the CLI's
+/// messages, which name options (`--aperture-radius`); a Python user gave keywords
+/// (`aperture_radius`). An option's value that follows it is joined with `=`, and the CLI's
+/// `A,B` and `AxB` spellings of a pair become the tuple a Python user wrote:
+/// `--size 9000x10 does not fit` reads `size=(9000, 10) does not fit`.
+fn pythonic(message: &str) -> String {
+    let mut out = String::with_capacity(message.len());
+    let mut rest = message;
+    while let Some(at) = rest.find("--") {
+        out.push_str(&rest[..at]);
+        let after = &rest[at + 2..];
+        let end = after
+            .find(|c: char| !(c.is_ascii_lowercase() || c.is_ascii_digit() || c == '-'))
+            .unwrap_or(after.len());
+        let name = after[..end].trim_end_matches('-');
+        if !name.starts_with(|c: char| c.is_ascii_lowercase()) {
+            out.push_str("--");
+            rest = after;
+            continue;
+        }
+        out.push_str(&name.replace('-', "_"));
+        rest = &after[name.len()..];
+        // `--frame 3:`, `--view 1.5,2:`, `--size 9000x10 does not fit`: a value follows.
+        if let Some(value_text) = rest.strip_prefix(' ') {
+            let len = value_text
+                .find(|c: char| c.is_whitespace())
+                .unwrap_or(value_text.len());
+            let token = value_text[..len].trim_end_matches([':', ';']);
+            let is_number = |t: &str| !t.is_empty() && t.parse::<f64>().is_ok();
+            let parts: Vec<&str> = if token.contains(',') {
+                token.split(',').collect()
+            } else {
+                token.splitn(2, 'x').collect()
+            };
+            // A lone number is a value only before a colon (`--frame 3:`, not `--focus 3
+            // times`).
+            let pair = parts.len() > 1;
+            let colon = value_text[..len].ends_with(':');
+            if parts.iter().all(|p| is_number(p)) && !token.is_empty() && (pair || colon) {
+                out.push('=');
+                if parts.len() > 1 {
+                    out.push_str(&format!("({})", parts.join(", ")));
+                } else {
+                    out.push_str(token);
+                }
+                rest = &value_text[token.len()..];
+            }
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+/// How often a waiting call looks for signals (Ctrl-C): well within the second a user waits.
+const SIGNAL_POLL: Duration = Duration::from_millis(50);
+
+/// Runs `work` on a thread of its own while the calling thread waits with the GIL released,
+/// looking for signals every [`SIGNAL_POLL`]; turns a library error into its Python
+/// exception, a panic into a `RuntimeError`, and validation errors the work caused into a
+/// `RuntimeError` naming `what` (as the CLI fails a render that drew any).
+///
+/// Ctrl-C raises `KeyboardInterrupt` in the caller at once. The library has no way to stop a
+/// render half way (one submission can take seconds on a software device), so the work runs
+/// to its end in the background, holding the device and the light field: a later call waits
+/// for it, and everything stays usable. Its result is dropped.
+fn gpu_work<T: Send + 'static>(
     py: Python<'_>,
     what: &str,
-    work: impl FnOnce() -> tiltfield::Result<T> + Send,
+    work: impl FnOnce() -> tiltfield::Result<T> + Send + 'static,
+) -> PyResult<T> {
+    gpu_work_with(py, what, None, work)
+}
+
+/// [`gpu_work`] that also sets `cancel` when the caller is interrupted, for work that can
+/// stop between steps (an animation's frames).
+fn gpu_work_with<T: Send + 'static>(
+    py: Python<'_>,
+    what: &str,
+    cancel: Option<Arc<AtomicBool>>,
+    work: impl FnOnce() -> tiltfield::Result<T> + Send + 'static,
 ) -> PyResult<T> {
     let before = validation_count();
-    let result = py.allow_threads(|| {
-        let _device = lock(&GPU);
-        catch_unwind(AssertUnwindSafe(work))
-    });
+    let (tx, rx) = mpsc::channel();
+    std::thread::Builder::new()
+        .name("tiltfield-gpu".into())
+        .spawn(move || {
+            let _device = lock(&GPU);
+            // The receiver is gone when the caller was interrupted: nothing to report to.
+            let _ = tx.send(catch_unwind(AssertUnwindSafe(work)));
+        })
+        .map_err(|e| PyRuntimeError::new_err(format!("cannot start a thread for {what}: {e}")))?;
+    let mut rx = rx;
+    let result = loop {
+        // The receiver goes into the GIL-free wait and comes back (it is not `Sync`).
+        let (received, back) = py.allow_threads(move || (rx.recv_timeout(SIGNAL_POLL), rx));
+        rx = back;
+        match received {
+            Ok(result) => break result,
+            Err(RecvTimeoutError::Timeout) => {
+                if let Err(interrupt) = py.check_signals() {
+                    if let Some(cancel) = &cancel {
+                        cancel.store(true, Ordering::Relaxed);
+                    }
+                    return Err(interrupt);
+                }
+            }
+            Err(RecvTimeoutError::Disconnected) => {
+                return Err(PyRuntimeError::new_err(format!(
+                    "tiltfield internal error while {what}: the worker ended without a result"
+                )))
+            }
+        }
+    };
     let value = match result {
         Ok(r) => r.map_err(py_err)?,
         Err(panic) => {
@@ -125,28 +231,36 @@ fn validation_count() -> usize {
         .map_or(0, |c| c.validation().errors())
 }
 
-/// `n` numbers from a Python sequence, checked as the CLI checks option `what` (count and
-/// finiteness, the same message); `None` passes through.
+/// `n` numbers from a Python sequence (a tuple, list or 1-D array) given as keyword `name`,
+/// whose `fields` say what they are (`"(u, v)"`); counted and checked finite here, before the
+/// library sees them, so the message names the keyword; `None` passes through.
 fn numbers_of(
     value: Option<&Bound<'_, PyAny>>,
     n: usize,
-    what: &str,
+    name: &str,
+    fields: &str,
 ) -> PyResult<Option<Vec<f64>>> {
     let Some(value) = value else {
         return Ok(None);
     };
     let v: Vec<f64> = value.extract().map_err(|_| {
-        PyValueError::new_err(format!(
-            "{what}: expected {n} numbers (a tuple or sequence), got {}",
+        PyTypeError::new_err(format!(
+            "{name} must be a sequence of {n} numbers {fields}, got {}",
             repr(value)
         ))
     })?;
-    numbers(&v, n, what).map(Some).map_err(py_err)
+    if v.len() != n || v.iter().any(|x| !x.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "{name} must be {n} finite numbers {fields}, got {}",
+            repr(value)
+        )));
+    }
+    Ok(Some(v))
 }
 
 /// A keyword that takes one number or several (`focus=`, `tilt=`, `swing=`, `disparity=`,
 /// each as its CLI option given once or repeated): none, one or every number, in order.
-fn values_of(value: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>> {
+fn values_of(value: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Vec<f64>> {
     let Some(value) = value else {
         return Ok(Vec::new());
     };
@@ -154,11 +268,93 @@ fn values_of(value: Option<&Bound<'_, PyAny>>, what: &str) -> PyResult<Vec<f64>>
         return Ok(vec![one]);
     }
     value.extract::<Vec<f64>>().map_err(|_| {
-        PyValueError::new_err(format!(
-            "{what}: expected a number or a sequence of numbers (one per plane), got {}",
+        PyTypeError::new_err(format!(
+            "{name} must be a number or a sequence of numbers (one per plane), got {}",
             repr(value)
         ))
     })
+}
+
+/// A whole-number keyword, checked against `range` before it is converted to the library's
+/// type, so `frame=-1` is a `ValueError` naming `frame` rather than an `OverflowError` of the
+/// conversion; `None` passes through.
+fn int_arg(
+    value: Option<&Bound<'_, PyAny>>,
+    name: &str,
+    range: RangeInclusive<i64>,
+) -> PyResult<Option<i64>> {
+    let Some(value) = value else {
+        return Ok(None);
+    };
+    let expected = if *range.end() == i64::MAX {
+        format!("an integer of at least {}", range.start())
+    } else {
+        format!("an integer from {} to {}", range.start(), range.end())
+    };
+    match value.extract::<i64>() {
+        Ok(v) if range.contains(&v) => Ok(Some(v)),
+        Ok(_) => Err(PyValueError::new_err(format!(
+            "{name} must be {expected}, got {}",
+            repr(value)
+        ))),
+        Err(e) if e.is_instance_of::<PyOverflowError>(value.py()) => Err(PyValueError::new_err(
+            format!("{name} must be {expected}, got {}", repr(value)),
+        )),
+        Err(_) => Err(PyTypeError::new_err(format!(
+            "{name} must be {expected}, got {}",
+            repr(value)
+        ))),
+    }
+}
+
+/// [`int_arg`] into an unsigned library type (its whole range).
+fn u32_arg(value: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<u32>> {
+    Ok(int_arg(value, name, 0..=u32::MAX as i64)?.map(|v| v as u32))
+}
+
+/// An on/off keyword: `True`/`False` (numpy's too), or the CLI's `"on"`/`"off"`; `None`
+/// passes through. Any other string is a `ValueError`, any other type a `TypeError`, both
+/// naming the keyword and what it takes.
+fn switch(value: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<bool>> {
+    let Some(value) = value else {
+        return Ok(None);
+    };
+    if let Ok(on) = value.extract::<bool>() {
+        return Ok(Some(on));
+    }
+    let allowed = "True, False, \"on\" or \"off\"";
+    match value.extract::<String>() {
+        Ok(text) if text == "on" => Ok(Some(true)),
+        Ok(text) if text == "off" => Ok(Some(false)),
+        Ok(_) => Err(PyValueError::new_err(format!(
+            "{name} must be {allowed}, got {}",
+            repr(value)
+        ))),
+        Err(_) => Err(PyTypeError::new_err(format!(
+            "{name} must be {allowed}, got {}",
+            repr(value)
+        ))),
+    }
+}
+
+/// `size=(w, h)` (any sequence of two integers) in pixels, checked before conversion.
+fn size_of(value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<(u32, u32)>> {
+    let Some(value) = value else {
+        return Ok(None);
+    };
+    let what = "size must be (w, h), two integers of at least 1 (pixels)";
+    let v: Vec<i64> = value
+        .extract()
+        .map_err(|_| PyTypeError::new_err(format!("{what}, got {}", repr(value))))?;
+    match v[..] {
+        [w, h] if (1..=u32::MAX as i64).contains(&w) && (1..=u32::MAX as i64).contains(&h) => {
+            Ok(Some((w as u32, h as u32)))
+        }
+        _ => Err(PyValueError::new_err(format!(
+            "{what}, got {}",
+            repr(value)
+        ))),
+    }
 }
 
 fn repr(value: &Bound<'_, PyAny>) -> String {
@@ -168,7 +364,7 @@ fn repr(value: &Bound<'_, PyAny>) -> String {
 }
 
 /// A choice given by name, parsed as the CLI parses its option (`FromStr`, the same
-/// message).
+/// message, in Python's words).
 fn choice<T>(value: Option<&str>) -> PyResult<Option<T>>
 where
     T: std::str::FromStr,
@@ -177,7 +373,7 @@ where
     value
         .map(|text| {
             text.parse::<T>()
-                .map_err(|e| PyValueError::new_err(e.to_string()))
+                .map_err(|e| PyValueError::new_err(pythonic(&e.to_string())))
         })
         .transpose()
 }
@@ -188,23 +384,29 @@ fn planes_of(value: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<Plane>> {
     let Some(value) = value else {
         return Ok(Vec::new());
     };
-    let lists: Vec<Vec<f64>> = if let Ok(one) = value.extract::<Vec<f64>>() {
-        vec![one]
-    } else if let Ok(several) = value.extract::<Vec<Vec<f64>>>() {
-        several
+    const FIELDS: &str = "(px, py, pz, nx, ny, nz)";
+    let several = value.extract::<Vec<f64>>().is_err();
+    let items: Vec<Bound<'_, PyAny>> = if several {
+        value.extract().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "plane must be 6 numbers {FIELDS} or a sequence of such planes, got {}",
+                repr(value)
+            ))
+        })?
     } else {
-        return Err(PyValueError::new_err(format!(
-            "--plane: expected 6 numbers (px, py, pz, nx, ny, nz) or a sequence of such planes, \
-             got {}",
-            repr(value)
-        )));
+        vec![value.clone()]
     };
-    lists
+    items
         .iter()
-        .map(|v| {
-            numbers(v, 6, "--plane")
-                .and_then(|v| plane_of(&v))
-                .map_err(py_err)
+        .enumerate()
+        .map(|(k, item)| {
+            let name = if several {
+                format!("plane[{k}]")
+            } else {
+                "plane".into()
+            };
+            let v = numbers_of(Some(item), 6, &name, FIELDS)?.unwrap_or_default();
+            plane_of(&v).map_err(py_err)
         })
         .collect()
 }
@@ -222,7 +424,7 @@ fn focus_options(
     (tilt, swing): (Option<&Bound<'_, PyAny>>, Option<&Bound<'_, PyAny>>),
     (click, points, points_3d): (Pick<'_, '_>, Pick<'_, '_>, Pick<'_, '_>),
     (nudge_distance, nudge_tilt, nudge_swing): (Option<f64>, Option<f64>, Option<f64>),
-    normal_window: Option<u32>,
+    normal_window: Option<&Bound<'_, PyAny>>,
     normal_method: &str,
 ) -> PyResult<FocusOptions> {
     let focus = focus_options_unchecked(
@@ -249,24 +451,24 @@ fn focus_options_unchecked(
     (tilt, swing): (Option<&Bound<'_, PyAny>>, Option<&Bound<'_, PyAny>>),
     (click, points, points_3d): (Pick<'_, '_>, Pick<'_, '_>, Pick<'_, '_>),
     (nudge_distance, nudge_tilt, nudge_swing): (Option<f64>, Option<f64>, Option<f64>),
-    normal_window: Option<u32>,
+    normal_window: Option<&Bound<'_, PyAny>>,
     normal_method: &str,
 ) -> PyResult<FocusOptions> {
     Ok(FocusOptions {
-        disparity: values_of(disparity, "--disparity")?,
+        disparity: values_of(disparity, "disparity")?,
         planes: planes_of(plane)?,
-        focus: values_of(focus, "--focus")?,
-        tilt: values_of(tilt, "--tilt")?,
-        swing: values_of(swing, "--swing")?,
-        click: numbers_of(click, 2, "--click")?.map(|v| DVec2::new(v[0], v[1])),
-        points: numbers_of(points, 6, "--points")?.map(|v| {
+        focus: values_of(focus, "focus")?,
+        tilt: values_of(tilt, "tilt")?,
+        swing: values_of(swing, "swing")?,
+        click: numbers_of(click, 2, "click", "(u, v)")?.map(|v| DVec2::new(v[0], v[1])),
+        points: numbers_of(points, 6, "points", "(u1, v1, u2, v2, u3, v3)")?.map(|v| {
             [
                 DVec2::new(v[0], v[1]),
                 DVec2::new(v[2], v[3]),
                 DVec2::new(v[4], v[5]),
             ]
         }),
-        points_3d: numbers_of(points_3d, 9, "--points-3d")?.map(|v| {
+        points_3d: numbers_of(points_3d, 9, "points_3d", "(x1, y1, z1, ..., z3)")?.map(|v| {
             [
                 DVec3::new(v[0], v[1], v[2]),
                 DVec3::new(v[3], v[4], v[5]),
@@ -280,7 +482,7 @@ fn focus_options_unchecked(
                 swing_deg: nudge_swing.unwrap_or(0.0),
             },
         ),
-        normal_window,
+        normal_window: u32_arg(normal_window, "normal_window")?,
         normal_method: choice(Some(normal_method))?.unwrap_or_default(),
     })
 }
@@ -301,10 +503,10 @@ struct RenderRequest(RenderOptions);
     points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
     normal_window=None, normal_method="inverse-depth", slab=None, all_in_focus=false,
     aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
-    include_dark=false, antialias=None, antialias_samples=4, antialias_prefilter=true,
-    antialias_focus_test=true, antialias_focused_bicubic=true, antialias_occlusion=true,
-    antialias_defocus=false, strategy=None,
-    views_per_draw=0, filter=None, accumulation=None, warps=None, storage=None
+    include_dark=false, antialias=None, antialias_samples=None, antialias_prefilter=None,
+    antialias_focus_test=None, antialias_focused_bicubic=None, antialias_occlusion=None,
+    antialias_defocus=None, strategy=None,
+    views_per_draw=None, filter=None, accumulation=None, warps=None, storage=None
 ))]
 #[allow(clippy::too_many_arguments)] // one keyword per CLI option, as `refocus`
 fn render_options(
@@ -319,25 +521,25 @@ fn render_options(
     nudge_distance: Option<f64>,
     nudge_tilt: Option<f64>,
     nudge_swing: Option<f64>,
-    normal_window: Option<u32>,
+    normal_window: Option<&Bound<'_, PyAny>>,
     normal_method: &str,
     slab: Option<f64>,
     all_in_focus: bool,
     aperture: &str,
     aperture_radius: Option<f64>,
     view: Option<&Bound<'_, PyAny>>,
-    size: Option<(i64, i64)>,
+    size: Option<&Bound<'_, PyAny>>,
     average: &str,
     include_dark: bool,
-    antialias: Option<bool>,
-    antialias_samples: u32,
-    antialias_prefilter: bool,
-    antialias_focus_test: bool,
-    antialias_focused_bicubic: bool,
-    antialias_occlusion: bool,
-    antialias_defocus: bool,
+    antialias: Option<&Bound<'_, PyAny>>,
+    antialias_samples: Option<&Bound<'_, PyAny>>,
+    antialias_prefilter: Option<&Bound<'_, PyAny>>,
+    antialias_focus_test: Option<&Bound<'_, PyAny>>,
+    antialias_focused_bicubic: Option<&Bound<'_, PyAny>>,
+    antialias_occlusion: Option<&Bound<'_, PyAny>>,
+    antialias_defocus: Option<&Bound<'_, PyAny>>,
     strategy: Option<&str>,
-    views_per_draw: usize,
+    views_per_draw: Option<&Bound<'_, PyAny>>,
     filter: Option<&str>,
     accumulation: Option<&str>,
     warps: Option<&str>,
@@ -353,6 +555,8 @@ fn render_options(
         normal_window,
         normal_method,
     )?;
+    // The library's defaults for what was not given (as the CLI's option defaults).
+    let aa = AntialiasSettings::default();
     let options = RenderOptions {
         focus,
         slab,
@@ -361,28 +565,28 @@ fn render_options(
             shape: choice(Some(aperture))?.unwrap_or(Aperture::default().shape),
             radius: aperture_radius,
         },
-        reference: numbers_of(view, 2, "--view")?.map(|v| DVec2::new(v[0], v[1])),
+        reference: numbers_of(view, 2, "view", "(s, t)")?.map(|v| DVec2::new(v[0], v[1])),
         averaging: choice(Some(average))?.unwrap_or_default(),
         include_dark,
-        antialias,
+        antialias: switch(antialias, "antialias")?,
         antialias_sampling: AntialiasSettings {
-            max_samples: antialias_samples,
-            prefilter: antialias_prefilter,
-            focus_test: antialias_focus_test,
-            focused_bicubic: antialias_focused_bicubic,
-            occlusion: antialias_occlusion,
-            defocus: antialias_defocus,
+            max_samples: u32_arg(antialias_samples, "antialias_samples")?.unwrap_or(aa.max_samples),
+            prefilter: switch(antialias_prefilter, "antialias_prefilter")?.unwrap_or(aa.prefilter),
+            focus_test: switch(antialias_focus_test, "antialias_focus_test")?
+                .unwrap_or(aa.focus_test),
+            focused_bicubic: switch(antialias_focused_bicubic, "antialias_focused_bicubic")?
+                .unwrap_or(aa.focused_bicubic),
+            occlusion: switch(antialias_occlusion, "antialias_occlusion")?.unwrap_or(aa.occlusion),
+            defocus: switch(antialias_defocus, "antialias_defocus")?.unwrap_or(aa.defocus),
         },
         strategy: choice::<StrategyChoice>(strategy)?.and_then(|c| c.0),
-        views_per_draw,
+        views_per_draw: int_arg(views_per_draw, "views_per_draw", 0..=u32::MAX as i64)?.unwrap_or(0)
+            as usize,
         filter: choice(filter)?,
         accumulation: choice(accumulation)?,
         warps: choice(warps)?,
         storage: choice(storage)?,
-        size: size
-            .map(|(w, h)| render::output_size(w, h))
-            .transpose()
-            .map_err(py_err)?,
+        size: size_of(size)?,
         output: OutputFormat::Srgb8,
     };
     Ok(RenderRequest(options))
@@ -395,26 +599,33 @@ fn motion_of(sweep: Option<&Bound<'_, PyAny>>, orbit: Option<f64>) -> PyResult<M
             if let Ok(text) = sweep.extract::<String>() {
                 return Motion::parse_sweep(&text).map_err(py_err);
             }
-            let (key, from, to): (String, f64, f64) = sweep.extract().map_err(|_| {
-                PyValueError::new_err(format!(
-                    "--sweep: expected \"KEY=A..B\" or (KEY, A, B), got {}",
+            let bad = || {
+                PyTypeError::new_err(format!(
+                    "sweep must be \"KEY=A..B\" or (KEY, A, B), got {}",
                     repr(sweep)
                 ))
-            })?;
+            };
+            // Any sequence of three, as (KEY, A, B).
+            let items: Vec<Bound<'_, PyAny>> = sweep.extract().map_err(|_| bad())?;
+            let [key, from, to] = &items[..] else {
+                return Err(bad());
+            };
+            let (key, from, to): (String, f64, f64) = (
+                key.extract().map_err(|_| bad())?,
+                from.extract().map_err(|_| bad())?,
+                to.extract().map_err(|_| bad())?,
+            );
             Motion::sweep(SweepKey::parse(&key).map_err(py_err)?, from, to).map_err(py_err)
         }
         (None, Some(radius)) => Motion::orbit(radius).map_err(py_err),
         (Some(_), Some(_)) => Err(PyValueError::new_err(
-            "give one motion, --sweep or --orbit, not both",
+            "give one motion, sweep= or orbit=, not both",
         )),
         (None, None) => Err(PyValueError::new_err(
-            "give one motion: --sweep KEY=A..B or --orbit R",
+            "give one motion: sweep=\"KEY=A..B\" or orbit=R",
         )),
     }
 }
-
-/// A plane as `((px, py, pz), (nx, ny, nz))`.
-type PointNormal = ((f64, f64, f64), (f64, f64, f64));
 
 /// A [`Session`] that may move between threads (Python may hand a `LightField` to any thread,
 /// and its renders run with the GIL released).
@@ -432,7 +643,15 @@ unsafe impl Send for SendSession {}
 /// the conventions (grid positions, colour, arrays).
 #[pyclass(module = "tiltfield", frozen)]
 struct LightField {
-    session: Mutex<SendSession>,
+    /// Shared with the worker thread of a call ([`gpu_work`]), which may outlive the call
+    /// when it was interrupted.
+    session: Arc<Mutex<SendSession>>,
+    /// What made it, for pickling (`__reduce__`).
+    source: Source,
+    /// Facts that never change, read without waiting for a render in progress.
+    grid: (usize, usize),
+    view_size: (u32, u32),
+    has_depth: bool,
     /// GPU time of the last render's passes, ms (`None`: no render yet or no timer).
     last_gpu_ms: Mutex<Option<f64>>,
     /// The strategy of the last refocus and whether it was chosen for the device.
@@ -442,11 +661,35 @@ struct LightField {
     name: String,
 }
 
+/// What a `LightField` was made from: pickling sends this, not the views on the GPU.
+enum Source {
+    /// `open(source, frame, focal_px=, baseline=)`; `source` made absolute when it is a path,
+    /// so another process (multiprocessing) with another working folder finds it.
+    Path {
+        source: String,
+        frame: Option<i64>,
+        focal_px: Option<f64>,
+        baseline: f64,
+    },
+    /// `from_array(views, focal_px=, baseline=, depth=)`: the views are the light field's own
+    /// (exactly what the arrays were converted to), the depth as given, (H, W) row-major.
+    Arrays {
+        focal_px: Option<f64>,
+        baseline: Option<f64>,
+        depth: Option<Vec<f32>>,
+    },
+}
+
 impl LightField {
-    fn new(session: SendSession) -> Self {
+    fn new(session: SendSession, source: Source) -> Self {
+        let lf = session.0.light_field();
         LightField {
-            name: session.0.light_field().name.clone(),
-            session: Mutex::new(session),
+            name: lf.name.clone(),
+            grid: (lf.grid.rows, lf.grid.cols),
+            view_size: (lf.height, lf.width),
+            has_depth: !lf.depth.is_empty(),
+            source,
+            session: Arc::new(Mutex::new(session)),
             last_gpu_ms: Mutex::new(None),
             last_strategy: Mutex::new(None),
         }
@@ -458,15 +701,13 @@ impl LightField {
     /// The camera grid as ``(rows, cols)``.
     #[getter]
     fn grid(&self) -> (usize, usize) {
-        let s = &lock(&self.session).0;
-        (s.light_field().grid.rows, s.light_field().grid.cols)
+        self.grid
     }
 
     /// The size of one view as ``(H, W)`` (numpy's order).
     #[getter]
     fn view_size(&self) -> (u32, u32) {
-        let s = &lock(&self.session).0;
-        (s.light_field().height, s.light_field().width)
+        self.view_size
     }
 
     /// True when the light field carries a depth or disparity map (HCI ground truth, a
@@ -479,13 +720,13 @@ impl LightField {
     /// the same image, the one ``tiltfield render`` writes for it.
     #[getter]
     fn has_depth(&self) -> bool {
-        !lock(&self.session).0.light_field().depth.is_empty()
+        self.has_depth
     }
 
     /// True once the views are on the GPU (after the first :meth:`refocus`).
     #[getter]
-    fn uploaded(&self) -> bool {
-        lock(&self.session).0.uploaded()
+    fn uploaded(&self, py: Python<'_>) -> bool {
+        py.allow_threads(|| lock(&self.session).0.uploaded())
     }
 
     /// GPU time in milliseconds of the last :meth:`refocus` call (its refocus and resolve
@@ -510,35 +751,73 @@ impl LightField {
     /// :func:`from_array` takes, so ``from_array(lf.views())`` renders as ``lf`` does when
     /// ``lf`` is a grid folder.
     fn views<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let s = &lock(&self.session).0;
-        let lf = s.light_field();
-        let (rows, cols) = (lf.grid.rows, lf.grid.cols);
-        let (h, w) = (lf.height as usize, lf.width as usize);
-        let mut flat = Vec::with_capacity(rows * cols * h * w * 4);
-        for v in &lf.views {
-            flat.extend_from_slice(v.image.as_raw());
-        }
+        let (rows, cols) = self.grid;
+        let (h, w) = (self.view_size.0 as usize, self.view_size.1 as usize);
+        // Without the GIL: an interrupted render may still hold the light field.
+        let flat = py.allow_threads(|| {
+            let s = &lock(&self.session).0;
+            let mut flat = Vec::with_capacity(rows * cols * h * w * 4);
+            for v in &s.light_field().views {
+                flat.extend_from_slice(v.image.as_raw());
+            }
+            flat
+        });
         let a = numpy::ndarray::Array5::from_shape_vec((rows, cols, h, w, 4), flat)
             .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
         Ok(a.into_pyarray(py).into_any())
     }
 
     fn __repr__(&self) -> String {
-        let s = &lock(&self.session).0;
-        let lf = s.light_field();
         format!(
             "<tiltfield.LightField '{}': {}×{} views of {}×{} px{}>",
-            lf.name,
-            lf.grid.rows,
-            lf.grid.cols,
-            lf.height,
-            lf.width,
-            if lf.depth.is_empty() {
-                ""
-            } else {
-                ", with depth"
-            }
+            self.name,
+            self.grid.0,
+            self.grid.1,
+            self.view_size.0,
+            self.view_size.1,
+            if self.has_depth { ", with depth" } else { "" }
         )
+    }
+
+    /// Pickling by source: a light field opened from a path is opened again from it (the
+    /// file must be there for the process that unpickles), one made from arrays is made again
+    /// from its views and depth. Nothing of the GPU state travels; the copy uploads on its
+    /// first render.
+    fn __reduce__<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyTuple>)> {
+        let package = py.import("tiltfield")?;
+        match &self.source {
+            Source::Path {
+                source,
+                frame,
+                focal_px,
+                baseline,
+            } => Ok((
+                package.getattr("_reopen")?,
+                (source, *frame, *focal_px, *baseline).into_pyobject(py)?,
+            )),
+            Source::Arrays {
+                focal_px,
+                baseline,
+                depth,
+            } => {
+                let depth = depth
+                    .as_ref()
+                    .map(|d| {
+                        let (h, w) = (self.view_size.0 as usize, self.view_size.1 as usize);
+                        Array2::from_shape_vec((h, w), d.clone())
+                            .map(|a| a.into_pyarray(py))
+                            .map_err(|e| PyRuntimeError::new_err(e.to_string()))
+                    })
+                    .transpose()?;
+                Ok((
+                    package.getattr("_rebuild")?,
+                    (self.views(py)?, *focal_px, *baseline, depth).into_pyobject(py)?,
+                ))
+            }
+        }
     }
 
     /// Refocus: the weighted average of the views in the synthetic aperture, each warped so
@@ -589,18 +868,20 @@ impl LightField {
     /// PNG ``tiltfield render`` writes; with ``linear=True`` a ``float32`` array (H, W, 4) of
     /// linear-light RGBA, the values of its EXR. Alpha is 0 where no view reached the pixel.
     ///
-    /// Raises ``ValueError`` for a bad argument or an impossible focus, ``RuntimeError`` for
-    /// the GPU. The views are uploaded on the first call; later calls cost the GPU time and a
-    /// readback (:attr:`last_gpu_ms` is the GPU part).
+    /// Raises ``ValueError`` for a bad argument or an impossible focus and ``TypeError`` for
+    /// an argument of the wrong type, naming the keyword; ``RuntimeError`` for the GPU. Ctrl-C
+    /// raises ``KeyboardInterrupt`` at once (the render finishes in the background; the next
+    /// call waits for it). The views are uploaded on the first call; later calls cost the GPU
+    /// time and a readback (:attr:`last_gpu_ms` is the GPU part).
     #[pyo3(signature = (
         *, disparity=None, plane=None, focus=None, tilt=None, swing=None, click=None,
         points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
         normal_window=None, normal_method="inverse-depth", slab=None, all_in_focus=false,
         aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
-        include_dark=false, antialias=None, antialias_samples=4, antialias_prefilter=true,
-        antialias_focus_test=true, antialias_focused_bicubic=true, antialias_occlusion=true,
-        antialias_defocus=false, strategy=None,
-        views_per_draw=0, filter=None, accumulation=None, warps=None, storage=None,
+        include_dark=false, antialias=None, antialias_samples=None, antialias_prefilter=None,
+        antialias_focus_test=None, antialias_focused_bicubic=None, antialias_occlusion=None,
+        antialias_defocus=None, strategy=None,
+        views_per_draw=None, filter=None, accumulation=None, warps=None, storage=None,
         linear=false
     ))]
     #[allow(clippy::too_many_arguments)] // one keyword per CLI option, as the issue asks
@@ -618,25 +899,25 @@ impl LightField {
         nudge_distance: Option<f64>,
         nudge_tilt: Option<f64>,
         nudge_swing: Option<f64>,
-        normal_window: Option<u32>,
+        normal_window: Option<&Bound<'_, PyAny>>,
         normal_method: &str,
         slab: Option<f64>,
         all_in_focus: bool,
         aperture: &str,
         aperture_radius: Option<f64>,
         view: Option<&Bound<'py, PyAny>>,
-        size: Option<(i64, i64)>,
+        size: Option<&Bound<'py, PyAny>>,
         average: &str,
         include_dark: bool,
-        antialias: Option<bool>,
-        antialias_samples: u32,
-        antialias_prefilter: bool,
-        antialias_focus_test: bool,
-        antialias_focused_bicubic: bool,
-        antialias_occlusion: bool,
-        antialias_defocus: bool,
+        antialias: Option<&Bound<'py, PyAny>>,
+        antialias_samples: Option<&Bound<'py, PyAny>>,
+        antialias_prefilter: Option<&Bound<'py, PyAny>>,
+        antialias_focus_test: Option<&Bound<'py, PyAny>>,
+        antialias_focused_bicubic: Option<&Bound<'py, PyAny>>,
+        antialias_occlusion: Option<&Bound<'py, PyAny>>,
+        antialias_defocus: Option<&Bound<'py, PyAny>>,
         strategy: Option<&str>,
-        views_per_draw: usize,
+        views_per_draw: Option<&Bound<'py, PyAny>>,
         filter: Option<&str>,
         accumulation: Option<&str>,
         warps: Option<&str>,
@@ -685,8 +966,9 @@ impl LightField {
             options.output = OutputFormat::Float;
         }
         options.check().map_err(py_err)?;
-        let (image, timings) = gpu_work(py, "rendering", || {
-            let session = &mut lock(&self.session).0;
+        let shared = Arc::clone(&self.session);
+        let (image, timings) = gpu_work(py, "rendering", move || {
+            let session = &mut lock(&shared).0;
             let progress = indicatif::ProgressBar::hidden();
             let (image, timings, prepared) = session.render(&options, &progress)?;
             Ok((image, timings, prepared))
@@ -709,8 +991,8 @@ impl LightField {
     /// keyword is :meth:`refocus`'s (``linear=True``: float32 linear light).
     ///
     /// ``progress``, if given, is called as ``progress(done, total)`` after each plane. Ctrl-C
-    /// (or any pending signal) is honoured between planes: ``KeyboardInterrupt`` after the
-    /// plane in progress, and the light field stays usable.
+    /// raises ``KeyboardInterrupt`` at once, between planes or within one (the plane in
+    /// progress then finishes in the background), and the light field stays usable.
     ///
     /// Returns a ``uint8`` array (N, H, W, 4) of sRGB RGBA, or ``float32`` with ``linear=True``.
     /// Note that anti-aliasing is on by default where the light field has depth (several
@@ -780,11 +1062,12 @@ impl LightField {
             .map_err(py_err)?;
         let n = planes.len();
         let mut slices: Vec<Bound<'py, PyAny>> = Vec::with_capacity(n);
-        for (k, options) in planes.iter().enumerate() {
-            let (image, timings) = gpu_work(py, "rendering a focal stack", || {
-                let session = &mut lock(&self.session).0;
+        for (k, options) in planes.into_iter().enumerate() {
+            let shared = Arc::clone(&self.session);
+            let (image, timings) = gpu_work(py, "rendering a focal stack", move || {
+                let session = &mut lock(&shared).0;
                 let hidden = indicatif::ProgressBar::hidden();
-                let (image, timings, _) = session.render(options, &hidden)?;
+                let (image, timings, _) = session.render(&options, &hidden)?;
                 Ok((image, timings))
             })?;
             *lock(&self.last_gpu_ms) = timings.map(|t| t.refocus_ms + t.resolve_ms);
@@ -825,7 +1108,7 @@ impl LightField {
     fn animate<'py>(
         &self,
         py: Python<'py>,
-        frames: i64,
+        frames: &Bound<'py, PyAny>,
         sweep: Option<&Bound<'py, PyAny>>,
         orbit: Option<f64>,
         bounce: bool,
@@ -840,12 +1123,8 @@ impl LightField {
             .0
             .clone();
         let motion = motion_of(sweep, orbit)?;
-        let frames = usize::try_from(frames).map_err(|_| {
-            PyValueError::new_err(format!(
-                "--frames {frames}: an animation has 1 to {} frames",
-                animate::MAX_FRAMES
-            ))
-        })?;
+        let frames = int_arg(Some(frames), "frames", 1..=animate::MAX_FRAMES as i64)?
+            .unwrap_or_default() as usize;
         let animation = Animation::new(motion, frames, bounce).map_err(py_err)?;
         animation.states(&base, None).map_err(py_err)?;
         let format = path
@@ -860,8 +1139,11 @@ impl LightField {
             .transpose()
             .map_err(py_err)?;
         let shown = animation.order().len();
-        let rendered = gpu_work(py, "animating", || {
-            let session = &mut lock(&self.session).0;
+        let shared = Arc::clone(&self.session);
+        let cancel = Arc::new(AtomicBool::new(false));
+        let cancelled = Arc::clone(&cancel);
+        let rendered = gpu_work_with(py, "animating", Some(cancel), move || {
+            let session = &mut lock(&shared).0;
             let states = animation.states(&base, Some(session.light_field().grid))?;
             let hidden = indicatif::ProgressBar::hidden();
             let mut run = |sink: &mut encode::Sink| {
@@ -875,6 +1157,10 @@ impl LightField {
                 _ => {
                     let mut all = Vec::new();
                     let report = run(&mut |frame| {
+                        // Interrupted: stop after this frame (the caller has gone already).
+                        if cancelled.load(Ordering::Relaxed) {
+                            return Err(Error::Invalid("interrupted".into()));
+                        }
                         all.extend_from_slice(frame.as_raw());
                         Ok(())
                     })?;
@@ -897,11 +1183,16 @@ impl LightField {
     /// A click or three pixels estimate the depth first when the light field has none.
     /// Takes the focus keywords of :meth:`refocus` and ``view``, ``aperture``,
     /// ``aperture_radius``, ``include_dark`` (the aperture is checked first, as a render does).
+    ///
+    /// With ``confidence=True`` the tuple has a third element: the pick's confidence in
+    /// [0, 1] for ``click``, ``points`` and ``points_3d`` (what ``tiltfield render --json``
+    /// reports as the focus's ``confidence``: the normal's for a click, the triangle's shape
+    /// for three points), ``None`` for a focus given as numbers.
     #[pyo3(signature = (
         *, disparity=None, plane=None, focus=None, tilt=None, swing=None, click=None,
         points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
         normal_window=None, normal_method="inverse-depth", aperture="disk",
-        aperture_radius=None, view=None, include_dark=false
+        aperture_radius=None, view=None, include_dark=false, confidence=false
     ))]
     #[allow(clippy::too_many_arguments)] // the focus keywords of `refocus`
     fn plane<'py>(
@@ -918,13 +1209,14 @@ impl LightField {
         nudge_distance: Option<f64>,
         nudge_tilt: Option<f64>,
         nudge_swing: Option<f64>,
-        normal_window: Option<u32>,
+        normal_window: Option<&Bound<'_, PyAny>>,
         normal_method: &str,
         aperture: &str,
         aperture_radius: Option<f64>,
         view: Option<&Bound<'py, PyAny>>,
         include_dark: bool,
-    ) -> PyResult<Option<PointNormal>> {
+        confidence: bool,
+    ) -> PyResult<Option<Bound<'py, PyTuple>>> {
         let focus = focus_options(
             disparity,
             plane,
@@ -941,19 +1233,25 @@ impl LightField {
                 shape: choice(Some(aperture))?.unwrap_or(Aperture::default().shape),
                 radius: aperture_radius,
             },
-            reference: numbers_of(view, 2, "--view")?.map(|v| DVec2::new(v[0], v[1])),
+            reference: numbers_of(view, 2, "view", "(s, t)")?.map(|v| DVec2::new(v[0], v[1])),
             include_dark,
             ..RenderOptions::default()
         };
-        let resolved = gpu_work(py, "resolving the focus", || {
+        let shared = Arc::clone(&self.session);
+        let resolved = gpu_work(py, "resolving the focus", move || {
             let progress = indicatif::ProgressBar::hidden();
-            lock(&self.session).0.resolve(&options, &progress)
+            lock(&shared).0.resolve(&options, &progress)
         })?;
-        Ok(resolved.plane.map(|p| {
-            (
-                (p.point.x, p.point.y, p.point.z),
-                (p.normal.x, p.normal.y, p.normal.z),
-            )
+        let Some(p) = resolved.plane else {
+            return Ok(None);
+        };
+        let point = (p.point.x, p.point.y, p.point.z);
+        let normal = (p.normal.x, p.normal.y, p.normal.z);
+        Ok(Some(if confidence {
+            let pick_confidence = resolved.pick.map(|pick| pick.confidence);
+            (point, normal, pick_confidence).into_pyobject(py)?
+        } else {
+            (point, normal).into_pyobject(py)?
         }))
     }
 
@@ -982,38 +1280,40 @@ impl LightField {
         &self,
         py: Python<'py>,
         kind: Option<&str>,
-        planes: Option<usize>,
+        planes: Option<&Bound<'py, PyAny>>,
         range: Option<&Bound<'py, PyAny>>,
         views: &str,
         view: Option<&Bound<'py, PyAny>>,
         cost: Option<&str>,
         aggregation: Option<&str>,
-        radius: Option<u32>,
+        radius: Option<&Bound<'py, PyAny>>,
         naive: bool,
         no_fit: bool,
         no_snap: bool,
-        median: Option<u32>,
+        median: Option<&Bound<'py, PyAny>>,
         include_dark: bool,
         confidence: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
         let request = DepthRequest {
             kind: kind.map(parse_kind).transpose().map_err(py_err)?,
-            planes,
-            range: numbers_of(range, 2, "--range")?.map(|v| (v[0], v[1])),
+            planes: int_arg(planes, "planes", 0..=u32::MAX as i64)?.map(|n| n as usize),
+            range: numbers_of(range, 2, "range", "(min, max)")?.map(|v| (v[0], v[1])),
             views: choice(Some(views))?.unwrap_or(DepthRequest::default().views),
-            reference: numbers_of(view, 2, "--view")?.map(|v| (v[0], v[1])),
+            reference: numbers_of(view, 2, "view", "(s, t)")?.map(|v| (v[0], v[1])),
             cost: choice(cost)?,
             aggregation: choice(aggregation)?,
-            radius,
+            radius: u32_arg(radius, "radius")?,
             naive,
             no_fit,
             no_snap,
-            median,
+            median: u32_arg(median, "median")?,
             include_dark,
         };
         let options = request.options().map_err(py_err)?;
-        let (w, h, values, conf) = gpu_work(py, "estimating depth", || {
-            let session = &lock(&self.session).0;
+        let shared = Arc::clone(&self.session);
+        let kind = request.kind;
+        let (w, h, values, conf) = gpu_work(py, "estimating depth", move || {
+            let session = &lock(&shared).0;
             let progress = indicatif::ProgressBar::hidden();
             let est = tiltfield::jobs::depth::estimate(
                 session.context(),
@@ -1021,7 +1321,7 @@ impl LightField {
                 &options,
                 &progress,
             )?;
-            let values = est.values(request.kind.unwrap_or_else(|| est.natural_kind()))?;
+            let values = est.values(kind.unwrap_or_else(|| est.natural_kind()))?;
             Ok((est.width, est.height, values, est.confidence))
         })?;
         let shape = (h as usize, w as usize);
@@ -1066,38 +1366,336 @@ fn image_to_numpy(py: Python<'_>, image: GpuImage) -> PyResult<Bound<'_, PyAny>>
 /// max(W, H) px, baseline 1), as ``--focal-px`` and ``--baseline`` do.
 ///
 /// Raises ``OSError`` for a missing or unreadable file and ``ValueError`` for bad arguments,
-/// with the CLI's messages. The GPU context is made on first use (one per process).
+/// naming the keyword. The GPU context is made on first use (one per process). A pickled
+/// ``LightField`` from here is opened again from ``source`` (made absolute).
 #[pyfunction]
 #[pyo3(signature = (source, frame=None, *, focal_px=None, baseline=1.0))]
 fn open(
     py: Python<'_>,
     source: std::path::PathBuf,
-    frame: Option<u64>,
+    frame: Option<&Bound<'_, PyAny>>,
     focal_px: Option<f64>,
     baseline: f64,
 ) -> PyResult<LightField> {
+    let frame = int_arg(frame, "frame", 0..=i64::MAX)?;
     let read = ReadOptions {
         focal_px,
         baseline,
-        frame,
+        frame: frame.map(|f| f as u64),
     };
-    let source = source.to_string_lossy().into_owned();
-    let session = gpu_work(py, "loading", || {
+    let text = source.to_string_lossy().into_owned();
+    let loading = text.clone();
+    let session = gpu_work(py, "loading", move || {
         let ctx = context()?;
         // The device first, so a light field it cannot hold is refused before decoding.
-        let lf = render::open_light_field(&source, &read, &render::device_load_limits(&ctx))?;
+        let lf = render::open_light_field(&loading, &read, &render::device_load_limits(&ctx))?;
         Ok(SendSession(Session::new(ctx, lf)))
     })?;
-    Ok(LightField::new(session))
+    // A path (not `builtin:NAME`) absolute, for a process with another working folder.
+    let source = std::fs::canonicalize(&source).map_or(text, |p| p.to_string_lossy().into_owned());
+    Ok(LightField::new(
+        session,
+        Source::Path {
+            source,
+            frame,
+            focal_px,
+            baseline,
+        },
+    ))
+}
+
+/// Linear light to 8-bit sRGB exactly as the library's `color::encode_srgb8` (so arrays give
+/// the bytes the CLI stores), at the cost of two table look-ups instead of a `powf` per value.
+///
+/// Each code's threshold, the smallest `f32` that encodes to it or more, is found by bisection
+/// over the bit patterns with the library's own function (monotone on [0, 1]). The tables
+/// hold, per bucket of 2^16 bit patterns, the code of the bucket's first value and the next
+/// code's threshold. A bucket is at most 1/128 of its value wide, and codes lie at least
+/// 1/113 of theirs apart (the steepest part of the curve, near 1; 1/k in the linear part near
+/// 0), so a bucket holds at most one threshold: a value is its bucket's code, plus one if it
+/// reaches that threshold. The two look-ups are independent (no chain of loads), and
+/// tests/python checks every value around every threshold against the library.
+struct SrgbEncoder {
+    code: Box<[u8; TABLE]>,
+    next: Box<[f32; TABLE]>,
+}
+
+const COARSE_SHIFT: u32 = 16;
+/// The bits of 1.0f32, the last value in range.
+const ONE_BITS: u32 = 0x3f80_0000;
+/// Buckets up to 1.0 inclusive; a fixed size, so that indices clamped below it need no
+/// bounds checks.
+const TABLE: usize = (ONE_BITS >> COARSE_SHIFT) as usize + 1;
+
+impl SrgbEncoder {
+    fn get() -> &'static SrgbEncoder {
+        static ENCODER: OnceLock<SrgbEncoder> = OnceLock::new();
+        ENCODER.get_or_init(|| {
+            let one = ONE_BITS;
+            // thresholds[256] is infinite: no code above 255.
+            let mut thresholds = [f32::INFINITY; 257];
+            for (k, t) in thresholds.iter_mut().enumerate().take(256).skip(1) {
+                let (mut lo, mut hi) = (0u32, one);
+                while lo < hi {
+                    let mid = lo + (hi - lo) / 2;
+                    if usize::from(tiltfield::color::encode_srgb8(f32::from_bits(mid))) >= k {
+                        hi = mid;
+                    } else {
+                        lo = mid + 1;
+                    }
+                }
+                *t = f32::from_bits(lo);
+            }
+            let mut code = Box::new([0u8; TABLE]);
+            let mut next = Box::new([0f32; TABLE]);
+            for (i, (k, t)) in code.iter_mut().zip(next.iter_mut()).enumerate() {
+                let v = f32::from_bits((i as u32) << COARSE_SHIFT);
+                *k = thresholds[1..256].partition_point(|&t| t <= v) as u8;
+                *t = thresholds[usize::from(*k) + 1];
+            }
+            SrgbEncoder { code, next }
+        })
+    }
+
+    /// The tables as slices, held in registers by the conversion loop (through the static,
+    /// every byte written would make the compiler reload them).
+    fn tables(&self) -> Srgb<'_> {
+        Srgb {
+            code: &self.code,
+            next: &self.next,
+        }
+    }
+}
+
+/// [`SrgbEncoder`]'s tables, borrowed for a conversion.
+#[derive(Clone, Copy)]
+struct Srgb<'a> {
+    code: &'a [u8; TABLE],
+    next: &'a [f32; TABLE],
+}
+
+impl Srgb<'_> {
+    /// The code of `v` if it lies in [0, 1] (-0.0 included); any other value gives some code
+    /// (the conversion checks values in the same pass and drops such a view).
+    #[inline(always)]
+    fn encode(self, v: f32) -> u8 {
+        let i = (((v.to_bits() & 0x7fff_ffff) >> COARSE_SHIFT) as usize).min(TABLE - 1);
+        // No overflow: the threshold after code 255 is infinite.
+        self.code[i].wrapping_add(u8::from(v >= self.next[i]))
+    }
+}
+
+/// How `convert_view` reads one dtype: which values it takes and how colour and alpha become
+/// bytes. A trait with inlined methods rather than closures: called per value, a call would
+/// cost more than the conversion, and closures were not inlined at the tests' opt-level.
+trait Channels<T: Copy> {
+    fn valid(&self, v: T) -> bool;
+    fn colour(&self, v: T) -> u8;
+    fn alpha(&self, v: T) -> u8;
+}
+
+/// sRGB bytes as given.
+struct Bytes;
+
+impl Channels<u8> for Bytes {
+    #[inline(always)]
+    fn valid(&self, _: u8) -> bool {
+        true
+    }
+    #[inline(always)]
+    fn colour(&self, v: u8) -> u8 {
+        v
+    }
+    #[inline(always)]
+    fn alpha(&self, v: u8) -> u8 {
+        v
+    }
+}
+
+/// Linear light in [0, 1]: colour encoded as sRGB, alpha (coverage) only quantised.
+impl Channels<f32> for Srgb<'_> {
+    #[inline(always)]
+    fn valid(&self, v: f32) -> bool {
+        (0.0..=1.0).contains(&v)
+    }
+    #[inline(always)]
+    fn colour(&self, v: f32) -> u8 {
+        self.encode(v)
+    }
+    #[inline(always)]
+    fn alpha(&self, v: f32) -> u8 {
+        tiltfield::color::to_u8(f64::from(v))
+    }
+}
+
+/// One view (H, W, C) as an RGBA8 image: every value checked by `ch.valid` first
+/// (`Err((y, x))` at the first pixel holding one it refuses), then colour channels through
+/// `ch.colour`, alpha through `ch.alpha` (255 without one). Contiguous views (the usual case) are read as one slice,
+/// in loops the compiler vectorises or keeps branch-free; strided ones (a transposed array)
+/// pixel by pixel.
+#[inline(always)]
+fn convert_view<T: Copy>(
+    view: ArrayView3<'_, T>,
+    ch: impl Channels<T>,
+) -> Result<image::RgbaImage, (usize, usize)> {
+    let (h, w, c) = view.dim();
+    let mut out = vec![255u8; h * w * 4];
+    if let Some(flat) = view.as_slice() {
+        let all_valid = if c == 4 {
+            convert_flat::<T, 4>(flat, &mut out, &ch)
+        } else {
+            convert_flat::<T, 3>(flat, &mut out, &ch)
+        };
+        if !all_valid {
+            let i = flat.iter().position(|&v| !ch.valid(v)).unwrap_or(0) / c;
+            return Err((i / w, i % w));
+        }
+    } else {
+        for (y, row) in view.outer_iter().enumerate() {
+            for (x, src) in row.outer_iter().enumerate() {
+                if !src.iter().all(|&v| ch.valid(v)) {
+                    return Err((y, x));
+                }
+                let dst = &mut out[(y * w + x) * 4..][..4];
+                dst[0] = ch.colour(src[0]);
+                dst[1] = ch.colour(src[1]);
+                dst[2] = ch.colour(src[2]);
+                if c == 4 {
+                    dst[3] = ch.alpha(src[3]);
+                }
+            }
+        }
+    }
+    Ok(image::RgbaImage::from_raw(w as u32, h as u32, out)
+        .unwrap_or_else(|| image::RgbaImage::new(w as u32, h as u32)))
+}
+
+/// The contiguous pixels of `flat` (C channels each) into RGBA `out`, converting and checking
+/// in one pass without a branch (a second pass over the values would cost more than the
+/// conversion); false if any value is invalid. C is a constant so that each pixel's channels
+/// are fixed-size loads.
+#[inline(always)]
+fn convert_flat<T: Copy, const C: usize>(
+    flat: &[T],
+    out: &mut [u8],
+    ch: &impl Channels<T>,
+) -> bool {
+    let mut all_valid = true;
+    for (src, dst) in flat.chunks_exact(C).zip(out.chunks_exact_mut(4)) {
+        // Element by element: `copy_from_slice` of three bytes is a memmove call at the
+        // tests' opt-level.
+        let mut px = [src[0]; 4];
+        #[allow(clippy::manual_memcpy)]
+        for k in 1..C {
+            px[k] = src[k];
+        }
+        all_valid &= ch.valid(px[0]) & ch.valid(px[1]) & ch.valid(px[2]);
+        dst[0] = ch.colour(px[0]);
+        dst[1] = ch.colour(px[1]);
+        dst[2] = ch.colour(px[2]);
+        if C == 4 {
+            all_valid &= ch.valid(px[3]);
+            dst[3] = ch.alpha(px[3]);
+        }
+    }
+    all_valid
+}
+
+/// `views` as a numpy array: an ndarray as it is, a DLPack producer (a torch or JAX array)
+/// through `numpy.from_dlpack`, anything with `__array__` (or the array interfaces) through
+/// `numpy.asarray`; neither copies where the layout allows.
+fn as_ndarray<'py>(views: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    let np = views.py().import("numpy")?;
+    if views.is_instance(&np.getattr("ndarray")?)? {
+        return Ok(views.clone());
+    }
+    if views.hasattr("__dlpack__")? {
+        return np.call_method1("from_dlpack", (views,));
+    }
+    for protocol in ["__array__", "__array_interface__", "__array_struct__"] {
+        if views.hasattr(protocol)? {
+            return np.call_method1("asarray", (views,));
+        }
+    }
+    Err(PyTypeError::new_err(format!(
+        "views must be an array (numpy.ndarray, or an object with __array__ or __dlpack__) of \
+         shape (rows, cols, H, W, 3 or 4), got {}",
+        article(&type_name(views))
+    )))
+}
+
+fn article(name: &str) -> String {
+    let vowel = name.starts_with(['a', 'e', 'i', 'o', 'u']);
+    format!("{} {name}", if vowel { "an" } else { "a" })
+}
+
+/// Memory this machine has free for new data (Linux: MemAvailable), `None` where unknown.
+fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Refuses a light field of `rows`×`cols` views of `h`×`w` px that the device (`limits`, as
+/// `open` applies them to files) or this machine's memory cannot hold, from the shape alone:
+/// nothing of the array is read, so a huge broadcast array fails at once.
+fn check_view_limits(
+    (rows, cols, h, w): (usize, usize, usize, usize),
+    limits: &LoadLimits,
+) -> PyResult<()> {
+    let n = rows as u128 * cols as u128;
+    if n > limits.max_views as u128 {
+        return Err(PyValueError::new_err(format!(
+            "views: {rows}×{cols} = {n} views, more than {} ({})",
+            limits.max_views, limits.views_why
+        )));
+    }
+    if h.max(w) as u128 > u128::from(limits.max_dimension) {
+        return Err(PyValueError::new_err(format!(
+            "views: each is {h}×{w} px, larger than {} px a side ({})",
+            limits.max_dimension, limits.dimension_why
+        )));
+    }
+    let bytes = n * h as u128 * w as u128 * 4;
+    let mib = |b: u128| b >> 20;
+    if bytes > u128::from(limits.max_bytes) {
+        return Err(PyValueError::new_err(format!(
+            "views: {} MiB as 8-bit RGBA, more than {} MiB ({})",
+            mib(bytes),
+            mib(u128::from(limits.max_bytes)),
+            limits.bytes_why
+        )));
+    }
+    if let Some(free) = available_memory() {
+        if bytes > u128::from(free) {
+            return Err(PyValueError::new_err(format!(
+                "views: {} MiB as 8-bit RGBA, more than this machine's available memory \
+                 ({} MiB)",
+                mib(bytes),
+                mib(u128::from(free))
+            )));
+        }
+    }
+    Ok(())
 }
 
 /// The views of an array of shape (rows, cols, H, W, C), C = 3 or 4, as sRGB images in
-/// row-major grid order.
-fn views_of(views: &Bound<'_, PyAny>) -> PyResult<(GridSize, Vec<image::RgbaImage>)> {
-    let shape_error = |shape: &[usize]| {
-        PyValueError::new_err(format!(
-            "views must have shape (rows, cols, H, W, 3 or 4), got shape {}",
-            match shape {
+/// row-major grid order: the shape and dtype checked first, then the sizes against `limits`,
+/// and only then the values (float32: each in [0, 1], refused with its index otherwise).
+fn views_of(
+    py: Python<'_>,
+    views: &Bound<'_, PyAny>,
+    limits: &LoadLimits,
+) -> PyResult<(GridSize, Vec<image::RgbaImage>)> {
+    let views = as_ndarray(views)?;
+    let shape: Vec<usize> = views.getattr("shape")?.extract()?;
+    let dims = match shape[..] {
+        [rows, cols, h, w, c] if rows > 0 && cols > 0 && h > 0 && w > 0 && (c == 3 || c == 4) => {
+            (rows, cols, h, w)
+        }
+        _ => {
+            let text = match &shape[..] {
                 [one] => format!("({one},)"),
                 _ => format!(
                     "({})",
@@ -1107,87 +1705,91 @@ fn views_of(views: &Bound<'_, PyAny>) -> PyResult<(GridSize, Vec<image::RgbaImag
                         .collect::<Vec<_>>()
                         .join(", ")
                 ),
-            }
-        ))
-    };
-    let check = |shape: &[usize]| -> PyResult<(usize, usize, u32, u32, usize)> {
-        match *shape {
-            [rows, cols, h, w, c]
-                if rows > 0 && cols > 0 && h > 0 && w > 0 && (c == 3 || c == 4) =>
-            {
-                let side = |n: usize| {
-                    u32::try_from(n).map_err(|_| {
-                        PyValueError::new_err(format!("views of {n} pixels a side are too large"))
-                    })
-                };
-                Ok((rows, cols, side(h)?, side(w)?, c))
-            }
-            _ => Err(shape_error(shape)),
+            };
+            return Err(PyValueError::new_err(format!(
+                "views must have shape (rows, cols, H, W, 3 or 4), got shape {text}"
+            )));
         }
     };
-    // Each view's pixels in the array's logical order (a transposed, strided view reads
-    // right): sRGB bytes as given, linear floats encoded as sRGB with rounding to nearest.
-    fn collect<T: Copy + numpy::Element>(
-        array: &PyReadonlyArrayDyn<'_, T>,
-        (rows, cols, h, w, c): (usize, usize, u32, u32, usize),
-        encode: impl Fn(T, usize) -> u8,
-    ) -> Vec<image::RgbaImage> {
-        // Fixed rank for fast indexing (the shape was checked to be 5-D).
-        let Ok(a) = array
+    let dtype = views.getattr("dtype")?.str()?.to_string();
+    if dtype != "uint8" && dtype != "float32" {
+        return Err(PyValueError::new_err(format!(
+            "views must be of dtype uint8 (sRGB) or float32 (linear light, 0 to 1), got dtype \
+             {dtype}"
+        )));
+    }
+    check_view_limits(dims, limits)?;
+    let (rows, cols, ..) = dims;
+    let mut images = Vec::with_capacity(rows * cols);
+    if dtype == "uint8" {
+        let array = views.extract::<PyReadonlyArrayDyn<'_, u8>>()?;
+        let a = array
             .as_array()
-            .into_dimensionality::<numpy::ndarray::Ix5>()
-        else {
-            return Vec::new();
-        };
-        let mut images = Vec::with_capacity(rows * cols);
+            .into_dimensionality::<Ix5>()
+            .map_err(shape_err)?;
         for t in 0..rows {
             for s in 0..cols {
-                let mut img = image::RgbaImage::new(w, h);
-                for (y, row) in img.rows_mut().enumerate() {
-                    for (x, px) in row.enumerate() {
-                        let mut out = [0u8, 0, 0, 255];
-                        for (ch, o) in out.iter_mut().enumerate().take(c) {
-                            *o = encode(a[[t, s, y, x, ch]], ch);
-                        }
-                        px.0 = out;
-                    }
-                }
+                let view = a.slice(s![t, s, .., .., ..]);
+                let img = convert_view(view, Bytes)
+                    .map_err(|_| PyRuntimeError::new_err("uint8 views cannot be refused"))?;
                 images.push(img);
             }
+            py.check_signals()?;
         }
-        images
-    }
-    let (dims, images) = if let Ok(array) = views.extract::<PyReadonlyArrayDyn<'_, u8>>() {
-        let dims = check(array.shape())?;
-        (dims, collect(&array, dims, |v, _| v))
-    } else if let Ok(array) = views.extract::<PyReadonlyArrayDyn<'_, f32>>() {
-        let dims = check(array.shape())?;
-        if array.as_array().iter().any(|v| !v.is_finite()) {
-            return Err(PyValueError::new_err(
-                "float32 views must be finite (linear light, 0 to 1)",
-            ));
-        }
-        // Colour channels are linear light; alpha is coverage and is not encoded.
-        let encoded = collect(&array, dims, |v, ch| {
-            if ch < 3 {
-                tiltfield::color::encode_srgb8(v)
-            } else {
-                tiltfield::color::to_u8(v as f64)
-            }
-        });
-        (dims, encoded)
     } else {
-        let dtype = views.getattr("dtype").map_or_else(
-            |_| format!("a {}", type_name(views)),
-            |d| format!("dtype {d}"),
-        );
-        return Err(PyValueError::new_err(format!(
-            "views must be a numpy array of dtype uint8 (sRGB) or float32 (linear light) with \
-             shape (rows, cols, H, W, 3 or 4), got {dtype}"
-        )));
-    };
-    let (rows, cols, ..) = dims;
+        let array = views.extract::<PyReadonlyArrayDyn<'_, f32>>()?;
+        let a = array
+            .as_array()
+            .into_dimensionality::<Ix5>()
+            .map_err(shape_err)?;
+        let enc = SrgbEncoder::get().tables();
+        for t in 0..rows {
+            for s in 0..cols {
+                let view = a.slice(s![t, s, .., .., ..]);
+                // Colour channels are linear light; alpha is coverage and is not encoded.
+                let img = convert_view(view, enc);
+                match img {
+                    Ok(img) => images.push(img),
+                    Err((y, x)) => {
+                        let pixel = view.slice(s![y, x, ..]);
+                        let (ch, v) = pixel
+                            .iter()
+                            .enumerate()
+                            .find(|(_, v)| !enc.valid(**v))
+                            .map_or((0, f32::NAN), |(ch, v)| (ch, *v));
+                        return Err(PyValueError::new_err(format!(
+                            "views: float32 values are linear light from 0 to 1, got {v} at \
+                             index ({t}, {s}, {y}, {x}, {ch})"
+                        )));
+                    }
+                }
+            }
+            py.check_signals()?;
+        }
+    }
     Ok((GridSize { cols, rows }, images))
+}
+
+fn shape_err(e: numpy::ndarray::ShapeError) -> PyErr {
+    PyRuntimeError::new_err(e.to_string())
+}
+
+/// `_tiltfield._srgb_table_mismatches(lo, hi)`: the `f32` bit patterns in `lo..hi` (within
+/// [0, 1]) where the table encoder of `from_array` differs from the library's
+/// `color::encode_srgb8`, for the tests (at most 16 reported).
+#[pyfunction]
+fn _srgb_table_mismatches(py: Python<'_>, lo: u32, hi: u32) -> Vec<u32> {
+    let hi = hi.min(ONE_BITS + 1);
+    py.allow_threads(|| {
+        let enc = SrgbEncoder::get().tables();
+        (lo..hi)
+            .filter(|&bits| {
+                let v = f32::from_bits(bits);
+                enc.encode(v) != tiltfield::color::encode_srgb8(v)
+            })
+            .take(16)
+            .collect()
+    })
 }
 
 fn type_name(value: &Bound<'_, PyAny>) -> String {
@@ -1218,6 +1820,11 @@ fn type_name(value: &Bound<'_, PyAny>) -> String {
 ///   weight channel, ``LF[..., :3]``, when the 4th is a weight rather than alpha; a v7.3
 ///   file read with h5py comes reversed, (c, u, v, s, t): ``numpy.transpose(a, (4, 3, 2, 1, 0))``.
 ///
+/// Any array will do: a numpy array, an object with ``__array__``, or a DLPack producer (a
+/// torch or JAX array, read through ``numpy.from_dlpack``). The shape is checked against the
+/// device's limits and the machine's free memory before any value is read (``ValueError``);
+/// ``float32`` values outside [0, 1] (or not finite) are refused with their index.
+///
 /// ``depth``: an optional (H, W) ``float32`` classic disparity map of the middle view
 /// (cols // 2, rows // 2), px per grid step (view (s, t) sees that view's pixel x at
 /// x + (s - s_r, t - t_r) * D), NaN where unknown. With it the cameras take the nominal sensor
@@ -1238,7 +1845,9 @@ fn from_array(
         frame: None,
     };
     read.validate().map_err(py_err)?;
-    let (grid, images) = views_of(views)?;
+    // The device's limits before anything of the array is read (as `open` checks files).
+    let ctx = gpu_work(py, "starting Vulkan", context)?;
+    let (grid, images) = views_of(py, views, &render::device_load_limits(&ctx))?;
     let (w, h) = images[0].dimensions();
     let depth = depth
         .map(|d| {
@@ -1259,8 +1868,8 @@ fn from_array(
             Ok(a.as_array().iter().copied().collect::<Vec<f32>>())
         })
         .transpose()?;
-    let session = gpu_work(py, "loading", || {
-        let ctx = context()?;
+    let kept = depth.clone();
+    let session = gpu_work(py, "loading", move || {
         let mut lf =
             lightfield::grid_folder::from_images("array", grid, images, &read.grid_cameras())?;
         if let Some(values) = depth {
@@ -1269,7 +1878,14 @@ fn from_array(
         }
         Ok(SendSession(Session::new(ctx, lf)))
     })?;
-    Ok(LightField::new(session))
+    Ok(LightField::new(
+        session,
+        Source::Arrays {
+            focal_px,
+            baseline,
+            depth: kept,
+        },
+    ))
 }
 
 /// The Vulkan device the module renders on, as ``{"name", "kind", "driver", "api_version"}``
@@ -1309,6 +1925,12 @@ fn _tiltfield(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let _ = env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn"))
         .format_target(false)
         .try_init();
+    // numpy's C API and rust-numpy's borrow checking are set up on first use, by importing
+    // numpy modules; on the first call of a process a pending Ctrl-C made that import fail,
+    // which rust-numpy reports as a panic. Set up here instead, where an interrupt is an
+    // ordinary KeyboardInterrupt of `import tiltfield`.
+    let py = m.py();
+    numpy::PyArray1::<u8>::zeros(py, 0, false).readonly();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<LightField>()?;
     m.add_function(wrap_pyfunction!(open, m)?)?;
@@ -1316,5 +1938,6 @@ fn _tiltfield(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(device, m)?)?;
     m.add_function(wrap_pyfunction!(validation_errors, m)?)?;
     m.add_function(wrap_pyfunction!(validation_enabled, m)?)?;
+    m.add_function(wrap_pyfunction!(_srgb_table_mismatches, m)?)?;
     Ok(())
 }

@@ -23,12 +23,22 @@ Conventions (as the ``tiltfield`` command line's; see its README):
 - world units are those of the data (metres on HCI data, ``baseline`` units on grid folders).
 
 Every keyword mirrors a ``tiltfield render`` option (``aperture_radius`` is
-``--aperture-radius``) and is checked by the same code: a bad value raises ``ValueError``
-with the message the command line prints (``OSError`` for files, ``RuntimeError`` for the
-GPU). One GPU context serves the whole process; each LightField uploads its views once.
+``--aperture-radius``) and is checked by the same code: a bad value raises ``ValueError``, a
+wrong type ``TypeError``, naming the keyword (the command line's message with its options
+spelled as keywords; ``OSError`` for files, ``RuntimeError`` for the GPU). Sequences (tuples,
+lists, 1-D arrays) are taken wherever numbers come in groups. Ctrl-C raises
+``KeyboardInterrupt`` at once in any call. One GPU context serves the whole process; each
+LightField uploads its views once; pickling sends what made it (a path, or the arrays).
+The package is typed (``py.typed``): ``mypy --strict`` checks calls against its stubs.
 Set ``TILTFIELD_DEVICE`` to pick a device and ``TILTFIELD_VALIDATION=1`` (before the first GPU
 call) to run under the Khronos validation layer.
 """
+
+from os import PathLike
+from typing import Optional, Union
+
+import numpy as np
+import numpy.typing as npt
 
 from ._tiltfield import (  # noqa: F401  (re-exported API)
     LightField,
@@ -39,6 +49,24 @@ from ._tiltfield import (  # noqa: F401  (re-exported API)
     validation_enabled,
     validation_errors,
 )
+
+
+
+# Pickling (LightField.__reduce__): a light field travels as what made it, never as GPU state.
+def _reopen(
+    source: Union[str, "PathLike[str]"], frame: Optional[int], focal_px: Optional[float], baseline: float
+) -> LightField:
+    return open(source, frame, focal_px=focal_px, baseline=baseline)
+
+
+def _rebuild(
+    views: npt.NDArray[np.uint8],
+    focal_px: Optional[float],
+    baseline: Optional[float],
+    depth: Optional[npt.NDArray[np.float32]],
+) -> LightField:
+    return from_array(views, focal_px=focal_px, baseline=baseline, depth=depth)
+
 
 __all__ = [
     "LightField",

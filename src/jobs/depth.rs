@@ -289,7 +289,14 @@ pub fn ensure_for(
     let had_depth = !lf.depth.is_empty();
     let origin = ensure_depth(ctx, lf, &DepthOptions::default(), progress)?;
     if had_depth {
-        let window = origin.normal_window();
+        // A map the estimator made (installed by an earlier request on a session's copy of
+        // the light field) keeps the estimate's window, so the same click gives the same
+        // plane on every call, not only on the one that estimated.
+        let estimated = lf.depth.first().is_some_and(|(_, d)| d.estimated);
+        let window = match estimated {
+            true => crate::geometry::normals::ESTIMATED_DEPTH_WINDOW,
+            false => origin.normal_window(),
+        };
         return Ok((origin, window));
     }
     if let DepthOrigin::Estimated {

@@ -46,23 +46,27 @@ def test_animate_writes_what_the_cli_writes(planes, cli, tmp_path):
 @pytest.mark.parametrize(
     "kwargs, message",
     [
-        ({"frames": 0, "sweep": "disparity=0..1"}, "--frames 0"),
-        ({"frames": -2, "sweep": "disparity=0..1"}, "--frames -2"),
+        ({"frames": 0, "sweep": "disparity=0..1"}, "frames must be an integer from 1 to 10000, got 0"),
+        ({"frames": -2, "sweep": "disparity=0..1"}, "frames must be an integer from 1 to 10000, got -2"),
         ({"frames": 3, "sweep": "blur=0..1"}, "unknown key 'blur'"),
         ({"frames": 3, "sweep": "disparity=0..nan"}, "finite"),
-        ({"frames": 3, "sweep": ("disparity", 0)}, "(KEY, A, B)"),
-        ({"frames": 3, "orbit": 1}, "give one of --disparity"),
+        ({"frames": 3, "orbit": 1}, "give one of disparity, plane"),
         ({"frames": 3, "orbit": 3, "disparity": 0}, "at most 2"),
         ({"frames": 3, "orbit": 1, "sweep": "disparity=0..1"}, "not both"),
         ({"frames": 3, "disparity": 0}, "give one motion"),
         ({"frames": 3, "sweep": "disparity=0..1", "path": "a.webm"}, ".gif"),
-        ({"frames": 3, "sweep": "disparity=0..1", "path": "a.gif", "fps": 60}, "--fps 60"),
+        ({"frames": 3, "sweep": "disparity=0..1", "path": "a.gif", "fps": 60}, "fps=60: a GIF plays at most 50"),
     ],
 )
 def test_bad_animations_raise_the_clis_messages(planes, kwargs, message):
     with pytest.raises(ValueError) as e:
         planes.animate(**kwargs)
     assert message in str(e.value)
+
+
+def test_a_sweep_of_the_wrong_type_is_a_type_error(planes):
+    with pytest.raises(TypeError, match=r'^sweep must be "KEY=A..B" or \(KEY, A, B\), got \(\'disparity\', 0\)$'):
+        planes.animate(3, sweep=("disparity", 0))
 
 
 def test_animate_refuses_an_unknown_keyword_naming_itself(planes):

@@ -178,6 +178,24 @@ def test_plane_reports_the_plane_the_render_uses(planes):
     assert tiltfield.open("builtin:planes").plane(disparity=0.5) is not None
 
 
+def test_plane_reports_the_picks_confidence_as_the_cli_json(cli, planes, grid_folder, tmp_path):
+    import json
+
+    for source, lf, args, kwargs in [
+        ("builtin:planes", planes, ["--click", "20,30"], dict(click=(20, 30))),
+        (str(grid_folder), tiltfield.open(grid_folder), ["--click", "40,12"], dict(click=(40, 12))),
+        ("builtin:planes", planes, ["--points", "10,10,50,12,30,50"], dict(points=(10, 10, 50, 12, 30, 50))),
+    ]:
+        r = cli.run("render", source, "-o", str(tmp_path / "c.png"), *args, "--json")
+        assert r.returncode == 0, r.stderr
+        expected = json.loads(r.stdout)["focus"]["confidence"]
+        point, normal, confidence = lf.plane(**kwargs, confidence=True)
+        assert confidence == pytest.approx(expected, abs=1e-12), (source, args)
+        assert (point, normal) == lf.plane(**kwargs)
+    # A focus given as numbers has no pick, so no confidence.
+    assert planes.plane(focus=3, tilt=10, confidence=True)[2] is None
+
+
 def test_classic_disparity_has_no_plane(planes):
     assert tiltfield.from_array(planes.views()).plane(disparity=0.5) is None
 

@@ -104,6 +104,17 @@ def test_the_same_call_gives_the_same_image_after_an_estimate_on_the_way(grid_fo
     assert aa.shape == first.shape and not np.array_equal(aa, first)
 
 
+def test_the_same_click_gives_the_same_plane_and_image_on_every_call(grid_folder):
+    # The first click on a light field without depth estimates it; later clicks use the kept
+    # estimate with the estimate's normal window (31 px), not the 9 px of a shipped map, so
+    # they find the same plane (they used to fail: "no reliable normal ... window 9×9").
+    lf = tiltfield.open(str(grid_folder))
+    planes = [lf.plane(click=(40, 12), confidence=True) for _ in range(3)]
+    assert planes[0] == planes[1] == planes[2]
+    images = [lf.refocus(click=(20, 30)) for _ in range(2)]
+    assert np.array_equal(images[0], images[1])
+
+
 def test_a_focal_stack_is_its_single_calls_with_one_upload(planes):
     calls = []
     values = [-0.5, 0.0, 0.5]
