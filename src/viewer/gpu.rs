@@ -284,15 +284,7 @@ impl ViewerGpu {
             to: stage::PRESENT,
         };
         image_barrier(d, cmd, swapchain.images[index as usize], 1, to_present);
-        frames.submit(
-            &ctx,
-            &[(
-                frame.image_available,
-                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-            )],
-            &[swapchain.render_finished[index as usize]],
-        )?;
-        swapchain.present(&ctx, index)?;
+        submit_and_present(&ctx, frames, swapchain, frame.image_available, index)?;
         Ok(())
     }
 
@@ -633,15 +625,7 @@ impl ViewerGpu {
             };
             image_barrier(d, cmd, image, 1, to_present);
         }
-        frames.submit(
-            &ctx,
-            &[(
-                frame.image_available,
-                vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-            )],
-            &[swapchain.render_finished[index as usize]],
-        )?;
-        result.skipped = swapchain.present(&ctx, index)?;
+        result.skipped = submit_and_present(&ctx, frames, swapchain, frame.image_available, index)?;
         if req.capture_window {
             frames.wait_all(&ctx)?;
             result.window = read_window(&ctx, self.readback.as_mut(), swapchain.format, extent)?;
@@ -977,6 +961,26 @@ fn compose(
     }
     // SAFETY: inside the rendering instance begun above.
     unsafe { d.cmd_end_rendering(cmd) };
+}
+
+/// Submits the frame's commands (waiting for swapchain image `index`, signalling its
+/// render-finished semaphore) and presents the image; true when the swapchain is out of date.
+fn submit_and_present(
+    ctx: &GpuContext,
+    frames: &mut Frames,
+    swapchain: &Swapchain,
+    image_available: vk::Semaphore,
+    index: u32,
+) -> Result<bool> {
+    frames.submit(
+        ctx,
+        &[(
+            image_available,
+            vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+        )],
+        &[swapchain.render_finished[index as usize]],
+    )?;
+    swapchain.present(ctx, index)
 }
 
 /// Step 5, capture: copies the composed `image` into the readback buffer (grown to fit
