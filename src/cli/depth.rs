@@ -391,18 +391,6 @@ pub fn run(args: &DepthArgs) -> Result<()> {
     Ok(())
 }
 
-/// For commands that need depth (`render --click/--points`, `cloud`, `view`):
-/// [`crate::jobs::depth::ensure_for`] with a progress bar while it sweeps.
-pub(crate) fn ensure_for(
-    ctx: &GpuContext,
-    lf: &mut crate::lightfield::LightField,
-) -> Result<(crate::depth::DepthOrigin, u32)> {
-    let bar = progress_bar_for(lf);
-    let r = crate::jobs::depth::ensure_for(ctx, lf, &bar);
-    bar.finish_and_clear();
-    r
-}
-
 /// The progress bar of a depth estimate on `lf`: hidden when `lf` has depth (nothing will be
 /// swept).
 pub(crate) fn progress_bar_for(lf: &crate::lightfield::LightField) -> indicatif::ProgressBar {

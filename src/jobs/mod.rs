@@ -11,6 +11,7 @@
 //! - [`refocus`]: headless refocus images (render, frames, tests);
 //! - [`render`]: one render as a front end asks for it (options, depth, focus, plans);
 //! - [`animate`]: focus pulls, tilt sweeps and orbits as animated PNG, GIF or MP4;
+//! - [`cloud`]: the point cloud with the focus planes and the cameras, as a PLY mesh;
 //! - [`batch`]: many refocus images of one light field in one set-up (focal stacks, videos);
 //! - [`depth`]: the GPU plane sweep of [`crate::depth`]'s plan, and `ensure_depth` with its cache;
 //! - [`strategy`]: `--strategy auto`, the fastest way of summing on this device (measured once);
@@ -18,6 +19,7 @@
 
 pub mod animate;
 pub mod batch;
+pub mod cloud;
 pub mod depth;
 pub mod raster;
 pub mod refocus;
