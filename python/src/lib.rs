@@ -1255,6 +1255,124 @@ impl LightField {
         }))
     }
 
+    /// The point cloud of the view that carries the depth map, as ``tiltfield cloud`` makes
+    /// it (the depth estimated first, and kept, when the light field has none): a dict of
+    /// ``positions`` (float32 (N, 3), world frame), ``normals`` (float32 (N, 3), zero where
+    /// none was fitted), ``colours`` (uint8 (N, 3), sRGB), ``quality`` (float32 (N,), the
+    /// normal's planarity in [0, 1]), ``points`` (how many of the N rows are the cloud: the
+    /// rest are the focus planes' quad corners, four per plane, then the camera centres),
+    /// ``faces`` (the quads, as lists of four row indices) and ``planes`` (each plane written
+    /// as ``((px, py, pz), (nx, ny, nz))``). With ``path`` (a .ply file) it is also written
+    /// there. Takes the focus keywords of :meth:`plane` (the plane to add; none: no quad),
+    /// ``slab`` (a focus slab's half width: its boundary planes too), ``plane_size`` (half
+    /// the quads' side; default half the cloud's diagonal), ``cameras`` and ``stride`` (every
+    /// N-th pixel; default 1).
+    #[pyo3(signature = (
+        path=None, *, stride=None, cameras=false, plane_size=None, slab=None, disparity=None,
+        plane=None, focus=None, tilt=None, swing=None, click=None, points=None, points_3d=None,
+        nudge_distance=None, nudge_tilt=None, nudge_swing=None, normal_window=None,
+        normal_method="inverse-depth", view=None
+    ))]
+    #[allow(clippy::too_many_arguments)] // `tiltfield cloud`'s options
+    fn cloud<'py>(
+        &self,
+        py: Python<'py>,
+        path: Option<std::path::PathBuf>,
+        stride: Option<&Bound<'py, PyAny>>,
+        cameras: bool,
+        plane_size: Option<f64>,
+        slab: Option<f64>,
+        disparity: Option<&Bound<'py, PyAny>>,
+        plane: Option<&Bound<'py, PyAny>>,
+        focus: Option<&Bound<'py, PyAny>>,
+        tilt: Option<&Bound<'py, PyAny>>,
+        swing: Option<&Bound<'py, PyAny>>,
+        click: Option<&Bound<'py, PyAny>>,
+        points: Option<&Bound<'py, PyAny>>,
+        points_3d: Option<&Bound<'py, PyAny>>,
+        nudge_distance: Option<f64>,
+        nudge_tilt: Option<f64>,
+        nudge_swing: Option<f64>,
+        normal_window: Option<&Bound<'_, PyAny>>,
+        normal_method: &str,
+        view: Option<&Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let focus = focus_options_unchecked(
+            disparity,
+            plane,
+            focus,
+            (tilt, swing),
+            (click, points, points_3d),
+            (nudge_distance, nudge_tilt, nudge_swing),
+            normal_window,
+            normal_method,
+        )?;
+        let request = tiltfield::jobs::cloud::CloudRequest {
+            focus,
+            slab,
+            reference: numbers_of(view, 2, "view", "(s, t)")?.map(|v| DVec2::new(v[0], v[1])),
+            plane_size,
+            cameras,
+            stride: int_arg(stride, "stride", 1..=u32::MAX as i64)?.unwrap_or(1) as u32,
+        };
+        request.validate().map_err(py_err)?;
+        if let Some(p) = &path {
+            let ext = tiltfield::io::extension_lower(p);
+            if ext.as_deref() != Some("ply") {
+                return Err(PyValueError::new_err(format!(
+                    "path={}: the cloud is written as PLY; give a file name ending in .ply",
+                    p.display()
+                )));
+            }
+        }
+        let shared = Arc::clone(&self.session);
+        let out = path.clone();
+        let cloud = gpu_work(py, "making the point cloud", move || {
+            let progress = indicatif::ProgressBar::hidden();
+            let cloud = lock(&shared).0.cloud(&request, &progress)?;
+            if let Some(p) = &out {
+                cloud.mesh.write(p)?;
+            }
+            Ok(cloud)
+        })?;
+        let n = cloud.mesh.vertices.len();
+        let flat3 = |f: &dyn Fn(&tiltfield::lightfield::ply::PlyVertex) -> [f32; 3]| {
+            Array2::from_shape_vec((n, 3), cloud.mesh.vertices.iter().flat_map(f).collect())
+                .map_err(|e| PyRuntimeError::new_err(e.to_string()))
+        };
+        let colours = Array2::from_shape_vec(
+            (n, 3),
+            cloud.mesh.vertices.iter().flat_map(|v| v.colour).collect(),
+        )
+        .map_err(|e| PyRuntimeError::new_err(e.to_string()))?;
+        let quality: Vec<f32> = cloud.mesh.vertices.iter().map(|v| v.quality).collect();
+        type PointNormal = ((f64, f64, f64), (f64, f64, f64));
+        let planes: Vec<PointNormal> = cloud
+            .plane
+            .iter()
+            .map(|p| p.plane)
+            .chain(cloud.other_planes.iter().copied())
+            .map(|p| {
+                (
+                    (p.point.x, p.point.y, p.point.z),
+                    (p.normal.x, p.normal.y, p.normal.z),
+                )
+            })
+            .collect();
+        let d = PyDict::new(py);
+        d.set_item("positions", flat3(&|v| v.position)?.into_pyarray(py))?;
+        d.set_item("normals", flat3(&|v| v.normal)?.into_pyarray(py))?;
+        d.set_item("colours", colours.into_pyarray(py))?;
+        d.set_item(
+            "quality",
+            numpy::ndarray::Array1::from(quality).into_pyarray(py),
+        )?;
+        d.set_item("points", cloud.points)?;
+        d.set_item("faces", cloud.mesh.faces.clone())?;
+        d.set_item("planes", planes)?;
+        Ok(d)
+    }
+
     /// Estimates the reference view's disparity or depth from the views (a GPU plane sweep),
     /// as ``tiltfield depth`` does with the same options: ``kind`` ("disparity" or "depth";
     /// default: disparity where the light field has a convention, else depth), ``planes``,

@@ -1,7 +1,7 @@
 """Types of tiltfield's native module (re-exported by the package; see its docstrings)."""
 
 from os import PathLike
-from typing import Any, Callable, Dict, Literal, Optional, Sequence, Tuple, Union, overload
+from typing import Any, Callable, Dict, List, Literal, Optional, Sequence, Tuple, TypedDict, Union, overload
 
 import numpy as np
 import numpy.typing as npt
@@ -26,6 +26,17 @@ _Strategy = str
 _Image8 = npt.NDArray[np.uint8]
 _ImageF = npt.NDArray[np.float32]
 _PointNormal = Tuple[Tuple[float, float, float], Tuple[float, float, float]]
+
+class Cloud(TypedDict):
+    """What :meth:`LightField.cloud` returns."""
+
+    positions: npt.NDArray[np.float32]
+    normals: npt.NDArray[np.float32]
+    colours: _Image8
+    quality: npt.NDArray[np.float32]
+    points: int
+    faces: List[List[int]]
+    planes: List[_PointNormal]
 
 class LightField:
     """A light field on the GPU: views uploaded once, refocused any number of times."""
@@ -216,6 +227,29 @@ class LightField:
         include_dark: bool = False,
         confidence: Literal[True],
     ) -> Optional[Tuple[Tuple[float, float, float], Tuple[float, float, float], Optional[float]]]: ...
+    def cloud(
+        self,
+        path: Optional[Union[str, PathLike[str]]] = None,
+        *,
+        stride: Optional[int] = None,
+        cameras: bool = False,
+        plane_size: Optional[float] = None,
+        slab: Optional[float] = None,
+        disparity: Optional[_Numbers] = None,
+        plane: Optional[Union[_Vector, Sequence[_Vector]]] = None,
+        focus: Optional[_Numbers] = None,
+        tilt: Optional[_Numbers] = None,
+        swing: Optional[_Numbers] = None,
+        click: Optional[_Vector] = None,
+        points: Optional[_Vector] = None,
+        points_3d: Optional[_Vector] = None,
+        nudge_distance: Optional[float] = None,
+        nudge_tilt: Optional[float] = None,
+        nudge_swing: Optional[float] = None,
+        normal_window: Optional[int] = None,
+        normal_method: _NormalMethod = "inverse-depth",
+        view: Optional[_Vector] = None,
+    ) -> Cloud: ...
     @overload
     def depth(
         self,

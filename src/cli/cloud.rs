@@ -79,7 +79,7 @@ pub fn run(args: &CloudArgs) -> Result<()> {
     let mut lf = load_light_field(&args.lf)?;
     // Without a depth map of its own the light field's depth is estimated from its views.
     let bar = super::depth::progress_bar_for(&lf);
-    let cloud = crate::jobs::cloud::cloud(&mut lf, &request, &bar);
+    let cloud = crate::jobs::cloud::cloud(&mut lf, &request, None, &bar);
     bar.finish_and_clear();
     let cloud = cloud?;
     cloud.mesh.write(&args.output)?;

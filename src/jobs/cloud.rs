@@ -44,6 +44,7 @@ pub struct CloudRequest {
 impl CloudRequest {
     /// Checks what needs no light field.
     pub fn validate(&self) -> Result<()> {
+        self.focus.validate_optional()?;
         if self.stride == 0 {
             return Err(Error::Invalid("--stride must be at least 1".into()));
         }
@@ -110,13 +111,25 @@ fn f32x3(v: DVec3) -> [f32; 3] {
 }
 
 /// The cloud of `lf` as `req` asks for it. Without a depth map of its own the light field's
-/// depth is estimated from its views first (on the GPU, cached; `progress` follows it) and
-/// kept in `lf`.
-pub fn cloud(lf: &mut LightField, req: &CloudRequest, progress: &ProgressBar) -> Result<Cloud> {
+/// depth is estimated from its views first (on `ctx`, else on a context made for it; cached;
+/// `progress` follows it) and kept in `lf`.
+pub fn cloud(
+    lf: &mut LightField,
+    req: &CloudRequest,
+    ctx: Option<&GpuContext>,
+    progress: &ProgressBar,
+) -> Result<Cloud> {
     req.validate()?;
     let (origin, window) = if lf.depth.is_empty() {
-        let ctx = GpuContext::new(&GpuOptions::from_env())?;
-        super::depth::ensure_for(&ctx, lf, progress)?
+        let made;
+        let ctx = match ctx {
+            Some(ctx) => ctx,
+            None => {
+                made = GpuContext::new(&GpuOptions::from_env())?;
+                &made
+            }
+        };
+        super::depth::ensure_for(ctx, lf, progress)?
     } else {
         let source = lf.depth[0].1.source.clone();
         (DepthOrigin::Given { source }, GIVEN_DEPTH_WINDOW)

@@ -837,6 +837,17 @@ impl Session {
         Ok(make_plan_excluding(lf, options, window, &excluded)?.1)
     }
 
+    /// The point cloud of `req` ([`crate::jobs::cloud`]) on the light field with depth (a
+    /// depth estimated here, or by an earlier request, is kept for the later ones).
+    pub fn cloud(
+        &mut self,
+        req: &crate::jobs::cloud::CloudRequest,
+        progress: &ProgressBar,
+    ) -> Result<crate::jobs::cloud::Cloud> {
+        let ctx = Arc::clone(&self.ctx);
+        crate::jobs::cloud::cloud(self.light_field_for(true), req, Some(&ctx), progress)
+    }
+
     /// Renders `options` and reads the image back, uploading the views first when no render
     /// has yet (or when `options` stores them differently: a change of averaging uploads
     /// them again in the storage that suits it).

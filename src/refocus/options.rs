@@ -146,6 +146,19 @@ impl FocusOptions {
         Ok(())
     }
 
+    /// [`FocusOptions::validate`] where the focus is optional (the plane a point cloud may
+    /// show): nothing given at all passes.
+    pub fn validate_optional(&self) -> Result<()> {
+        let nothing = self.given().is_empty()
+            && self.tilt.is_empty()
+            && self.swing.is_empty()
+            && self.nudge.is_none();
+        if nothing {
+            return Ok(());
+        }
+        self.validate()
+    }
+
     /// True when the focus picks pixels of the depth view (a click or three clicks).
     pub fn needs_depth(&self) -> bool {
         self.click.is_some() || self.points.is_some()
