@@ -32,7 +32,7 @@ fn main() {
     let lf = if let Some(name) = lf_path.strip_prefix("scene:") {
         let (name, size) = name.split_once('@').unwrap_or((name, "96"));
         let size: u32 = size.parse().unwrap();
-        let scene = tiltfield::depth::scenes::DepthScene::from_name(name).expect("scene");
+        let scene = tiltfield::bench::depth_scenes::DepthScene::from_name(name).expect("scene");
         scene.light_field(5, size)
     } else if let Some(name) = lf_path.strip_prefix("builtin:") {
         tiltfield::synth::builtin(name)

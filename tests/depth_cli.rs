@@ -7,7 +7,7 @@ mod common;
 use std::path::Path;
 
 use common::{fails_with, json_of, stderr, tiltfield_cached};
-use tiltfield::depth::scenes::{truth, DepthScene};
+use tiltfield::bench::depth_scenes::{truth, DepthScene};
 use tiltfield::lightfield::pfm::read_pfm_depth;
 use tiltfield::lightfield::DepthKind;
 

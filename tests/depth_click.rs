@@ -5,7 +5,7 @@
 mod common;
 
 use glam::{DVec2, DVec3};
-use tiltfield::depth::scenes::DepthScene;
+use tiltfield::bench::depth_scenes::DepthScene;
 use tiltfield::depth::{DepthOptions, DepthOrigin};
 use tiltfield::geometry::normals::{NormalMethod, NormalParams};
 use tiltfield::gpu::GpuContext;

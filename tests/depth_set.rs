@@ -9,9 +9,9 @@ mod common;
 
 use std::collections::HashMap;
 
-use tiltfield::depth::testset::{self, SetRow};
+use tiltfield::bench::depth_set::score_set;
+use tiltfield::bench::depth_set::{self as testset, SetRow};
 use tiltfield::gpu::GpuContext;
-use tiltfield::jobs::depth::score_set;
 
 /// The set's scores, computed once for all the tests of this file.
 fn scores() -> Vec<SetRow> {
@@ -151,7 +151,7 @@ fn the_default_beats_the_sweep_and_the_naive_sweep_over_the_whole_set() {
 
 /// Whether `scene` is one of the set's shaded scenes (renderer-like output).
 fn shaded(scene: &str) -> bool {
-    tiltfield::depth::scenes::DepthScene::from_name(scene).is_some_and(|s| s.shaded())
+    tiltfield::bench::depth_scenes::DepthScene::from_name(scene).is_some_and(|s| s.shaded())
 }
 
 /// The shaded scenes (an area light: Lambertian shading, soft shadows, highlights) are where

@@ -5,8 +5,8 @@
 mod common;
 
 use image::RgbaImage;
+use tiltfield::bench::depth_scenes::{truth, DepthScene};
 use tiltfield::depth::metrics::{score, DisparityScores};
-use tiltfield::depth::scenes::{truth, DepthScene};
 use tiltfield::depth::{cpu, plan, Aggregation, CostKind, DepthOptions, SweepParams};
 use tiltfield::gpu::GpuContext;
 use tiltfield::lightfield::DepthKind;
@@ -257,7 +257,7 @@ fn hci_disparity_is_positive_nearer_and_depth_follows_the_rig() {
         (back + 0.6).abs() < 0.07 && (card - 0.8).abs() < 0.07,
         "{back} {card}"
     );
-    let rig = tiltfield::depth::scenes::rig(64);
+    let rig = tiltfield::bench::depth_scenes::rig(64);
     for i in [10 * 64 + 10, 52 * 64 + 52] {
         let expect = rig.depth_of_disparity(d[i] as f64).unwrap();
         assert!(

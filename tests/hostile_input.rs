@@ -980,7 +980,7 @@ fn a_write_error_is_reported_and_leaves_no_file() {
 
 #[test]
 fn the_depth_cache_verifies_its_entries_and_follows_no_planted_link() {
-    use tiltfield::depth::scenes::DepthScene;
+    use tiltfield::bench::depth_scenes::DepthScene;
     let tmp = tempfile::tempdir().unwrap();
     let grid = tmp.path().join("grid");
     std::fs::create_dir(&grid).unwrap();

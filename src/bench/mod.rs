@@ -23,6 +23,8 @@
 pub mod antialias;
 pub mod antialias_set;
 pub mod chart;
+pub mod depth_scenes;
+pub mod depth_set;
 pub mod output;
 pub mod roof;
 pub mod stats;

@@ -130,7 +130,7 @@ pub struct DepthSetArgs {
 
 /// `tiltfield depth-set`: the whole test set, every variant, one table.
 pub fn run_set(args: &DepthSetArgs) -> Result<()> {
-    use crate::depth::testset;
+    use crate::bench::depth_set as testset;
     let variants = args
         .variants
         .iter()
@@ -153,7 +153,7 @@ pub fn run_set(args: &DepthSetArgs) -> Result<()> {
         .as_deref()
         .map(crate::io::OutputFolder::create)
         .transpose()?;
-    let rows = crate::jobs::depth::score_set(&ctx, &set, &variants, &bar, |scene, variant, d| {
+    let rows = testset::score_set(&ctx, &set, &variants, &bar, |scene, variant, d| {
         let Some(dir) = &maps else { return Ok(()) };
         let stem = format!("{}-{variant}", scene.name);
         let figure = testset::error_figure(scene, d);

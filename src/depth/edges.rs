@@ -171,7 +171,7 @@ pub fn snap_edges(plan: &SweepPlan, images: &[&RgbaImage], param: &[f32]) -> Vec
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::depth::testset::synthetic;
+    use crate::bench::depth_set::synthetic;
     use crate::depth::{plan, DepthOptions, ViewSet};
 
     /// The `planes` scene (a textured card before a textured back plane) with its exact

@@ -41,9 +41,7 @@ pub mod metrics;
 pub mod photometric;
 pub mod refine;
 pub mod request;
-pub mod scenes;
 pub mod sweep;
-pub mod testset;
 
 use image::RgbaImage;
 

@@ -499,7 +499,7 @@ pub fn refine(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::depth::scenes::{truth, DepthScene};
+    use crate::bench::depth_scenes::{truth, DepthScene};
     use crate::depth::{plan, DepthOptions, ViewSet};
     use crate::lightfield::DepthKind;
 

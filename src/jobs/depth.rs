@@ -8,9 +8,8 @@ use std::collections::HashMap;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::depth::cache::{cache_dir, ensure_depth_in as ensure_with, DepthOrigin, MIN_CONFIDENCE};
+use crate::depth::cache::{cache_dir, ensure_depth_in as ensure_with, DepthOrigin};
 use crate::depth::refine::{refine, RefineParams};
-use crate::depth::testset::{score_row, SetRow, SetScene};
 use crate::depth::{
     self, coarse_plan, downscale, plane_count, range_from_coarse, DepthEstimate, DepthOptions,
     DepthTimings,
@@ -206,38 +205,6 @@ fn fit(
 /// Light fields of at most this many views are fitted on all of them (more views, more
 /// precision under noise); larger ones on the sweep's views, which bounds the fit's time.
 pub const FIT_ALL_VIEWS: usize = 25;
-
-/// Estimates every scene of `set` with every variant of `variants` (name, options) and
-/// scores it ([`crate::depth::testset`]); `progress` advances by scene and variant.
-pub fn score_set(
-    ctx: &GpuContext,
-    set: &[SetScene],
-    variants: &[(String, DepthOptions)],
-    progress: &ProgressBar,
-    mut on_estimate: impl FnMut(&SetScene, &str, &[f32]) -> Result<()>,
-) -> Result<Vec<SetRow>> {
-    progress.set_length((set.len() * variants.len()) as u64);
-    let mut rows = Vec::new();
-    for (name, options) in variants {
-        for scene in set {
-            progress.set_message(format!("{} ({name})", scene.name));
-            let est = estimate(ctx, &scene.light_field, options, &ProgressBar::hidden())?;
-            let disparity = scene.scored_disparity(&est)?;
-            on_estimate(scene, name, &disparity)?;
-            rows.push(score_row(
-                scene,
-                name,
-                &disparity,
-                &est.confidence,
-                MIN_CONFIDENCE,
-                est.timings.gpu_ms,
-                est.timings.total_ms,
-            ));
-            progress.inc(1);
-        }
-    }
-    Ok(rows)
-}
 
 /// Makes sure `lf` has a depth map, estimating it on `ctx` (with `progress`) when it has none
 /// and the default cache folder holds no estimate ([`crate::depth::cache::ensure_depth_in`]).

@@ -6,12 +6,14 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::metrics::{score, DisparityScores, HCI_BORDER};
-use super::scenes::{truth, DepthScene};
-use super::{DepthOptions, SweepParams};
+use super::depth_scenes::{truth, DepthScene};
+use crate::depth::metrics::{score, DisparityScores, HCI_BORDER};
+use crate::depth::{DepthOptions, SweepParams};
 use crate::error::{Error, Result};
+use crate::gpu::GpuContext;
 use crate::lightfield::pfm::read_pfm_depth;
 use crate::lightfield::{DepthKind, GridCameraOptions, LightField, ParallelRig};
+use indicatif::ProgressBar;
 
 /// The border left out of the scores of the small synthetic scenes (HCI's 15 px is a sixth of
 /// a 96-px view).
@@ -36,7 +38,7 @@ pub struct SetScene {
 
 impl SetScene {
     /// The disparity of `est` that is scored against [`SetScene::truth`].
-    pub fn scored_disparity(&self, est: &super::DepthEstimate) -> Result<Vec<f32>> {
+    pub fn scored_disparity(&self, est: &crate::depth::DepthEstimate) -> Result<Vec<f32>> {
         match &self.scored_as {
             None => est.values(DepthKind::Disparity),
             Some(rig) => Ok(equivalent_disparity(rig, &est.values(DepthKind::Depth)?)),
@@ -269,7 +271,7 @@ pub fn score_row(
 /// scores' border dimmed), side by side with 4-px gaps.
 pub fn error_figure(scene: &SetScene, disparity: &[f32]) -> image::RgbImage {
     let (w, h) = (scene.light_field.width, scene.light_field.height);
-    let reference = super::sweep::reference_view(&scene.light_field, None)
+    let reference = crate::depth::sweep::reference_view(&scene.light_field, None)
         .ok()
         .map(|i| &scene.light_field.views[i].image);
     let finite = scene.truth.iter().copied().filter(|v| v.is_finite());
@@ -415,6 +417,43 @@ pub fn calibration_markdown(rows: &[SetRow]) -> String {
         out.push('\n');
     }
     out
+}
+
+/// Estimates every scene of `set` with every variant of `variants` (name, options) and
+/// scores it (module docs); `progress` advances by scene and variant.
+pub fn score_set(
+    ctx: &GpuContext,
+    set: &[SetScene],
+    variants: &[(String, DepthOptions)],
+    progress: &ProgressBar,
+    mut on_estimate: impl FnMut(&SetScene, &str, &[f32]) -> Result<()>,
+) -> Result<Vec<SetRow>> {
+    progress.set_length((set.len() * variants.len()) as u64);
+    let mut rows = Vec::new();
+    for (name, options) in variants {
+        for scene in set {
+            progress.set_message(format!("{} ({name})", scene.name));
+            let est = crate::jobs::depth::estimate(
+                ctx,
+                &scene.light_field,
+                options,
+                &ProgressBar::hidden(),
+            )?;
+            let disparity = scene.scored_disparity(&est)?;
+            on_estimate(scene, name, &disparity)?;
+            rows.push(score_row(
+                scene,
+                name,
+                &disparity,
+                &est.confidence,
+                crate::depth::cache::MIN_CONFIDENCE,
+                est.timings.gpu_ms,
+                est.timings.total_ms,
+            ));
+            progress.inc(1);
+        }
+    }
+    Ok(rows)
 }
 
 #[cfg(test)]
