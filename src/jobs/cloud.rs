@@ -152,6 +152,66 @@ pub fn cloud(
     }
 
     let reference = req.reference.unwrap_or_else(|| lf.grid.centre());
+    let (focus, surface) = focus_and_surface(lf, req, window, reference)?;
+    let mut builder = SceneBuilder::new(lf).reference(reference).cloud(cloud);
+    if let Some(f) = &focus {
+        builder = builder.focus(f);
+    }
+    if let Some(h) = req.plane_size {
+        builder = builder.plane_half_size(h);
+    }
+    let scene = builder.build()?;
+
+    let (mut mesh, plane, other_planes) =
+        mesh_of(lf, &scene, focus, &surface, reference, req.cameras)?;
+    mesh.comments.insert(
+        0,
+        format!(
+            "tiltfield cloud of '{}': view ({}, {}) from {}; {} points (stride {}), normals by \
+             {:?} fits over {}x{} px windows, quality = planarity",
+            lf.name,
+            depth.grid_position.0,
+            depth.grid_position.1,
+            depth.source,
+            points,
+            req.stride,
+            params.method,
+            params.window,
+            params.window
+        ),
+    );
+    mesh.comments.insert(
+        1,
+        "world frame of the light field; built-in scenes and HCI data: the centre camera's \
+         (x right, y down, z forward)"
+            .into(),
+    );
+    Ok(Cloud {
+        mesh,
+        origin,
+        depth_source: depth.source.clone(),
+        depth_view: depth.grid_position,
+        depth_kind: depth.kind,
+        points,
+        points_with_normal,
+        normals: params,
+        normals_ms,
+        plane,
+        surface,
+        other_planes,
+        cameras: if req.cameras { lf.views.len() } else { 0 },
+    })
+}
+
+/// The focus of `req` resolved from `reference` (classic shift-and-sum drawn as the plane it
+/// stands for) and its surface, with render's refusals (a slab needs a plane and must clear the
+/// camera).
+fn focus_and_surface(
+    lf: &LightField,
+    req: &CloudRequest,
+    window: u32,
+    reference: DVec2,
+) -> Result<(Option<ResolvedFocus>, FocusSurface)> {
     let asked = req.focus.surface(req.slab, false)?;
     let focus = req
         .focus
@@ -179,15 +239,20 @@ pub fn cloud(
             *half_width,
         )?;
     }
-    let mut builder = SceneBuilder::new(lf).reference(reference).cloud(cloud);
-    if let Some(f) = &focus {
-        builder = builder.focus(f);
-    }
-    if let Some(h) = req.plane_size {
-        builder = builder.plane_half_size(h);
-    }
-    let scene = builder.build()?;
+    Ok((focus, surface))
+}
 
+/// The mesh of `scene`: its cloud's points, the plane's quad (face 0) and the surface's other
+/// planes (faces 1, 2, …), then the camera centres when `cameras`; with what was written.
+fn mesh_of(
+    lf: &LightField,
+    scene: &crate::scene::SceneGeometry,
+    focus: Option<ResolvedFocus>,
+    surface: &FocusSurface,
+    reference: DVec2,
+    cameras: bool,
+) -> Result<(PlyMesh, Option<CloudPlane>, Vec<Plane>)> {
+    let points = scene.cloud.as_ref().map_or(0, |c| c.points.len());
     let mut mesh = PlyMesh::default();
     if let Some(cloud) = &scene.cloud {
         mesh.vertices.extend(cloud.points.iter().map(|p| PlyVertex {
@@ -250,7 +315,7 @@ pub fn cloud(
         other_planes.push(p);
     }
     let first_camera = mesh.vertices.len();
-    if req.cameras {
+    if cameras {
         mesh.vertices
             .extend(scene.cameras.iter().map(|c| PlyVertex {
                 position: f32x3(c.centre),
@@ -264,41 +329,5 @@ pub fn cloud(
             mesh.vertices.len() - 1
         ));
     }
-    mesh.comments.insert(
-        0,
-        format!(
-            "tiltfield cloud of '{}': view ({}, {}) from {}; {} points (stride {}), normals by \
-             {:?} fits over {}x{} px windows, quality = planarity",
-            lf.name,
-            depth.grid_position.0,
-            depth.grid_position.1,
-            depth.source,
-            points,
-            req.stride,
-            params.method,
-            params.window,
-            params.window
-        ),
-    );
-    mesh.comments.insert(
-        1,
-        "world frame of the light field; built-in scenes and HCI data: the centre camera's \
-         (x right, y down, z forward)"
-            .into(),
-    );
-    Ok(Cloud {
-        mesh,
-        origin,
-        depth_source: depth.source.clone(),
-        depth_view: depth.grid_position,
-        depth_kind: depth.kind,
-        points,
-        points_with_normal,
-        normals: params,
-        normals_ms,
-        plane,
-        surface,
-        other_planes,
-        cameras: if req.cameras { lf.views.len() } else { 0 },
-    })
+    Ok((mesh, plane, other_planes))
 }
