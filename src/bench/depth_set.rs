@@ -215,6 +215,11 @@ pub struct SetRow {
     /// Per threshold of [`CALIBRATION_THRESHOLDS`]: scored pixels at or above it, and how
     /// many of them are off by more than 0.07 px.
     pub calibration: Vec<(usize, usize)>,
+    /// Every scored pixel's confidence and whether it is off by more than 0.07 px (as
+    /// [`crate::depth::metrics::score`] counts: a missing estimate is off), for the table by
+    /// confidence decile ([`decile_markdown`]).
+    #[serde(skip)]
+    pub pixels: Vec<(f32, bool)>,
 }
 
 /// The confidence thresholds of the calibration table.
@@ -252,6 +257,17 @@ pub fn score_row(
             )
         })
         .collect();
+    let mut pixels = Vec::new();
+    for y in scene.border..h.saturating_sub(scene.border) {
+        for x in scene.border..w.saturating_sub(scene.border) {
+            let i = (y * w + x) as usize;
+            if !scene.truth[i].is_finite() {
+                continue;
+            }
+            let off = !disparity[i].is_finite() || (disparity[i] - scene.truth[i]).abs() > 0.07;
+            pixels.push((confidence[i], off));
+        }
+    }
     SetRow {
         scene: scene.name.clone(),
         failure_mode: scene.failure_mode.clone(),
@@ -262,7 +278,48 @@ pub fn score_row(
         gpu_ms,
         total_ms,
         calibration,
+        pixels,
     }
+}
+
+/// BadPix 0.07 by confidence decile of each variant, pooled over its scenes (Markdown): the
+/// scored pixels sorted by confidence and cut into ten equal parts, lowest first, each with its
+/// confidence range and the share of its pixels off by more than 0.07 px. A confidence that
+/// predicts error falls from the first decile to the last.
+pub fn decile_markdown(rows: &[SetRow]) -> String {
+    let mut out =
+        String::from("| variant | decile | confidence | BadPix 0.07 |\n|---|---|---|---|\n");
+    let mut variants: Vec<&str> = rows.iter().map(|r| r.variant.as_str()).collect();
+    variants.sort_unstable();
+    variants.dedup();
+    for v in variants {
+        let mut all: Vec<(f32, bool)> = rows
+            .iter()
+            .filter(|r| r.variant == v)
+            .flat_map(|r| r.pixels.iter().copied())
+            .collect();
+        if all.is_empty() {
+            continue;
+        }
+        all.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let n = all.len();
+        for d in 0..10 {
+            let part = &all[d * n / 10..(d + 1) * n / 10];
+            let (Some(lo), Some(hi)) = (part.first(), part.last()) else {
+                continue;
+            };
+            let bad = part.iter().filter(|p| p.1).count();
+            let _ = writeln!(
+                out,
+                "| {v} | {} | {:.4} – {:.4} | {:.2} % |",
+                d + 1,
+                lo.0,
+                hi.0,
+                100.0 * bad as f64 / part.len() as f64
+            );
+        }
+    }
+    out
 }
 
 /// A figure of one estimate for the eye: the reference view, the estimate, the truth (both
@@ -520,6 +577,7 @@ mod tests {
             gpu_ms: Some(10.0),
             total_ms: 20.0,
             calibration: vec![(100, 10), (50, 1)],
+            pixels: Vec::new(),
         };
         let rows = [
             row("a", "default", 2.0),
@@ -541,6 +599,50 @@ mod tests {
         assert!(
             c.contains("| default | 100.0 %, 10.00 | 50.0 %, 2.00 |"),
             "{c}"
+        );
+    }
+
+    #[test]
+    fn deciles_cut_the_pooled_pixels_by_confidence_into_ten_equal_parts() {
+        let row = |scene: &str, pixels: Vec<(f32, bool)>| SetRow {
+            scene: scene.into(),
+            failure_mode: "x".into(),
+            variant: "default".into(),
+            scores: DisparityScores {
+                bad_pix_007: 0.0,
+                bad_pix_003: 0.0,
+                bad_pix_001: 0.0,
+                off_01: 0.0,
+                pearson_r: 1.0,
+                mse_x100: 0.0,
+                pixels: pixels.len(),
+            },
+            confident_share: 100.0,
+            confident_bad_pix_007: 0.0,
+            gpu_ms: None,
+            total_ms: 0.0,
+            calibration: Vec::new(),
+            pixels,
+        };
+        // 100 pixels over two scenes, confidence k/100; the 30 least confident are off.
+        let (a, b): (Vec<_>, Vec<_>) = (0..100)
+            .map(|k| (k as f32 / 100.0, k < 30))
+            .partition(|p| (p.0 * 100.0) as u32 % 2 == 0);
+        let t = decile_markdown(&[row("a", a), row("b", b)]);
+        let lines: Vec<&str> = t.lines().collect();
+        assert_eq!(lines.len(), 2 + 10, "{t}");
+        assert!(
+            lines[2].contains("| 1 | 0.0000 – 0.0900 | 100.00 % |"),
+            "{t}"
+        );
+        assert!(
+            lines[4].contains("| 3 | 0.2000 – 0.2900 | 100.00 % |"),
+            "{t}"
+        );
+        assert!(lines[5].contains("| 4 | 0.3000 – 0.3900 | 0.00 % |"), "{t}");
+        assert!(
+            lines[11].contains("| 10 | 0.9000 – 0.9900 | 0.00 % |"),
+            "{t}"
         );
     }
 }

@@ -178,9 +178,11 @@ pub fn run_set(args: &DepthSetArgs) -> Result<()> {
     }
     ctx.check_validation("while scoring the set")?;
     let table = format!(
-        "{}\nConfidence calibration (pooled over the scenes):\n\n{}",
+        "{}\nConfidence calibration (pooled over the scenes):\n\n{}\nBadPix 0.07 by confidence \
+         decile (pooled over the scenes):\n\n{}",
         testset::markdown(&rows),
-        testset::calibration_markdown(&rows)
+        testset::calibration_markdown(&rows),
+        testset::decile_markdown(&rows)
     );
     super::report_set(
         &table,
