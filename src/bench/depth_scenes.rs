@@ -195,19 +195,10 @@ impl DepthScene {
 
     /// The quads of the scene for views of `size` px.
     pub fn scene(&self, size: u32) -> Scene {
-        let rig = rig(size);
-        let s = size as f64;
-        let big = [-s, 2.0 * s, -s, 2.0 * s];
+        let frame = Frame::new(size);
+        let (rig, s, k, big) = (frame.rig, frame.s, frame.k, frame.big);
         let back = card(&rig, size, -0.6, big, noise(11, 3.0 * s, [0.75, 0.7, 0.6]));
-        // A point at disparity d seen at centre-view pixel (x, y).
-        let point = |x: f64, y: f64, d: f64| {
-            let z = rig.depth_of_disparity(d).expect("in front of infinity");
-            let c = (s - 1.0) / 2.0;
-            DVec3::new((x - c) * z / rig.focal_px, (y - c) * z / rig.focal_px, z)
-        };
-        // Far disparities scale with the view size (d = 0.05·size·(1/Z − 1/2)): the same scene
-        // at any size, never beyond infinity.
-        let k = s / 96.0;
+        let point = |x: f64, y: f64, d: f64| frame.point(x, y, d);
         let mut solids = Vec::new();
         let quads = match self {
             DepthScene::Sphere | DepthScene::Plenoptic => {
@@ -230,41 +221,7 @@ impl DepthScene {
                 });
                 vec![back, floor(&rig, s, noise(43, 4.0 * s, [0.6, 0.6, 0.65]))]
             }
-            DepthScene::Bust | DepthScene::ShadedBust => {
-                // Pale marble: faint dark veins (low contrast) on a near-white stone.
-                let marble = |seed| Texture::Detail {
-                    seed,
-                    grain: (s / 8.0).max(1.0) as u32,
-                    rings: 0,
-                    text: String::new(),
-                    paper: [0.72, 0.7, 0.66],
-                    ink: [0.6, 0.58, 0.55],
-                };
-                let head = point(s * 0.5, s * 0.36, 0.7);
-                solids.push(Solid::Ellipsoid {
-                    centre: head,
-                    radii: DVec3::new(0.16, 0.21, 0.17),
-                    texture: marble(51),
-                });
-                solids.push(Solid::Ellipsoid {
-                    centre: head + DVec3::new(0.0, 0.42, 0.12),
-                    radii: DVec3::new(0.36, 0.2, 0.22),
-                    texture: marble(52),
-                });
-                // A dark wall with very little contrast.
-                let wall = Texture::Detail {
-                    seed: 53,
-                    grain: (s * 0.75) as u32,
-                    rings: 0,
-                    text: String::new(),
-                    paper: [0.035, 0.03, 0.03],
-                    ink: [0.02, 0.018, 0.018],
-                };
-                vec![
-                    card(&rig, size, -1.6 * k, big, wall),
-                    floor(&rig, s, noise(54, 4.0 * s, [0.3, 0.27, 0.22])),
-                ]
-            }
+            DepthScene::Bust | DepthScene::ShadedBust => bust(&frame, &mut solids),
             DepthScene::Wide | DepthScene::Converging => vec![
                 card(
                     &rig,
@@ -338,78 +295,8 @@ impl DepthScene {
                 let texture = noise(5, 4.0 * s, [0.7, 0.6, 0.5]);
                 crate::synth::plane_scene(n, DVec3::new(0.0, 0.0, 2.0), 4.0, texture).quads
             }
-            DepthScene::Sculpture => {
-                // Pale stone with faint grain: nearly textureless at this size.
-                let stone = |seed| Texture::Detail {
-                    seed,
-                    grain: (s / 6.0).max(1.0) as u32,
-                    rings: 0,
-                    text: String::new(),
-                    paper: [0.62, 0.6, 0.56],
-                    ink: [0.57, 0.55, 0.52],
-                };
-                let torso = point(s * 0.45, s * 0.55, 0.5 * k);
-                let parts = [
-                    (torso, DVec3::new(0.34, 0.14, 0.16)),
-                    (
-                        torso + DVec3::new(0.3, -0.04, 0.06),
-                        DVec3::new(0.18, 0.16, 0.17),
-                    ),
-                    (
-                        torso + DVec3::new(-0.38, -0.12, -0.05),
-                        DVec3::new(0.11, 0.12, 0.11),
-                    ),
-                    (
-                        torso + DVec3::new(-0.12, -0.13, -0.1),
-                        DVec3::new(0.2, 0.05, 0.06),
-                    ),
-                ];
-                for (i, (centre, radii)) in parts.into_iter().enumerate() {
-                    solids.push(Solid::Ellipsoid {
-                        centre,
-                        radii,
-                        texture: stone(81 + i as u32),
-                    });
-                }
-                let wall = Texture::Detail {
-                    seed: 85,
-                    grain: (s * 0.5) as u32,
-                    rings: 0,
-                    text: String::new(),
-                    paper: [0.05, 0.045, 0.04],
-                    ink: [0.035, 0.03, 0.03],
-                };
-                vec![
-                    card(&rig, size, -1.4 * k, big, wall),
-                    floor(&rig, s, noise(86, 2.0 * s, [0.25, 0.23, 0.2])),
-                ]
-            }
-            DepthScene::ShadedColumn => {
-                let faint = |seed, colour: [f32; 3]| Texture::Detail {
-                    seed,
-                    grain: (s / 10.0).max(1.0) as u32,
-                    rings: 0,
-                    text: String::new(),
-                    paper: colour,
-                    ink: colour.map(|c| c * 0.93),
-                };
-                solids.push(Solid::Cylinder {
-                    centre: point(s * 0.35, s * 0.5, 0.6 * k),
-                    axis: DVec3::Y,
-                    radius: 0.13,
-                    half_height: 2.0,
-                    texture: faint(91, [0.7, 0.66, 0.6]),
-                });
-                solids.push(Solid::Ellipsoid {
-                    centre: point(s * 0.68, s * 0.62, 1.0 * k),
-                    radii: DVec3::splat(0.14),
-                    texture: faint(92, [0.55, 0.62, 0.7]),
-                });
-                vec![
-                    card(&rig, size, -0.8 * k, big, faint(93, [0.8, 0.78, 0.74])),
-                    floor(&rig, s, faint(94, [0.5, 0.47, 0.42])),
-                ]
-            }
+            DepthScene::Sculpture => sculpture(&frame, &mut solids),
+            DepthScene::ShadedColumn => shaded_column(&frame, &mut solids),
             DepthScene::Textureless => vec![
                 back,
                 card(
@@ -546,6 +433,163 @@ impl DepthScene {
             },
         }
     }
+}
+
+/// What every scene is laid out in: the rig of `size`-px views, the size as a float, the
+/// factor far disparities scale with (d = 0.05·size·(1/Z − 1/2): the same scene at any size,
+/// never beyond infinity) and a rectangle beyond the image on every side.
+struct Frame {
+    rig: ParallelRig,
+    size: u32,
+    s: f64,
+    k: f64,
+    big: [f64; 4],
+}
+
+impl Frame {
+    fn new(size: u32) -> Self {
+        let s = size as f64;
+        Frame {
+            rig: rig(size),
+            size,
+            s,
+            k: s / 96.0,
+            big: [-s, 2.0 * s, -s, 2.0 * s],
+        }
+    }
+
+    /// A point at disparity d seen at centre-view pixel (x, y).
+    fn point(&self, x: f64, y: f64, d: f64) -> DVec3 {
+        let z = self
+            .rig
+            .depth_of_disparity(d)
+            .expect("in front of infinity");
+        let c = (self.s - 1.0) / 2.0;
+        DVec3::new(
+            (x - c) * z / self.rig.focal_px,
+            (y - c) * z / self.rig.focal_px,
+            z,
+        )
+    }
+}
+
+/// The bust (lit or not): head and shoulders of pale marble before a dark wall, a floor.
+fn bust(frame: &Frame, solids: &mut Vec<Solid>) -> Vec<Quad> {
+    let (rig, size, s, k, big) = (frame.rig, frame.size, frame.s, frame.k, frame.big);
+    let point = |x: f64, y: f64, d: f64| frame.point(x, y, d);
+    // Pale marble: faint dark veins (low contrast) on a near-white stone.
+    let marble = |seed| Texture::Detail {
+        seed,
+        grain: (s / 8.0).max(1.0) as u32,
+        rings: 0,
+        text: String::new(),
+        paper: [0.72, 0.7, 0.66],
+        ink: [0.6, 0.58, 0.55],
+    };
+    let head = point(s * 0.5, s * 0.36, 0.7);
+    solids.push(Solid::Ellipsoid {
+        centre: head,
+        radii: DVec3::new(0.16, 0.21, 0.17),
+        texture: marble(51),
+    });
+    solids.push(Solid::Ellipsoid {
+        centre: head + DVec3::new(0.0, 0.42, 0.12),
+        radii: DVec3::new(0.36, 0.2, 0.22),
+        texture: marble(52),
+    });
+    // A dark wall with very little contrast.
+    let wall = Texture::Detail {
+        seed: 53,
+        grain: (s * 0.75) as u32,
+        rings: 0,
+        text: String::new(),
+        paper: [0.035, 0.03, 0.03],
+        ink: [0.02, 0.018, 0.018],
+    };
+    vec![
+        card(&rig, size, -1.6 * k, big, wall),
+        floor(&rig, s, noise(54, 4.0 * s, [0.3, 0.27, 0.22])),
+    ]
+}
+
+/// The reclining figure of [`DepthScene::Sculpture`].
+fn sculpture(frame: &Frame, solids: &mut Vec<Solid>) -> Vec<Quad> {
+    let (rig, size, s, k, big) = (frame.rig, frame.size, frame.s, frame.k, frame.big);
+    let point = |x: f64, y: f64, d: f64| frame.point(x, y, d);
+    // Pale stone with faint grain: nearly textureless at this size.
+    let stone = |seed| Texture::Detail {
+        seed,
+        grain: (s / 6.0).max(1.0) as u32,
+        rings: 0,
+        text: String::new(),
+        paper: [0.62, 0.6, 0.56],
+        ink: [0.57, 0.55, 0.52],
+    };
+    let torso = point(s * 0.45, s * 0.55, 0.5 * k);
+    let parts = [
+        (torso, DVec3::new(0.34, 0.14, 0.16)),
+        (
+            torso + DVec3::new(0.3, -0.04, 0.06),
+            DVec3::new(0.18, 0.16, 0.17),
+        ),
+        (
+            torso + DVec3::new(-0.38, -0.12, -0.05),
+            DVec3::new(0.11, 0.12, 0.11),
+        ),
+        (
+            torso + DVec3::new(-0.12, -0.13, -0.1),
+            DVec3::new(0.2, 0.05, 0.06),
+        ),
+    ];
+    for (i, (centre, radii)) in parts.into_iter().enumerate() {
+        solids.push(Solid::Ellipsoid {
+            centre,
+            radii,
+            texture: stone(81 + i as u32),
+        });
+    }
+    let wall = Texture::Detail {
+        seed: 85,
+        grain: (s * 0.5) as u32,
+        rings: 0,
+        text: String::new(),
+        paper: [0.05, 0.045, 0.04],
+        ink: [0.035, 0.03, 0.03],
+    };
+    vec![
+        card(&rig, size, -1.4 * k, big, wall),
+        floor(&rig, s, noise(86, 2.0 * s, [0.25, 0.23, 0.2])),
+    ]
+}
+
+/// The column and ball of [`DepthScene::ShadedColumn`].
+fn shaded_column(frame: &Frame, solids: &mut Vec<Solid>) -> Vec<Quad> {
+    let (rig, size, s, k, big) = (frame.rig, frame.size, frame.s, frame.k, frame.big);
+    let point = |x: f64, y: f64, d: f64| frame.point(x, y, d);
+    let faint = |seed, colour: [f32; 3]| Texture::Detail {
+        seed,
+        grain: (s / 10.0).max(1.0) as u32,
+        rings: 0,
+        text: String::new(),
+        paper: colour,
+        ink: colour.map(|c| c * 0.93),
+    };
+    solids.push(Solid::Cylinder {
+        centre: point(s * 0.35, s * 0.5, 0.6 * k),
+        axis: DVec3::Y,
+        radius: 0.13,
+        half_height: 2.0,
+        texture: faint(91, [0.7, 0.66, 0.6]),
+    });
+    solids.push(Solid::Ellipsoid {
+        centre: point(s * 0.68, s * 0.62, 1.0 * k),
+        radii: DVec3::splat(0.14),
+        texture: faint(92, [0.55, 0.62, 0.7]),
+    });
+    vec![
+        card(&rig, size, -0.8 * k, big, faint(93, [0.8, 0.78, 0.74])),
+        floor(&rig, s, faint(94, [0.5, 0.47, 0.42])),
+    ]
 }
 
 /// A floor: the plane through the image's bottom rows at d = +1.0 (near) rising to the back
