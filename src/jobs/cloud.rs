@@ -106,6 +106,15 @@ fn push_quad(mesh: &mut PlyMesh, quad: &PlaneQuad) -> u32 {
     first
 }
 
+/// A plane as the PLY's comments write it: `point X Y Z normal X Y Z`.
+fn point_normal(p: &Plane) -> String {
+    let (a, n) = (p.point, p.normal);
+    format!(
+        "point {} {} {} normal {} {} {}",
+        a.x, a.y, a.z, n.x, n.y, n.z
+    )
+}
+
 fn f32x3(v: DVec3) -> [f32; 3] {
     [v.x as f32, v.y as f32, v.z as f32]
 }
@@ -275,14 +284,9 @@ fn mesh_of(
         let p = quad.plane;
         push_quad(&mut mesh, quad);
         mesh.comments.push(format!(
-            "refocus plane ({}): point {} {} {} normal {} {} {} (vertices {}..{}, face 0)",
+            "refocus plane ({}): {} (vertices {}..{}, face 0)",
             focus.how,
-            p.point.x,
-            p.point.y,
-            p.point.z,
-            p.normal.x,
-            p.normal.y,
-            p.normal.z,
+            point_normal(&p),
             points,
             points + 3
         ));
@@ -299,15 +303,10 @@ fn mesh_of(
         let p = quad.plane;
         let first = push_quad(&mut mesh, quad);
         mesh.comments.push(format!(
-            "focus surface ({}) plane {}: point {} {} {} normal {} {} {} (vertices {}..{}, face {})",
+            "focus surface ({}) plane {}: {} (vertices {}..{}, face {})",
             surface.name(),
             k + 2,
-            p.point.x,
-            p.point.y,
-            p.point.z,
-            p.normal.x,
-            p.normal.y,
-            p.normal.z,
+            point_normal(&p),
             first,
             first + 3,
             k + 1
