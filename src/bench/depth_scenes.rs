@@ -33,13 +33,24 @@ pub fn rig(size: u32) -> ParallelRig {
 /// (finer noise aliases at the renderer's 2×2 supersampling, and views that alias differently
 /// are not shifted copies of each other).
 pub fn noise(seed: u32, pixels: f64, colour: [f32; 3]) -> Texture {
+    value_noise(
+        seed,
+        (pixels / 4.0).max(1.0) as u32,
+        colour,
+        [0.02, 0.02, 0.02],
+    )
+}
+
+/// Value noise of `grain` pixels a cell between `paper` and `ink` (no rings, no text): the
+/// texture of every surface of the set.
+pub fn value_noise(seed: u32, grain: u32, paper: [f32; 3], ink: [f32; 3]) -> Texture {
     Texture::Detail {
         seed,
-        grain: (pixels / 4.0).max(1.0) as u32,
+        grain,
         rings: 0,
         text: String::new(),
-        paper: colour,
-        ink: [0.02, 0.02, 0.02],
+        paper,
+        ink,
     }
 }
 
@@ -478,13 +489,13 @@ fn bust(frame: &Frame, solids: &mut Vec<Solid>) -> Vec<Quad> {
     let (rig, size, s, k, big) = (frame.rig, frame.size, frame.s, frame.k, frame.big);
     let point = |x: f64, y: f64, d: f64| frame.point(x, y, d);
     // Pale marble: faint dark veins (low contrast) on a near-white stone.
-    let marble = |seed| Texture::Detail {
-        seed,
-        grain: (s / 8.0).max(1.0) as u32,
-        rings: 0,
-        text: String::new(),
-        paper: [0.72, 0.7, 0.66],
-        ink: [0.6, 0.58, 0.55],
+    let marble = |seed| {
+        value_noise(
+            seed,
+            (s / 8.0).max(1.0) as u32,
+            [0.72, 0.7, 0.66],
+            [0.6, 0.58, 0.55],
+        )
     };
     let head = point(s * 0.5, s * 0.36, 0.7);
     solids.push(Solid::Ellipsoid {
@@ -498,14 +509,12 @@ fn bust(frame: &Frame, solids: &mut Vec<Solid>) -> Vec<Quad> {
         texture: marble(52),
     });
     // A dark wall with very little contrast.
-    let wall = Texture::Detail {
-        seed: 53,
-        grain: (s * 0.75) as u32,
-        rings: 0,
-        text: String::new(),
-        paper: [0.035, 0.03, 0.03],
-        ink: [0.02, 0.018, 0.018],
-    };
+    let wall = value_noise(
+        53,
+        (s * 0.75) as u32,
+        [0.035, 0.03, 0.03],
+        [0.02, 0.018, 0.018],
+    );
     vec![
         card(&rig, size, -1.6 * k, big, wall),
         floor(&rig, s, noise(54, 4.0 * s, [0.3, 0.27, 0.22])),
@@ -517,13 +526,13 @@ fn sculpture(frame: &Frame, solids: &mut Vec<Solid>) -> Vec<Quad> {
     let (rig, size, s, k, big) = (frame.rig, frame.size, frame.s, frame.k, frame.big);
     let point = |x: f64, y: f64, d: f64| frame.point(x, y, d);
     // Pale stone with faint grain: nearly textureless at this size.
-    let stone = |seed| Texture::Detail {
-        seed,
-        grain: (s / 6.0).max(1.0) as u32,
-        rings: 0,
-        text: String::new(),
-        paper: [0.62, 0.6, 0.56],
-        ink: [0.57, 0.55, 0.52],
+    let stone = |seed| {
+        value_noise(
+            seed,
+            (s / 6.0).max(1.0) as u32,
+            [0.62, 0.6, 0.56],
+            [0.57, 0.55, 0.52],
+        )
     };
     let torso = point(s * 0.45, s * 0.55, 0.5 * k);
     let parts = [
@@ -548,14 +557,12 @@ fn sculpture(frame: &Frame, solids: &mut Vec<Solid>) -> Vec<Quad> {
             texture: stone(81 + i as u32),
         });
     }
-    let wall = Texture::Detail {
-        seed: 85,
-        grain: (s * 0.5) as u32,
-        rings: 0,
-        text: String::new(),
-        paper: [0.05, 0.045, 0.04],
-        ink: [0.035, 0.03, 0.03],
-    };
+    let wall = value_noise(
+        85,
+        (s * 0.5) as u32,
+        [0.05, 0.045, 0.04],
+        [0.035, 0.03, 0.03],
+    );
     vec![
         card(&rig, size, -1.4 * k, big, wall),
         floor(&rig, s, noise(86, 2.0 * s, [0.25, 0.23, 0.2])),
@@ -566,13 +573,13 @@ fn sculpture(frame: &Frame, solids: &mut Vec<Solid>) -> Vec<Quad> {
 fn shaded_column(frame: &Frame, solids: &mut Vec<Solid>) -> Vec<Quad> {
     let (rig, size, s, k, big) = (frame.rig, frame.size, frame.s, frame.k, frame.big);
     let point = |x: f64, y: f64, d: f64| frame.point(x, y, d);
-    let faint = |seed, colour: [f32; 3]| Texture::Detail {
-        seed,
-        grain: (s / 10.0).max(1.0) as u32,
-        rings: 0,
-        text: String::new(),
-        paper: colour,
-        ink: colour.map(|c| c * 0.93),
+    let faint = |seed, colour: [f32; 3]| {
+        value_noise(
+            seed,
+            (s / 10.0).max(1.0) as u32,
+            colour,
+            colour.map(|c| c * 0.93),
+        )
     };
     solids.push(Solid::Cylinder {
         centre: point(s * 0.35, s * 0.5, 0.6 * k),
