@@ -3,18 +3,27 @@
 use ash::vk;
 
 use super::context::GpuContext;
+use super::owned::{Owned, OwnedResult};
 use super::resources::{color_range, range_of};
 use crate::error::{Result, VkContext};
 
 /// A primary command buffer and the fence of its submission, reused across frames.
 pub struct Submission {
     pub cmd: vk::CommandBuffer,
-    fence: vk::Fence,
+    fence: Owned<vk::Fence>,
+    ctx: GpuContext,
 }
 
 impl Submission {
     /// Allocates the command buffer and an unsignalled fence.
     pub fn new(ctx: &GpuContext, name: &str) -> Result<Self> {
+        // SAFETY: valid device.
+        let fence = unsafe {
+            ctx.device
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+        }
+        .vk("vkCreateFence")
+        .owned(ctx)?;
         let info = vk::CommandBufferAllocateInfo::default()
             .command_pool(ctx.command_pool)
             .level(vk::CommandBufferLevel::PRIMARY)
@@ -22,23 +31,13 @@ impl Submission {
         // SAFETY: valid pool of this device.
         let cmd = unsafe { ctx.device.allocate_command_buffers(&info) }
             .vk("vkAllocateCommandBuffers")?[0];
-        // SAFETY: valid device.
-        let fence = match unsafe {
-            ctx.device
-                .create_fence(&vk::FenceCreateInfo::default(), None)
-        }
-        .vk("vkCreateFence")
-        {
-            Ok(f) => f,
-            Err(e) => {
-                // SAFETY: the command buffer was never submitted.
-                unsafe { ctx.device.free_command_buffers(ctx.command_pool, &[cmd]) };
-                return Err(e);
-            }
-        };
         ctx.name(cmd, name);
-        ctx.name(fence, name);
-        Ok(Submission { cmd, fence })
+        ctx.name(*fence, name);
+        Ok(Submission {
+            cmd,
+            fence,
+            ctx: ctx.clone(),
+        })
     }
 
     /// Records with `record`, submits and waits for completion.
@@ -65,23 +64,24 @@ impl Submission {
         // SAFETY: recorded buffer, unsignalled fence; we wait before returning.
         unsafe {
             d.end_command_buffer(self.cmd).vk("vkEndCommandBuffer")?;
-            d.queue_submit2(ctx.queue, &submit, self.fence)
+            d.queue_submit2(ctx.queue, &submit, *self.fence)
                 .vk("vkQueueSubmit2")?;
-            d.wait_for_fences(&[self.fence], true, u64::MAX)
+            d.wait_for_fences(&[*self.fence], true, u64::MAX)
                 .vk("vkWaitForFences")?;
-            d.reset_fences(&[self.fence]).vk("vkResetFences")?;
+            d.reset_fences(&[*self.fence]).vk("vkResetFences")?;
         }
         Ok(())
     }
+}
 
-    /// Frees the command buffer and fence.
-    pub fn destroy(self, ctx: &GpuContext) {
-        // SAFETY: run() waited for the last submission.
+impl Drop for Submission {
+    fn drop(&mut self) {
+        // SAFETY: run() waited for the last submission; the fence goes with the field.
         unsafe {
-            ctx.device.destroy_fence(self.fence, None);
-            ctx.device
-                .free_command_buffers(ctx.command_pool, &[self.cmd]);
-        }
+            self.ctx
+                .device
+                .free_command_buffers(self.ctx.command_pool, &[self.cmd])
+        };
     }
 }
 

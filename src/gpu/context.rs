@@ -54,8 +54,23 @@ pub struct DeviceInfo {
     pub unsupported: Option<String>,
 }
 
-/// The Vulkan context. Not `Clone`: it owns every handle it holds.
-pub struct GpuContext {
+/// The Vulkan context: a cheap, shared handle to the instance, the device and the queue.
+///
+/// Cloning shares the same device. Every resource and pass keeps a clone, so the device outlives
+/// whatever was made from it and each owner frees itself in `Drop`, in any order and on any
+/// failure path; the device is torn down when the last clone goes.
+#[derive(Clone)]
+pub struct GpuContext(Arc<ContextCore>);
+
+impl std::ops::Deref for GpuContext {
+    type Target = ContextCore;
+    fn deref(&self) -> &ContextCore {
+        &self.0
+    }
+}
+
+/// What a [`GpuContext`] shares: the handles every Vulkan call needs.
+pub struct ContextCore {
     pub entry: ash::Entry,
     pub instance: ash::Instance,
     debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
@@ -412,7 +427,7 @@ impl GpuContext {
         let debug_device = debug
             .as_ref()
             .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
-        let ctx = GpuContext {
+        let ctx = GpuContext(Arc::new(ContextCore {
             entry,
             instance,
             debug,
@@ -428,7 +443,7 @@ impl GpuContext {
             command_pool,
             info,
             large_points,
-        };
+        }));
         ctx.name(ctx.queue, "graphics queue");
         ctx.name(ctx.command_pool, "command pool");
         log::info!(
@@ -570,10 +585,10 @@ fn choose_device(
     Ok((pds[index], info, family, bits))
 }
 
-impl Drop for GpuContext {
+impl Drop for ContextCore {
     fn drop(&mut self) {
-        // SAFETY: reverse creation order after the device is idle; resources created from this
-        // context were destroyed by their owners before (they borrow the context).
+        // SAFETY: reverse creation order after the device is idle; every resource created from
+        // this context holds a clone of it, so they were all freed before the last clone went.
         unsafe {
             let _ = self.device.device_wait_idle();
             self.device.destroy_command_pool(self.command_pool, None);

@@ -2,28 +2,21 @@
 //! the semaphore its swapchain image arrives on, so the CPU records frame k+1 while the GPU
 //! runs frame k, with no `vkDeviceWaitIdle` per frame.
 //!
-//! Deferred release: what a frame's commands use (a buffer replaced mid-flight, an old
-//! target after a resize) is handed to [`Frames::defer`] and freed the next time that frame's
-//! slot is reused, i.e. after its fence signalled — never while the GPU may still read it.
-//!
-//! Teardown: wait for every fence → run every pending release → semaphores, fences, command
-//! buffers.
+//! Teardown (in `Drop`): wait for every fence → command buffers; the fences and semaphores
+//! free themselves after.
 
 use ash::vk;
 
 use super::context::GpuContext;
+use super::owned::{Owned, OwnedResult};
 use crate::error::{Result, VkContext};
-
-/// A release to run once the frame that used the object has completed.
-pub type Release = Box<dyn FnOnce(&GpuContext)>;
 
 struct Slot {
     cmd: vk::CommandBuffer,
     /// Signalled when the slot's last submission completed (created signalled).
-    fence: vk::Fence,
+    fence: Owned<vk::Fence>,
     /// Signalled by the swapchain when the image acquired for this frame is ready.
-    image_available: vk::Semaphore,
-    deferred: Vec<Release>,
+    image_available: Owned<vk::Semaphore>,
 }
 
 /// The frame being recorded: its command buffer and image-available semaphore.
@@ -40,6 +33,7 @@ pub struct Frames {
     slots: Vec<Slot>,
     current: usize,
     recording: bool,
+    ctx: GpuContext,
 }
 
 impl Frames {
@@ -49,63 +43,35 @@ impl Frames {
             slots: Vec::new(),
             current: 0,
             recording: false,
+            ctx: ctx.clone(),
         };
         let d = &ctx.device;
         for i in 0..n.max(1) {
+            let signalled = vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED);
+            // SAFETY: valid device and create infos.
+            let fence = unsafe { d.create_fence(&signalled, None) }
+                .vk("vkCreateFence")
+                .owned(ctx)?;
+            // SAFETY: as above.
+            let image_available =
+                unsafe { d.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }
+                    .vk("vkCreateSemaphore")
+                    .owned(ctx)?;
             let alloc = vk::CommandBufferAllocateInfo::default()
                 .command_pool(ctx.command_pool)
                 .level(vk::CommandBufferLevel::PRIMARY)
                 .command_buffer_count(1);
-            // SAFETY: valid pool and create infos; each object is pushed (and so freed by
-            // `destroy`) as soon as it exists.
-            let made = unsafe {
-                d.allocate_command_buffers(&alloc)
-                    .vk("vkAllocateCommandBuffers")
-                    .and_then(|cmds| {
-                        let fence = d
-                            .create_fence(
-                                &vk::FenceCreateInfo::default()
-                                    .flags(vk::FenceCreateFlags::SIGNALED),
-                                None,
-                            )
-                            .vk("vkCreateFence");
-                        let fence = match fence {
-                            Ok(f) => f,
-                            Err(e) => {
-                                d.free_command_buffers(ctx.command_pool, &cmds);
-                                return Err(e);
-                            }
-                        };
-                        match d
-                            .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
-                            .vk("vkCreateSemaphore")
-                        {
-                            Ok(s) => Ok((cmds[0], fence, s)),
-                            Err(e) => {
-                                d.destroy_fence(fence, None);
-                                d.free_command_buffers(ctx.command_pool, &cmds);
-                                Err(e)
-                            }
-                        }
-                    })
-            };
-            match made {
-                Ok((cmd, fence, image_available)) => {
-                    ctx.name(cmd, &format!("frame {i}"));
-                    ctx.name(fence, &format!("frame {i} done"));
-                    ctx.name(image_available, &format!("frame {i} image available"));
-                    frames.slots.push(Slot {
-                        cmd,
-                        fence,
-                        image_available,
-                        deferred: Vec::new(),
-                    });
-                }
-                Err(e) => {
-                    frames.destroy(ctx);
-                    return Err(e);
-                }
-            }
+            // SAFETY: valid pool; the buffer joins a slot (and is freed with the ring) at once.
+            let cmd =
+                unsafe { d.allocate_command_buffers(&alloc) }.vk("vkAllocateCommandBuffers")?[0];
+            ctx.name(cmd, &format!("frame {i}"));
+            ctx.name(*fence, &format!("frame {i} done"));
+            ctx.name(*image_available, &format!("frame {i} image available"));
+            frames.slots.push(Slot {
+                cmd,
+                fence,
+                image_available,
+            });
         }
         Ok(frames)
     }
@@ -120,19 +86,16 @@ impl Frames {
         self.slots.is_empty()
     }
 
-    /// Waits until the next slot's previous frame completed, runs its deferred releases and
-    /// begins recording its command buffer.
+    /// Waits until the next slot's previous frame completed and begins recording its command
+    /// buffer.
     pub fn begin(&mut self, ctx: &GpuContext) -> Result<Frame> {
         let slot = &mut self.slots[self.current];
         let d = &ctx.device;
-        // SAFETY: the fence belongs to this device; after the wait the command buffer and
-        // everything the deferred releases free are no longer in use.
+        // SAFETY: the fence belongs to this device; after the wait the command buffer is no
+        // longer in use.
         unsafe {
-            d.wait_for_fences(&[slot.fence], true, u64::MAX)
+            d.wait_for_fences(&[*slot.fence], true, u64::MAX)
                 .vk("vkWaitForFences")?;
-            for release in slot.deferred.drain(..) {
-                release(ctx);
-            }
             d.reset_command_buffer(slot.cmd, vk::CommandBufferResetFlags::empty())
                 .vk("vkResetCommandBuffer")?;
             d.begin_command_buffer(
@@ -145,14 +108,9 @@ impl Frames {
         self.recording = true;
         Ok(Frame {
             cmd: slot.cmd,
-            image_available: slot.image_available,
+            image_available: *slot.image_available,
             slot: self.current,
         })
-    }
-
-    /// Frees `release` once the frame being recorded has completed.
-    pub fn defer(&mut self, release: Release) {
-        self.slots[self.current].deferred.push(release);
     }
 
     /// Ends and submits the frame being recorded, waiting on `wait` (semaphore, stage) and
@@ -190,44 +148,36 @@ impl Frames {
         // SAFETY: the buffer is recording (begin) and its fence is signalled and unused.
         unsafe {
             d.end_command_buffer(slot.cmd).vk("vkEndCommandBuffer")?;
-            d.reset_fences(&[slot.fence]).vk("vkResetFences")?;
-            d.queue_submit2(ctx.queue, &submit, slot.fence)
+            d.reset_fences(&[*slot.fence]).vk("vkResetFences")?;
+            d.queue_submit2(ctx.queue, &submit, *slot.fence)
                 .vk("vkQueueSubmit2")?;
         }
         self.current = (self.current + 1) % self.slots.len();
         Ok(())
     }
 
-    /// Waits for every submitted frame and runs every pending release.
+    /// Waits for every submitted frame.
     pub fn wait_all(&mut self, ctx: &GpuContext) -> Result<()> {
-        let fences: Vec<_> = self.slots.iter().map(|s| s.fence).collect();
+        let fences: Vec<_> = self.slots.iter().map(|s| *s.fence).collect();
         // SAFETY: fences of this device.
         unsafe { ctx.device.wait_for_fences(&fences, true, u64::MAX) }.vk("vkWaitForFences")?;
-        // Oldest first: `current` is the slot submitted longest ago.
-        let n = self.slots.len();
-        for k in 0..n {
-            for release in self.slots[(self.current + k) % n].deferred.drain(..) {
-                release(ctx);
-            }
-        }
         Ok(())
     }
+}
 
-    /// Frees everything (see the module docs for the order).
-    pub fn destroy(mut self, ctx: &GpuContext) {
+impl Drop for Frames {
+    fn drop(&mut self) {
+        let ctx = self.ctx.clone();
         if self.recording {
             // SAFETY: a recording buffer is not pending; ending it makes it freeable.
             let _ = unsafe { ctx.device.end_command_buffer(self.slots[self.current].cmd) };
         }
-        let _ = self.wait_all(ctx);
-        for slot in self.slots.drain(..) {
-            // SAFETY: every submission completed (waited above).
-            unsafe {
-                ctx.device.destroy_semaphore(slot.image_available, None);
-                ctx.device.destroy_fence(slot.fence, None);
-                ctx.device
-                    .free_command_buffers(ctx.command_pool, &[slot.cmd]);
-            }
+        let _ = self.wait_all(&ctx);
+        let cmds: Vec<_> = self.slots.iter().map(|s| s.cmd).collect();
+        if !cmds.is_empty() {
+            // SAFETY: every submission completed (waited above); fences and semaphores follow
+            // with the slots.
+            unsafe { ctx.device.free_command_buffers(ctx.command_pool, &cmds) };
         }
     }
 }

@@ -1,13 +1,17 @@
-//! Hand-written Vulkan (ash) for tiltfield: the context (shared by every pass of a process
-//! through an `Arc`), owning resource wrappers, one staging upload, command and barrier
+//! Hand-written Vulkan (ash) for tiltfield: the context (a shared handle every pass and resource
+//! of a process holds), owning resource wrappers, one staging upload, command and barrier
 //! helpers, pipelines, frames in flight, the swapchain of a window, timestamp queries.
 //!
 //! Design decisions:
 //! - Vulkan 1.3 with `dynamicRendering` and `synchronization2`: no render pass or framebuffer
 //!   objects, barriers through [`commands::image_barrier`].
-//! - Every object that owns a handle is destroyed by value (`destroy(self, &ctx)`), so a double
-//!   free does not compile; none of them is `Clone`. [`context::GpuContext`] waits for the device
-//!   to be idle and tears down in reverse creation order in its `Drop`.
+//! - Every object that owns a handle frees it in `Drop`: buffers, images, submissions and the
+//!   frames in flight hold a clone of the [`context::GpuContext`] (a shared handle), and passes
+//!   hold their pipelines, layouts and pools as [`owned::Owned`] guards. So a failure half-way
+//!   through building anything is a plain `?`, and the device, torn down with its last clone,
+//!   outlives every object made from it. Owners are not `Clone`: a double free does not
+//!   compile. Dropping is only safe once the GPU is done with an object, so jobs and the viewer
+//!   wait for their submissions before letting go of what they recorded.
 //! - Validation messages are counted per context (through the messenger's user data), so tests
 //!   assert zero errors for the context they used.
 //! - Objects are named through `VK_EXT_debug_utils`, so messages say "accumulation target".
@@ -18,6 +22,7 @@
 pub mod commands;
 pub mod context;
 pub mod frames;
+pub mod owned;
 pub mod pipeline;
 pub mod pod;
 pub mod resources;
@@ -28,3 +33,4 @@ pub mod upload;
 pub mod validation;
 
 pub use context::{GpuContext, GpuOptions};
+pub use owned::{Owned, OwnedResult};

@@ -5,11 +5,93 @@
 //!
 //! Specialisation constants are 4-byte values at consecutive constant ids from 0, the form
 //! every tiltfield shader uses (`layout(constant_id = N) const uint/bool …`).
+//!
+//! The layouts, pools and samplers every pass needs are one call each here, named for the
+//! validation layer and returned as [`Owned`] guards.
 
 use ash::vk;
 
 use super::context::GpuContext;
+use super::owned::{Owned, OwnedResult};
 use crate::error::{Result, VkContext};
+
+/// A descriptor set layout of `bindings`.
+pub fn set_layout(
+    ctx: &GpuContext,
+    bindings: &[vk::DescriptorSetLayoutBinding],
+    name: &str,
+) -> Result<Owned<vk::DescriptorSetLayout>> {
+    let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(bindings);
+    // SAFETY: valid device and create info.
+    let layout = unsafe { ctx.device.create_descriptor_set_layout(&info, None) }
+        .vk("vkCreateDescriptorSetLayout")
+        .owned(ctx)?;
+    ctx.name(*layout, name);
+    Ok(layout)
+}
+
+/// A pipeline layout of `set_layouts` and `push` constant ranges.
+pub fn pipeline_layout(
+    ctx: &GpuContext,
+    set_layouts: &[vk::DescriptorSetLayout],
+    push: &[vk::PushConstantRange],
+    name: &str,
+) -> Result<Owned<vk::PipelineLayout>> {
+    let info = vk::PipelineLayoutCreateInfo::default()
+        .set_layouts(set_layouts)
+        .push_constant_ranges(push);
+    // SAFETY: valid device; the set layouts belong to it.
+    let layout = unsafe { ctx.device.create_pipeline_layout(&info, None) }
+        .vk("vkCreatePipelineLayout")
+        .owned(ctx)?;
+    ctx.name(*layout, name);
+    Ok(layout)
+}
+
+/// A descriptor pool for `max_sets` sets holding `sizes` descriptors in all.
+pub fn descriptor_pool(
+    ctx: &GpuContext,
+    max_sets: u32,
+    sizes: &[vk::DescriptorPoolSize],
+    name: &str,
+) -> Result<Owned<vk::DescriptorPool>> {
+    let info = vk::DescriptorPoolCreateInfo::default()
+        .max_sets(max_sets)
+        .pool_sizes(sizes);
+    // SAFETY: valid device and create info.
+    let pool = unsafe { ctx.device.create_descriptor_pool(&info, None) }
+        .vk("vkCreateDescriptorPool")
+        .owned(ctx)?;
+    ctx.name(*pool, name);
+    Ok(pool)
+}
+
+/// A sampler.
+pub fn sampler(
+    ctx: &GpuContext,
+    info: &vk::SamplerCreateInfo,
+    name: &str,
+) -> Result<Owned<vk::Sampler>> {
+    // SAFETY: valid device and create info.
+    let sampler = unsafe { ctx.device.create_sampler(info, None) }
+        .vk("vkCreateSampler")
+        .owned(ctx)?;
+    ctx.name(*sampler, name);
+    Ok(sampler)
+}
+
+/// Allocates one set of each of `layouts` from `pool`.
+pub fn allocate_sets(
+    ctx: &GpuContext,
+    pool: vk::DescriptorPool,
+    layouts: &[vk::DescriptorSetLayout],
+) -> Result<Vec<vk::DescriptorSet>> {
+    let info = vk::DescriptorSetAllocateInfo::default()
+        .descriptor_pool(pool)
+        .set_layouts(layouts);
+    // SAFETY: valid pool and layouts of this device; callers size the pool for their sets.
+    unsafe { ctx.device.allocate_descriptor_sets(&info) }.vk("vkAllocateDescriptorSets")
+}
 
 /// Depth test of a pipeline.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -86,8 +168,12 @@ fn specialization(values: &[u32]) -> (Vec<vk::SpecializationMapEntry>, Vec<u8>) 
     (entries, data)
 }
 
-/// Creates the pipeline described by `desc`.
-pub fn graphics_pipeline(ctx: &GpuContext, desc: &PipelineDesc) -> Result<vk::Pipeline> {
+/// Creates the pipeline described by `desc`, named `name`.
+pub fn graphics_pipeline(
+    ctx: &GpuContext,
+    desc: &PipelineDesc,
+    name: &str,
+) -> Result<Owned<vk::Pipeline>> {
     let entry = c"main";
     let (spec_entries, spec_data) = specialization(desc.frag_constants);
     let spec = vk::SpecializationInfo::default()
@@ -174,16 +260,20 @@ pub fn graphics_pipeline(ctx: &GpuContext, desc: &PipelineDesc) -> Result<vk::Pi
     }
     .map_err(|(_, e)| e)
     .vk("vkCreateGraphicsPipelines")?;
-    Ok(pipelines[0])
+    let pipeline = Owned::new(ctx, pipelines[0]);
+    ctx.name(*pipeline, name);
+    Ok(pipeline)
 }
 
-/// Creates a compute pipeline running `module` with specialisation `constants` (ids 0, 1, …).
+/// Creates a compute pipeline running `module` with specialisation `constants` (ids 0, 1, …),
+/// named `name`.
 pub fn compute_pipeline(
     ctx: &GpuContext,
     layout: vk::PipelineLayout,
     module: vk::ShaderModule,
     constants: &[u32],
-) -> Result<vk::Pipeline> {
+    name: &str,
+) -> Result<Owned<vk::Pipeline>> {
     let (spec_entries, spec_data) = specialization(constants);
     let spec = vk::SpecializationInfo::default()
         .map_entries(&spec_entries)
@@ -203,5 +293,7 @@ pub fn compute_pipeline(
     }
     .map_err(|(_, e)| e)
     .vk("vkCreateComputePipelines")?;
-    Ok(pipelines[0])
+    let pipeline = Owned::new(ctx, pipelines[0]);
+    ctx.name(*pipeline, name);
+    Ok(pipeline)
 }

@@ -1,6 +1,6 @@
 //! Owning wrappers for buffers and images, described by small value types.
 //! Each allocates its own memory (tiltfield has a handful of resources, so a general allocator
-//! would buy nothing) and is freed by value with `destroy(self, ctx)`.
+//! would buy nothing) and frees it when dropped (each keeps a clone of the context).
 
 use ash::vk;
 
@@ -14,6 +14,7 @@ pub struct Buffer {
     pub size: u64,
     mapped: Option<*mut u8>,
     coherent: bool,
+    ctx: GpuContext,
 }
 
 impl Buffer {
@@ -124,6 +125,7 @@ impl Buffer {
             size,
             mapped,
             coherent: flags.contains(vk::MemoryPropertyFlags::HOST_COHERENT),
+            ctx: ctx.clone(),
         })
     }
 
@@ -164,16 +166,18 @@ impl Buffer {
             None => &mut [],
         }
     }
+}
 
-    /// Frees the buffer.
-    pub fn destroy(self, ctx: &GpuContext) {
-        // SAFETY: the GPU no longer uses the buffer (callers wait for their submissions).
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        let d = &self.ctx.device;
+        // SAFETY: the GPU no longer uses the buffer (owners wait for their submissions).
         unsafe {
             if self.mapped.is_some() {
-                ctx.device.unmap_memory(self.memory);
+                d.unmap_memory(self.memory);
             }
-            ctx.device.destroy_buffer(self.buffer, None);
-            ctx.device.free_memory(self.memory, None);
+            d.destroy_buffer(self.buffer, None);
+            d.free_memory(self.memory, None);
         }
     }
 }
@@ -267,6 +271,7 @@ pub struct Image {
     pub desc: ImageDesc,
     /// Views in the order of the formats given to [`Image::new`].
     pub views: Vec<vk::ImageView>,
+    ctx: GpuContext,
 }
 
 impl Image {
@@ -296,12 +301,10 @@ impl Image {
             memory,
             desc,
             views: Vec::new(),
+            ctx: ctx.clone(),
         };
         // SAFETY: memory allocated for this image's requirements.
-        if let Err(e) = unsafe { d.bind_image_memory(image, memory, 0) }.vk("vkBindImageMemory") {
-            img.destroy(ctx);
-            return Err(e);
-        }
+        unsafe { d.bind_image_memory(image, memory, 0) }.vk("vkBindImageMemory")?;
         for &format in view_formats {
             let info = vk::ImageViewCreateInfo::default()
                 .image(image)
@@ -316,31 +319,27 @@ impl Image {
                     ..range_of(desc.format, desc.layers)
                 });
             // SAFETY: the format is the image's or compatible with it (MUTABLE_FORMAT).
-            match unsafe { d.create_image_view(&info, None) }.vk("vkCreateImageView") {
-                Ok(v) => {
-                    ctx.name(v, &format!("{name} ({format:?} view)"));
-                    img.views.push(v);
-                }
-                Err(e) => {
-                    img.destroy(ctx);
-                    return Err(e);
-                }
-            }
+            let v = unsafe { d.create_image_view(&info, None) }.vk("vkCreateImageView")?;
+            ctx.name(v, &format!("{name} ({format:?} view)"));
+            img.views.push(v);
         }
         ctx.name(image, name);
         ctx.name(memory, name);
         Ok(img)
     }
+}
 
-    /// Frees the image and its views.
-    pub fn destroy(self, ctx: &GpuContext) {
-        // SAFETY: the GPU no longer uses the image (callers wait for their submissions).
+impl Drop for Image {
+    fn drop(&mut self) {
+        let d = &self.ctx.device;
+        // SAFETY: the GPU no longer uses the image (owners wait for their submissions); an image
+        // dropped half-built has only the views made so far, and unbound memory may be freed.
         unsafe {
-            for v in self.views {
-                ctx.device.destroy_image_view(v, None);
+            for &v in &self.views {
+                d.destroy_image_view(v, None);
             }
-            ctx.device.destroy_image(self.image, None);
-            ctx.device.free_memory(self.memory, None);
+            d.destroy_image(self.image, None);
+            d.free_memory(self.memory, None);
         }
     }
 }

@@ -3,6 +3,7 @@
 use ash::vk;
 
 use super::context::GpuContext;
+use super::owned::{Owned, OwnedResult};
 use crate::error::{Result, VkContext};
 
 macro_rules! spirv {
@@ -27,14 +28,17 @@ pub const DEPTH_COST_COMP: &[u8] = spirv!("depth_cost.comp");
 pub const DEPTH_BOX_COMP: &[u8] = spirv!("depth_box.comp");
 pub const DEPTH_WTA_COMP: &[u8] = spirv!("depth_wta.comp");
 
-/// A shader module; destroy it once the pipelines using it are created.
-pub fn module(ctx: &GpuContext, spirv: &[u8], name: &str) -> Result<vk::ShaderModule> {
+/// A shader module; drop it once the pipelines using it are created (they keep their own copy
+/// of the code).
+pub fn module(ctx: &GpuContext, spirv: &[u8], name: &str) -> Result<Owned<vk::ShaderModule>> {
     // read_spv copies into correctly aligned u32 words and checks the magic number.
     let words = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
         .map_err(|e| crate::error::Error::Vulkan(format!("shader {name} is not SPIR-V: {e}")))?;
     let info = vk::ShaderModuleCreateInfo::default().code(&words);
     // SAFETY: valid SPIR-V produced by shaderc at build time.
-    let m = unsafe { ctx.device.create_shader_module(&info, None) }.vk("vkCreateShaderModule")?;
-    ctx.name(m, name);
+    let m = unsafe { ctx.device.create_shader_module(&info, None) }
+        .vk("vkCreateShaderModule")
+        .owned(ctx)?;
+    ctx.name(*m, name);
     Ok(m)
 }

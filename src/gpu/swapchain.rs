@@ -74,6 +74,7 @@ pub struct Swapchain {
     pub extent: vk::Extent2D,
     pub present_mode: vk::PresentModeKHR,
     wanted: PresentMode,
+    ctx: GpuContext,
 }
 
 impl Swapchain {
@@ -115,11 +116,9 @@ impl Swapchain {
             extent,
             present_mode: vk::PresentModeKHR::FIFO,
             wanted: mode,
+            ctx: ctx.clone(),
         };
-        if let Err(e) = sc.recreate(ctx, extent) {
-            sc.destroy(ctx);
-            return Err(e);
-        }
+        sc.recreate(ctx, extent)?;
         Ok(sc)
     }
 
@@ -288,14 +287,17 @@ impl Swapchain {
         }
         self.images.clear();
     }
+}
 
+impl Drop for Swapchain {
     /// Frees everything (see the module docs for the order).
-    pub fn destroy(mut self, ctx: &GpuContext) {
+    fn drop(&mut self) {
+        let ctx = self.ctx.clone();
         // SAFETY: waiting has no preconditions; afterwards nothing uses the swapchain.
         unsafe {
             let _ = ctx.device.device_wait_idle();
         }
-        self.release_images(ctx);
+        self.release_images(&ctx);
         // SAFETY: idle device; the swapchain goes before its surface.
         unsafe {
             self.loader.destroy_swapchain(self.handle, None);

@@ -3,11 +3,12 @@
 use ash::vk;
 
 use super::context::GpuContext;
+use super::owned::{Owned, OwnedResult};
 use crate::error::{Error, Result, VkContext};
 
 /// A pool of `count` timestamp queries. `None`-like when the queue has no timestamps.
 pub struct Timestamps {
-    pool: vk::QueryPool,
+    pool: Owned<vk::QueryPool>,
     count: u32,
     period_ns: f64,
     valid_mask: u64,
@@ -24,8 +25,10 @@ impl Timestamps {
             .query_type(vk::QueryType::TIMESTAMP)
             .query_count(count);
         // SAFETY: valid device.
-        let pool = unsafe { ctx.device.create_query_pool(&info, None) }.vk("vkCreateQueryPool")?;
-        ctx.name(pool, "timestamps");
+        let pool = unsafe { ctx.device.create_query_pool(&info, None) }
+            .vk("vkCreateQueryPool")
+            .owned(ctx)?;
+        ctx.name(*pool, "timestamps");
         Ok(Some(Timestamps {
             pool,
             count,
@@ -41,7 +44,7 @@ impl Timestamps {
     /// Records the reset of all queries (before the first write of a frame).
     pub fn reset(&self, d: &ash::Device, cmd: vk::CommandBuffer) {
         // SAFETY: cmd is recording outside a render pass instance.
-        unsafe { d.cmd_reset_query_pool(cmd, self.pool, 0, self.count) };
+        unsafe { d.cmd_reset_query_pool(cmd, *self.pool, 0, self.count) };
     }
 
     /// Records a timestamp after all previous work reached `stage`.
@@ -53,7 +56,7 @@ impl Timestamps {
         i: u32,
     ) {
         // SAFETY: query i < count was reset in this command buffer.
-        unsafe { d.cmd_write_timestamp2(cmd, stage, self.pool, i) };
+        unsafe { d.cmd_write_timestamp2(cmd, stage, *self.pool, i) };
     }
 
     /// Milliseconds between consecutive timestamps (count − 1 values) once the submission
@@ -63,8 +66,12 @@ impl Timestamps {
         let mut raw = vec![0u64; self.count as usize];
         // SAFETY: valid pool; without WAIT the call returns at once.
         let r = unsafe {
-            ctx.device
-                .get_query_pool_results(self.pool, 0, &mut raw, vk::QueryResultFlags::TYPE_64)
+            ctx.device.get_query_pool_results(
+                *self.pool,
+                0,
+                &mut raw,
+                vk::QueryResultFlags::TYPE_64,
+            )
         };
         match r {
             Ok(()) => {}
@@ -85,12 +92,6 @@ impl Timestamps {
                 })
                 .collect(),
         ))
-    }
-
-    /// Frees the pool.
-    pub fn destroy(self, ctx: &GpuContext) {
-        // SAFETY: no submission using the pool is pending.
-        unsafe { ctx.device.destroy_query_pool(self.pool, None) };
     }
 }
 

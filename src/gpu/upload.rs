@@ -26,16 +26,12 @@ pub fn upload_images(
     name: &str,
     fill: impl FnOnce(&mut [u8]) -> Result<()>,
 ) -> Result<()> {
-    let mut staging = Staging::new(ctx, bytes, name)?;
-    let result = staging.upload(ctx, regions, bytes, fill);
-    staging.destroy(ctx);
-    result
+    Staging::new(ctx, bytes, name)?.upload(ctx, regions, bytes, fill)
 }
 
 /// A staging buffer and submission kept for repeated uploads of the same size (the frames of
 /// a video), so each upload writes into memory that is already mapped and faulted in instead
-/// of allocating 10–100 MiB per frame. Free with [`Staging::destroy`] (buffer, then
-/// submission).
+/// of allocating 10–100 MiB per frame. Every upload waits, so dropping it is always safe.
 pub struct Staging {
     buffer: Buffer,
     submission: Submission,
@@ -44,14 +40,10 @@ pub struct Staging {
 impl Staging {
     /// A host-visible staging buffer of `bytes` bytes and its submission.
     pub fn new(ctx: &GpuContext, bytes: u64, name: &str) -> Result<Self> {
-        let buffer = Buffer::new(ctx, bytes, vk::BufferUsageFlags::TRANSFER_SRC, true, name)?;
-        match Submission::new(ctx, name) {
-            Ok(submission) => Ok(Staging { buffer, submission }),
-            Err(e) => {
-                buffer.destroy(ctx);
-                Err(e)
-            }
-        }
+        Ok(Staging {
+            buffer: Buffer::new(ctx, bytes, vk::BufferUsageFlags::TRANSFER_SRC, true, name)?,
+            submission: Submission::new(ctx, name)?,
+        })
     }
 
     /// Size in bytes.
@@ -122,12 +114,5 @@ impl Staging {
                 levels_barrier(d, cmd, img.image, layers, levels, to_read);
             }
         })
-    }
-
-    /// Frees the buffer and the submission (after the last upload completed; every upload
-    /// waits).
-    pub fn destroy(self, ctx: &GpuContext) {
-        self.buffer.destroy(ctx);
-        self.submission.destroy(ctx);
     }
 }

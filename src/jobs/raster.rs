@@ -51,9 +51,9 @@ pub struct RenderedView {
     pub covered: usize,
 }
 
-/// A mesh uploaded to a (shared) Vulkan context; the pass goes before the context's last user.
+/// A mesh uploaded to a (shared) Vulkan context.
 pub struct Rasterizer {
-    pass: Option<RasterPass>,
+    pass: RasterPass,
     background: [f32; 3],
     name: String,
     ctx: Arc<GpuContext>,
@@ -75,7 +75,7 @@ impl Rasterizer {
     pub fn with_context(ctx: Arc<GpuContext>, mesh: &MeshScene) -> Result<Self> {
         let pass = RasterPass::new(&ctx, mesh)?;
         Ok(Rasterizer {
-            pass: Some(pass),
+            pass,
             background: mesh.background,
             name: mesh.name.clone(),
             ctx,
@@ -95,9 +95,7 @@ impl Rasterizer {
         samples: &[Projection],
         geometry: Option<&Projection>,
     ) -> Result<(Pixels, Option<Pixels>)> {
-        let Some(pass) = self.pass.as_mut() else {
-            unreachable!("the pass lives until drop")
-        };
+        let pass = &mut self.pass;
         let mut sum = vec![[0f32; 4]; (width * height) as usize];
         let mut geom = None;
         // Only renders of several submissions (the optical ground truth) get a progress bar.
@@ -275,14 +273,6 @@ impl Rasterizer {
     /// The scene's name.
     pub fn name(&self) -> &str {
         &self.name
-    }
-}
-
-impl Drop for Rasterizer {
-    fn drop(&mut self) {
-        if let Some(p) = self.pass.take() {
-            p.destroy(&self.ctx);
-        }
     }
 }
 

@@ -2,8 +2,12 @@
 //! submission, timestamps and a readback buffer on a shared [`GpuContext`]. What the CLI and the
 //! tests drive. Every frame is submitted and waited for, since its pixels are read back.
 //!
-//! Teardown (in `Drop`): frame staging → readback → timestamps → submission → target → pass → texture; the
-//! context is shared (`Arc`) and goes when its last user does.
+//! [`upload_refocus`] and [`record_refocus`] are the one way a full refocus is uploaded and
+//! recorded: the renderer's frames and the viewer's capture both go through them, so a capture
+//! equals `render` by construction.
+//!
+//! Everything frees itself when the renderer is dropped (after waiting for the device), in
+//! field order; the context is shared and goes when its last user does.
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -93,10 +97,10 @@ pub struct HeadlessRenderer {
     staging: Option<Staging>,
     readback: Option<Buffer>,
     timestamps: Option<Timestamps>,
-    submission: Option<Submission>,
+    submission: Submission,
     target: Option<RefocusTarget>,
-    pass: Option<RefocusPass>,
-    texture: Option<LightFieldTexture>,
+    pass: RefocusPass,
+    texture: LightFieldTexture,
     ctx: Arc<GpuContext>,
 }
 
@@ -113,25 +117,17 @@ impl HeadlessRenderer {
         lf: &LightField,
         storage: ViewStorage,
     ) -> Result<Self> {
-        let mut r = HeadlessRenderer {
+        let texture = LightFieldTexture::upload(&ctx, lf, storage)?;
+        Ok(HeadlessRenderer {
             staging: None,
             readback: None,
-            timestamps: None,
-            submission: None,
+            timestamps: Timestamps::new(&ctx, 3)?,
+            submission: Submission::new(&ctx, "refocus frame")?,
             target: None,
-            pass: None,
-            texture: None,
+            pass: RefocusPass::new(&ctx, &texture)?,
+            texture,
             ctx,
-        };
-        // Each step stores what it made, so `Drop` frees it if a later step fails.
-        let ctx = &r.ctx;
-        let texture = LightFieldTexture::upload(ctx, lf, storage)?;
-        let pass = RefocusPass::new(ctx, &texture);
-        r.texture = Some(texture);
-        r.pass = Some(pass?);
-        r.submission = Some(Submission::new(&r.ctx, "refocus frame")?);
-        r.timestamps = Timestamps::new(&r.ctx, 3)?;
-        Ok(r)
+        })
     }
 
     /// The Vulkan context (device name, validation counts).
@@ -146,17 +142,13 @@ impl HeadlessRenderer {
 
     /// How the views are stored on the GPU.
     pub fn storage(&self) -> ViewStorage {
-        self.texture
-            .as_ref()
-            .map_or_else(ViewStorage::default, |t| t.storage)
+        self.texture.storage
     }
 
     /// Replaces the uploaded views with those of `lf` in place — the next frame of a video,
     /// with the same grid, cameras and view size — keeping the pass, target and plans valid.
     pub fn replace_views(&mut self, lf: &LightField) -> Result<()> {
-        let Some(texture) = self.texture.as_mut() else {
-            return Err(Error::Internal("the renderer was not fully created".into()));
-        };
+        let texture = &mut self.texture;
         if self.staging.is_none() {
             self.staging = Some(Staging::new(
                 &self.ctx,
@@ -168,19 +160,14 @@ impl HeadlessRenderer {
             return Err(Error::Internal("no staging buffer".into()));
         };
         texture.reupload(&self.ctx, lf, staging)?;
-        if let Some(pass) = self.pass.as_mut() {
-            pass.views_reuploaded();
-        }
+        self.pass.views_reuploaded();
         Ok(())
     }
 
     /// How the compute strategy's invocations cover the output
     /// ([`RefocusPass::set_compute_shape`]).
     pub fn set_compute_shape(&mut self, shape: ComputeShape) -> Result<()> {
-        match self.pass.as_mut() {
-            Some(p) => p.set_compute_shape(shape),
-            None => Err(Error::Internal("the renderer was not fully created".into())),
-        }
+        self.pass.set_compute_shape(shape)
     }
 
     /// Renders `plan` and reads the image back.
@@ -287,9 +274,7 @@ impl HeadlessRenderer {
         readback: bool,
     ) -> Result<Option<PassTimings>> {
         let ctx = Arc::clone(&self.ctx);
-        let (Some(pass), Some(texture)) = (self.pass.as_mut(), self.texture.as_ref()) else {
-            return Err(Error::Internal("the renderer was not fully created".into()));
-        };
+        let (pass, texture) = (&mut self.pass, &self.texture);
         let (w, h) = settings.size.unwrap_or((texture.width, texture.height));
         let want = (w, h, settings.accumulation);
         if self
@@ -298,12 +283,7 @@ impl HeadlessRenderer {
             .map(|t| (t.width, t.height, t.accumulation()))
             != Some(want)
         {
-            if let Some(t) = self.target.take() {
-                t.destroy(&ctx);
-            }
-            if let Some(b) = self.readback.take() {
-                b.destroy(&ctx);
-            }
+            (self.target, self.readback) = (None, None);
             self.target = Some(pass.create_target_with(&ctx, w, h, settings.accumulation)?);
             self.readback = Some(Buffer::readback(
                 &ctx,
@@ -312,24 +292,9 @@ impl HeadlessRenderer {
             )?);
         }
         pass.set_warp_memory(settings.warps)?;
-        match aa {
-            Some(aa) => pass.set_antialias(&ctx, aa)?,
-            None => pass.set_views(plan)?,
-        };
-        // After anti-aliasing's upload: both bind the same scene depth, so this rewrites nothing
-        // there when the surface carries anti-aliasing's depth.
-        let with_surface = match surface {
-            Some(sp) if sp.rule != SurfaceRule::Plane => {
-                pass.set_surface(sp)?;
-                true
-            }
-            _ => false,
-        };
-        let (Some(target), Some(submission), Some(readback_buffer)) = (
-            self.target.as_mut(),
-            self.submission.as_ref(),
-            self.readback.as_ref(),
-        ) else {
+        let with_surface = upload_refocus(&ctx, pass, plan, aa, surface)?;
+        let (Some(target), Some(readback_buffer)) = (self.target.as_mut(), self.readback.as_ref())
+        else {
             return Err(Error::Internal("no target".into()));
         };
         let m = plan.m.as_vec3();
@@ -343,42 +308,11 @@ impl HeadlessRenderer {
             antialias: aa.map_or(0, |a| a.settings.max_samples),
             surface: with_surface,
         };
+        let output = (settings.output, readback.then_some(readback_buffer.buffer));
         let ts = self.timestamps.as_ref();
-        let all = vk::PipelineStageFlags2::ALL_COMMANDS;
         let mut recorded = Ok(());
-        submission.run(&ctx, |d, cmd| {
-            if let Some(ts) = ts {
-                ts.reset(d, cmd);
-                ts.write(d, cmd, all, 0);
-            }
-            recorded = pass.record_accumulate(&ctx, cmd, target, &accumulate);
-            if let Some(ts) = ts {
-                ts.write(d, cmd, all, 1);
-            }
-            if recorded.is_err() {
-                if let Some(ts) = ts {
-                    ts.write(d, cmd, all, 2);
-                }
-                return;
-            }
-            recorded = pass.record_resolve(&ctx, cmd, target, settings.output, settings.averaging);
-            if let Some(ts) = ts {
-                ts.write(d, cmd, all, 2);
-            }
-            if readback && recorded.is_ok() {
-                let (out, _) = target.output(settings.output);
-                // The readback buffer holds w·h·16 bytes.
-                let copy = ImageReadback {
-                    image: out.image,
-                    from: stage::COLOR_WRITE,
-                    then: None,
-                    width: w,
-                    height: h,
-                    buffer: readback_buffer.buffer,
-                    offset: 0,
-                };
-                record_readback(d, cmd, &copy);
-            }
+        self.submission.run(&ctx, |_, cmd| {
+            recorded = record_refocus(&ctx, cmd, pass, target, &accumulate, output, ts);
         })?;
         recorded?;
         let Some(ts) = &self.timestamps else {
@@ -418,34 +352,86 @@ impl HeadlessRenderer {
     }
 }
 
+/// Uploads what one refocus reads into `pass`: `plan`'s warps, or with `aa` anti-aliasing's
+/// plan and depth; then the focus surface unless it is one plane (after anti-aliasing: both bind
+/// the same scene depth, so this rewrites nothing there when the surface carries
+/// anti-aliasing's depth). Returns whether the accumulation takes the surface path. The GPU must
+/// not be reading the pass's inputs.
+pub fn upload_refocus(
+    ctx: &GpuContext,
+    pass: &mut RefocusPass,
+    plan: &RefocusPlan,
+    aa: Option<&AntialiasPlan>,
+    surface: Option<&SurfacePlan>,
+) -> Result<bool> {
+    match aa {
+        Some(aa) => pass.set_antialias(ctx, aa)?,
+        None => pass.set_views(plan)?,
+    };
+    match surface {
+        Some(sp) if sp.rule != SurfaceRule::Plane => {
+            pass.set_surface(sp)?;
+            Ok(true)
+        }
+        _ => Ok(false),
+    }
+}
+
+/// Records one refocus into `cmd`: the accumulation `a` into `target`, its resolve into
+/// `output.0`, and with a buffer in `output.1` the copy of that output into it (the buffer holds
+/// the output's bytes). With `ts`, timestamps 0, 1 and 2 bracket the accumulation and the
+/// resolve (all three are written even when recording fails, so the queries stay valid).
+pub fn record_refocus(
+    ctx: &GpuContext,
+    cmd: vk::CommandBuffer,
+    pass: &mut RefocusPass,
+    target: &mut RefocusTarget,
+    a: &Accumulate,
+    output: (OutputFormat, Option<vk::Buffer>),
+    ts: Option<&Timestamps>,
+) -> Result<()> {
+    let d = &ctx.device;
+    let all = vk::PipelineStageFlags2::ALL_COMMANDS;
+    let stamp = |i: u32| {
+        if let Some(ts) = ts {
+            if i == 0 {
+                ts.reset(d, cmd);
+            }
+            ts.write(d, cmd, all, i);
+        }
+    };
+    stamp(0);
+    let accumulated = pass.record_accumulate(ctx, cmd, target, a);
+    stamp(1);
+    if accumulated.is_err() {
+        stamp(2);
+        return accumulated;
+    }
+    let resolved = pass.record_resolve(ctx, cmd, target, output.0, a.averaging);
+    stamp(2);
+    resolved?;
+    if let (Some(buffer), (out, _)) = (output.1, target.output(output.0)) {
+        let copy = ImageReadback {
+            image: out.image,
+            from: stage::COLOR_WRITE,
+            then: None,
+            width: target.width,
+            height: target.height,
+            buffer,
+            offset: 0,
+        };
+        record_readback(d, cmd, &copy);
+    }
+    Ok(())
+}
+
 impl Drop for HeadlessRenderer {
     fn drop(&mut self) {
-        let ctx = &self.ctx;
-        // SAFETY: waiting for idle has no preconditions; every submission of this renderer
-        // completes before its resources go.
+        // SAFETY: waiting for idle has no preconditions. Every submission of this renderer
+        // waits anyway; this keeps it so should one ever not, before the fields free
+        // themselves.
         unsafe {
-            let _ = ctx.device.device_wait_idle();
-        }
-        if let Some(s) = self.staging.take() {
-            s.destroy(ctx);
-        }
-        if let Some(b) = self.readback.take() {
-            b.destroy(ctx);
-        }
-        if let Some(t) = self.timestamps.take() {
-            t.destroy(ctx);
-        }
-        if let Some(s) = self.submission.take() {
-            s.destroy(ctx);
-        }
-        if let Some(t) = self.target.take() {
-            t.destroy(ctx);
-        }
-        if let Some(p) = self.pass.take() {
-            p.destroy(ctx);
-        }
-        if let Some(t) = self.texture.take() {
-            t.destroy(ctx);
+            let _ = self.ctx.device.device_wait_idle();
         }
     }
 }

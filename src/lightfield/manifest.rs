@@ -276,37 +276,7 @@ pub fn load_within(path: &Path, limits: &LoadLimits) -> Result<LightField> {
     let text = text.as_str();
     let bad = |m: String| Error::bad_file(path, m);
 
-    // Check the version before the strict parse, so a newer manifest gets a version message
-    // rather than complaints about fields this version does not know.
-    let probe: serde_json::Value = serde_json::from_str(text)
-        .map_err(|e| bad(format!("not a valid manifest (invalid JSON): {e}")))?;
-    let Some(top) = probe.as_object() else {
-        let found = match probe {
-            serde_json::Value::Array(_) => "an array",
-            serde_json::Value::String(_) => "a string",
-            serde_json::Value::Number(_) => "a number",
-            serde_json::Value::Bool(_) => "a boolean",
-            _ => "null",
-        };
-        return Err(bad(format!(
-            "not a manifest: the top level must be a JSON object with `version` and `views`, \
-             found {found}"
-        )));
-    };
-    match top.get("version") {
-        None => return Err(bad("missing `version` (expected \"version\": 1)".into())),
-        Some(v) if v.as_u64() == Some(VERSION as u64) => {}
-        Some(v) => {
-            return Err(bad(format!(
-                "unsupported manifest version {v}; this tiltfield reads version {VERSION}"
-            )))
-        }
-    }
-    let file: ManifestFile =
-        serde_json::from_str(text).map_err(|e| bad(format!("not a valid manifest: {e}")))?;
-    if file.views.is_empty() {
-        return Err(bad("`views` is empty".into()));
-    }
+    let file = parse(text).map_err(bad)?;
     let label = |i: usize| format!("view {i} ({})", file.views[i].image);
 
     // Cameras and grid positions.
@@ -323,40 +293,7 @@ pub fn load_within(path: &Path, limits: &LoadLimits) -> Result<LightField> {
         }
         cameras.push(cam);
     }
-    let cols = file.views.iter().map(|v| v.grid.s).max().unwrap_or(0) + 1;
-    let rows = file.views.iter().map(|v| v.grid.t).max().unwrap_or(0) + 1;
-    let grid = GridSize { cols, rows };
-    // Manifest indices in row-major order of their grid positions.
-    let mut order: Vec<usize> = (0..file.views.len()).collect();
-    order.sort_by_key(|&i| (file.views[i].grid.t, file.views[i].grid.s));
-    for pair in order.windows(2) {
-        if file.views[pair[0]].grid == file.views[pair[1]].grid {
-            let g = file.views[pair[0]].grid;
-            return Err(bad(format!(
-                "{} and {} both claim grid position (s = {}, t = {})",
-                label(pair[0].min(pair[1])),
-                label(pair[0].max(pair[1])),
-                g.s,
-                g.t
-            )));
-        }
-    }
-    // Sorted and unique: the first position where the list departs from the row-major
-    // sequence 0, 1, 2, … is the first missing view.
-    let missing = (0..grid.len()).find(|&n| {
-        order.get(n).map_or(true, |&i| {
-            grid.index(file.views[i].grid.s, file.views[i].grid.t) != n
-        })
-    });
-    if let Some(n) = missing {
-        return Err(bad(format!(
-            "the grid of {cols}×{rows} views (from the largest s and t) is incomplete: no view \
-             at (s = {}, t = {}); {} views given",
-            n % cols,
-            n / cols,
-            file.views.len()
-        )));
-    }
+    let (grid, order) = grid_order(&file.views).map_err(bad)?;
 
     let name = match file.name.as_deref() {
         Some(n) if !n.is_empty() => n.to_string(),
@@ -448,6 +385,81 @@ pub fn load_within(path: &Path, limits: &LoadLimits) -> Result<LightField> {
             path: path.to_path_buf(),
         },
     })
+}
+
+/// The manifest in `text`, its version checked first so that a newer manifest gets a version
+/// message rather than complaints about fields this version does not know.
+fn parse(text: &str) -> std::result::Result<ManifestFile, String> {
+    let probe: serde_json::Value = serde_json::from_str(text)
+        .map_err(|e| format!("not a valid manifest (invalid JSON): {e}"))?;
+    let Some(top) = probe.as_object() else {
+        let found = match probe {
+            serde_json::Value::Array(_) => "an array",
+            serde_json::Value::String(_) => "a string",
+            serde_json::Value::Number(_) => "a number",
+            serde_json::Value::Bool(_) => "a boolean",
+            _ => "null",
+        };
+        return Err(format!(
+            "not a manifest: the top level must be a JSON object with `version` and `views`, \
+             found {found}"
+        ));
+    };
+    match top.get("version") {
+        None => return Err("missing `version` (expected \"version\": 1)".into()),
+        Some(v) if v.as_u64() == Some(VERSION as u64) => {}
+        Some(v) => {
+            return Err(format!(
+                "unsupported manifest version {v}; this tiltfield reads version {VERSION}"
+            ))
+        }
+    }
+    let file: ManifestFile =
+        serde_json::from_str(text).map_err(|e| format!("not a valid manifest: {e}"))?;
+    if file.views.is_empty() {
+        return Err("`views` is empty".into());
+    }
+    Ok(file)
+}
+
+/// The grid the views' positions span and the views' indices in row-major order of their
+/// positions; an error for two views at one position or a position without a view.
+fn grid_order(views: &[ViewEntry]) -> std::result::Result<(GridSize, Vec<usize>), String> {
+    let label = |i: usize| format!("view {i} ({})", views[i].image);
+    let cols = views.iter().map(|v| v.grid.s).max().unwrap_or(0) + 1;
+    let rows = views.iter().map(|v| v.grid.t).max().unwrap_or(0) + 1;
+    let grid = GridSize { cols, rows };
+    let mut order: Vec<usize> = (0..views.len()).collect();
+    order.sort_by_key(|&i| (views[i].grid.t, views[i].grid.s));
+    for pair in order.windows(2) {
+        if views[pair[0]].grid == views[pair[1]].grid {
+            let g = views[pair[0]].grid;
+            return Err(format!(
+                "{} and {} both claim grid position (s = {}, t = {})",
+                label(pair[0].min(pair[1])),
+                label(pair[0].max(pair[1])),
+                g.s,
+                g.t
+            ));
+        }
+    }
+    // Sorted and unique: the first position where the list departs from the row-major
+    // sequence 0, 1, 2, … is the first missing view.
+    let missing = (0..grid.len()).find(|&n| {
+        order
+            .get(n)
+            .map_or(true, |&i| grid.index(views[i].grid.s, views[i].grid.t) != n)
+    });
+    if let Some(n) = missing {
+        return Err(format!(
+            "the grid of {cols}×{rows} views (from the largest s and t) is incomplete: no view \
+             at (s = {}, t = {}); {} views given",
+            n % cols,
+            n / cols,
+            views.len()
+        ));
+    }
+    Ok((grid, order))
 }
 
 /// A name for a manifest without `name`: the folder's for `tiltfield.json`, else the stem.

@@ -10,14 +10,15 @@
 //! Descriptor sets come from one pool that is reset whenever the sources change (a resize):
 //! callers reset only when no frame in flight uses the old sets.
 //!
-//! Destruction order: pipelines → pipeline layout → descriptor pool → set layout → sampler.
+//! Every object frees itself when the compositor is dropped, in field order: pipelines →
+//! pipeline layout → descriptor pool → set layout → sampler.
 
 use ash::vk;
 
 use crate::error::{Result, VkContext};
-use crate::gpu::pipeline::{graphics_pipeline, Blend, PipelineDesc};
+use crate::gpu::pipeline::{self, graphics_pipeline, Blend, PipelineDesc};
 use crate::gpu::pod::{as_bytes, Pod};
-use crate::gpu::{shaders, GpuContext};
+use crate::gpu::{shaders, GpuContext, Owned};
 
 /// The push constants `Push` of shaders/panel.frag, member for member (tested).
 #[derive(Debug, Clone, Copy)]
@@ -76,11 +77,11 @@ impl Rect {
 
 /// Pipelines, sampler and descriptor sets of the compositor.
 pub struct Compositor {
-    pipelines: [vk::Pipeline; 3],
-    layout: vk::PipelineLayout,
-    pool: vk::DescriptorPool,
-    set_layout: vk::DescriptorSetLayout,
-    sampler: vk::Sampler,
+    pipelines: [Owned<vk::Pipeline>; 3],
+    layout: Owned<vk::PipelineLayout>,
+    pool: Owned<vk::DescriptorPool>,
+    set_layout: Owned<vk::DescriptorSetLayout>,
+    sampler: Owned<vk::Sampler>,
 }
 
 /// Most descriptor sets alive between two resets.
@@ -89,117 +90,59 @@ const MAX_SETS: u32 = 16;
 impl Compositor {
     /// Creates the compositor for destinations of `format`.
     pub fn new(ctx: &GpuContext, format: vk::Format) -> Result<Self> {
-        let mut c = Compositor {
-            pipelines: [vk::Pipeline::null(); 3],
-            layout: vk::PipelineLayout::null(),
-            pool: vk::DescriptorPool::null(),
-            set_layout: vk::DescriptorSetLayout::null(),
-            sampler: vk::Sampler::null(),
-        };
-        if let Err(e) = c.make(ctx, format) {
-            c.destroy(ctx);
-            return Err(e);
-        }
-        Ok(c)
-    }
-
-    fn make(&mut self, ctx: &GpuContext, format: vk::Format) -> Result<()> {
-        let d = &ctx.device;
         let sampler = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::LINEAR)
             .min_filter(vk::Filter::LINEAR)
             .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
             .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE);
-        // SAFETY: valid device and create infos; each handle is stored as soon as it exists,
-        // so `destroy` frees it when a later step fails.
-        unsafe {
-            self.sampler = d.create_sampler(&sampler, None).vk("vkCreateSampler")?;
-            let bindings = [vk::DescriptorSetLayoutBinding::default()
-                .binding(0)
-                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
-            self.set_layout = d
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                    None,
-                )
-                .vk("vkCreateDescriptorSetLayout")?;
-            let sizes = [vk::DescriptorPoolSize::default()
-                .ty(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                .descriptor_count(MAX_SETS)];
-            self.pool = d
-                .create_descriptor_pool(
-                    &vk::DescriptorPoolCreateInfo::default()
-                        .max_sets(MAX_SETS)
-                        .pool_sizes(&sizes),
-                    None,
-                )
-                .vk("vkCreateDescriptorPool")?;
-            let push = [vk::PushConstantRange::default()
-                .stage_flags(vk::ShaderStageFlags::FRAGMENT)
-                .size(std::mem::size_of::<PanelPush>() as u32)];
-            let set_layouts = [self.set_layout];
-            self.layout = d
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&set_layouts)
-                        .push_constant_ranges(&push),
-                    None,
-                )
-                .vk("vkCreatePipelineLayout")?;
-        }
-        ctx.name(self.sampler, "panel sampler");
+        let sampler = pipeline::sampler(ctx, &sampler, "panel sampler")?;
+        let bindings = [vk::DescriptorSetLayoutBinding::default()
+            .binding(0)
+            .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+            .descriptor_count(1)
+            .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
+        let set_layout = pipeline::set_layout(ctx, &bindings, "panel set layout")?;
+        let sizes = [vk::DescriptorPoolSize::default()
+            .ty(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+            .descriptor_count(MAX_SETS)];
+        let pool = pipeline::descriptor_pool(ctx, MAX_SETS, &sizes, "panel descriptors")?;
+        let push = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::FRAGMENT)
+            .size(std::mem::size_of::<PanelPush>() as u32)];
+        let layout = pipeline::pipeline_layout(ctx, &[*set_layout], &push, "panel layout")?;
         let vert = shaders::module(ctx, shaders::FULLSCREEN_VERT, "fullscreen.vert")?;
-        let frag = match shaders::module(ctx, shaders::PANEL_FRAG, "panel.frag") {
-            Ok(f) => f,
-            Err(e) => {
-                // SAFETY: unused module.
-                unsafe { d.destroy_shader_module(vert, None) };
-                return Err(e);
-            }
+        let frag = shaders::module(ctx, shaders::PANEL_FRAG, "panel.frag")?;
+        let make = |i: usize, blend: Blend, encode: u32| {
+            let constants = [encode];
+            let desc = PipelineDesc {
+                blend,
+                frag_constants: &constants,
+                ..PipelineDesc::fullscreen(*layout, *vert, *frag, format)
+            };
+            graphics_pipeline(ctx, &desc, &format!("panel pipeline {i}"))
         };
-        let made = (|| -> Result<()> {
-            for (i, (blend, encode)) in [
-                (Blend::Replace, 0u32),
-                (Blend::Replace, 1),
-                (Blend::Alpha, 0),
-            ]
-            .into_iter()
-            .enumerate()
-            {
-                let constants = [encode];
-                let desc = PipelineDesc {
-                    blend,
-                    frag_constants: &constants,
-                    ..PipelineDesc::fullscreen(self.layout, vert, frag, format)
-                };
-                self.pipelines[i] = graphics_pipeline(ctx, &desc)?;
-                ctx.name(self.pipelines[i], &format!("panel pipeline {i}"));
-            }
-            Ok(())
-        })();
-        // SAFETY: pipelines keep their own copy of the code.
-        unsafe {
-            d.destroy_shader_module(vert, None);
-            d.destroy_shader_module(frag, None);
-        }
-        made
+        let pipelines = [
+            make(0, Blend::Replace, 0)?,
+            make(1, Blend::Replace, 1)?,
+            make(2, Blend::Alpha, 0)?,
+        ];
+        Ok(Compositor {
+            pipelines,
+            layout,
+            pool,
+            set_layout,
+            sampler,
+        })
     }
 
     /// A descriptor set that samples `view` (in `SHADER_READ_ONLY_OPTIMAL`). Valid until the
     /// next [`Compositor::reset`].
     pub fn source(&self, ctx: &GpuContext, view: vk::ImageView) -> Result<vk::DescriptorSet> {
-        let layouts = [self.set_layout];
-        let alloc = vk::DescriptorSetAllocateInfo::default()
-            .descriptor_pool(self.pool)
-            .set_layouts(&layouts);
-        // SAFETY: valid pool and layout; the pool is sized for MAX_SETS sets between resets.
-        let set = unsafe { ctx.device.allocate_descriptor_sets(&alloc) }
-            .vk("vkAllocateDescriptorSets")?[0];
+        // The pool is sized for MAX_SETS sets between resets.
+        let set = pipeline::allocate_sets(ctx, *self.pool, &[*self.set_layout])?[0];
         let image = [vk::DescriptorImageInfo::default()
-            .sampler(self.sampler)
+            .sampler(*self.sampler)
             .image_view(view)
             .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)];
         let write = [vk::WriteDescriptorSet::default()
@@ -217,7 +160,7 @@ impl Compositor {
         // SAFETY: callers guarantee the sets are unused.
         unsafe {
             ctx.device
-                .reset_descriptor_pool(self.pool, vk::DescriptorPoolResetFlags::empty())
+                .reset_descriptor_pool(*self.pool, vk::DescriptorPoolResetFlags::empty())
         }
         .vk("vkResetDescriptorPool")?;
         Ok(())
@@ -261,7 +204,7 @@ impl Compositor {
         if x1 - x0 < 1.0 || y1 - y0 < 1.0 {
             return;
         }
-        let pipeline = self.pipelines[match mode {
+        let pipeline = *self.pipelines[match mode {
             PanelMode::Encoded => 0,
             PanelMode::Linear => 1,
             PanelMode::Overlay => 2,
@@ -297,34 +240,19 @@ impl Compositor {
             d.cmd_bind_descriptor_sets(
                 cmd,
                 vk::PipelineBindPoint::GRAPHICS,
-                self.layout,
+                *self.layout,
                 0,
                 &[set],
                 &[],
             );
             d.cmd_push_constants(
                 cmd,
-                self.layout,
+                *self.layout,
                 vk::ShaderStageFlags::FRAGMENT,
                 0,
                 as_bytes(&[push]),
             );
             d.cmd_draw(cmd, 3, 1, 0, 0);
-        }
-    }
-
-    /// Frees everything (see the module docs for the order). The GPU must be done with it.
-    pub fn destroy(self, ctx: &GpuContext) {
-        // SAFETY: no pending work uses these objects; null handles are ignored.
-        unsafe {
-            for p in self.pipelines {
-                ctx.device.destroy_pipeline(p, None);
-            }
-            ctx.device.destroy_pipeline_layout(self.layout, None);
-            ctx.device.destroy_descriptor_pool(self.pool, None);
-            ctx.device
-                .destroy_descriptor_set_layout(self.set_layout, None);
-            ctx.device.destroy_sampler(self.sampler, None);
         }
     }
 }

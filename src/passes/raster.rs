@@ -26,24 +26,24 @@
 //! samples anti-alias), clamp-to-edge or repeat per texture. Untextured draws use a 1×1 white
 //! texture. Vertex and index buffers are host-visible (small scenes; no staging needed).
 //!
-//! Destruction order: targets → submission → buffers → textures → pipelines → layouts →
-//! descriptor pool → samplers.
+//! Everything frees itself when the pass is dropped, in field order: pipelines → textures
+//! (images, descriptor pool, samplers) → buffers → submission → targets.
 
 use ash::vk;
 use glam::{DMat3, DMat4, DVec2, DVec3, DVec4};
 
-use crate::error::{Error, Result, VkContext};
+use crate::error::{Error, Result};
 use crate::geometry::camera::Camera;
 use crate::gpu::commands::{
     begin_rendering, format_barrier, image_barrier, record_readback, stage, ImageReadback,
     ImageTransition, Submission,
 };
-use crate::gpu::pipeline::{graphics_pipeline, Blend, DepthTest, PipelineDesc};
+use crate::gpu::pipeline::{self, graphics_pipeline, Blend, DepthTest, PipelineDesc};
 use crate::gpu::pod::{as_bytes, Pod};
 use crate::gpu::resources::{rgba_f32, Buffer, Image, ImageDesc};
 use crate::gpu::shaders;
 use crate::gpu::upload::{upload_images, ImageRegion};
-use crate::gpu::GpuContext;
+use crate::gpu::{GpuContext, Owned};
 use crate::scene::mesh::{MeshDraw, MeshScene, VERTEX_BYTES};
 
 /// Near plane distance (world units, metres for the synthetic scenes): surfaces nearer than
@@ -145,75 +145,42 @@ struct Targets {
 impl Targets {
     fn new(ctx: &GpuContext, width: u32, height: u32) -> Result<Self> {
         let color = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
-        let mut made: Vec<Image> = Vec::new();
-        let specs = [
-            (ACCUM_FORMAT, color, "raster accumulation target"),
-            (ACCUM_FORMAT, color, "raster geometry target"),
-            (
-                DEPTH_FORMAT,
-                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
-                "raster depth buffer",
-            ),
-        ];
-        for (format, usage, name) in specs {
-            match Image::new(
+        let image = |format, usage, name| {
+            Image::new(
                 ctx,
                 ImageDesc::new_2d(format, width, height, usage),
                 &[format],
                 name,
-            ) {
-                Ok(i) => made.push(i),
-                Err(e) => {
-                    made.into_iter().for_each(|i| i.destroy(ctx));
-                    return Err(e);
-                }
-            }
-        }
-        let readback = match Buffer::new(
-            ctx,
-            width as u64 * height as u64 * 32,
-            vk::BufferUsageFlags::TRANSFER_DST,
-            true,
-            "raster readback",
-        ) {
-            Ok(b) => b,
-            Err(e) => {
-                made.into_iter().for_each(|i| i.destroy(ctx));
-                return Err(e);
-            }
+            )
         };
-        let depth = made.pop();
-        let geometry = made.pop();
-        let accum = made.pop();
-        match (accum, geometry, depth) {
-            (Some(accum), Some(geometry), Some(depth)) => Ok(Targets {
-                width,
-                height,
-                accum,
-                geometry,
-                depth,
-                readback,
-            }),
-            _ => unreachable!("three images were created"),
-        }
-    }
-
-    fn destroy(self, ctx: &GpuContext) {
-        self.accum.destroy(ctx);
-        self.geometry.destroy(ctx);
-        self.depth.destroy(ctx);
-        self.readback.destroy(ctx);
+        Ok(Targets {
+            width,
+            height,
+            accum: image(ACCUM_FORMAT, color, "raster accumulation target")?,
+            geometry: image(ACCUM_FORMAT, color, "raster geometry target")?,
+            depth: image(
+                DEPTH_FORMAT,
+                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT,
+                "raster depth buffer",
+            )?,
+            readback: Buffer::new(
+                ctx,
+                width as u64 * height as u64 * 32,
+                vk::BufferUsageFlags::TRANSFER_DST,
+                true,
+                "raster readback",
+            )?,
+        })
     }
 }
 
 /// Pipelines, mesh buffers, textures and targets for one mesh scene.
 pub struct RasterPass {
-    b: PassBuilder,
+    pipelines: MeshPipelines,
+    textures: MeshTextures,
     vertices: Buffer,
     indices: Buffer,
     draws: Vec<MeshDraw>,
-    /// Descriptor set per texture, the white texture's last.
-    sets: Vec<vk::DescriptorSet>,
     submission: Submission,
     targets: Option<Targets>,
 }
@@ -227,30 +194,35 @@ impl RasterPass {
                 mesh.name
             )));
         }
-        let mut b = PassBuilder::default();
-        match b.build(ctx, mesh) {
-            Ok(sets) => {
-                let (Some(vertices), Some(indices), Some(submission)) =
-                    (b.vertices.take(), b.indices.take(), b.submission.take())
-                else {
-                    b.destroy(ctx);
-                    return Err(Error::Internal("raster pass set-up incomplete".into()));
-                };
-                Ok(RasterPass {
-                    b,
-                    vertices,
-                    indices,
-                    draws: mesh.draws.clone(),
-                    sets,
-                    submission,
-                    targets: None,
-                })
-            }
-            Err(e) => {
-                b.destroy(ctx);
-                Err(e)
+        let pipelines = MeshPipelines::new(ctx)?;
+        let textures = MeshTextures::new(ctx, mesh, *pipelines.set_layout)?;
+        // Mesh buffers (host-visible: the scenes are small).
+        let mut vbytes = Vec::with_capacity(mesh.vertices.len() * VERTEX_BYTES);
+        for v in &mesh.vertices {
+            for f in v.to_floats() {
+                vbytes.extend_from_slice(&f.to_ne_bytes());
             }
         }
+        let ibytes: Vec<u8> = mesh.indices.iter().flat_map(|i| i.to_ne_bytes()).collect();
+        Ok(RasterPass {
+            pipelines,
+            textures,
+            vertices: Buffer::with_bytes(
+                ctx,
+                &vbytes,
+                vk::BufferUsageFlags::VERTEX_BUFFER,
+                "mesh vertices",
+            )?,
+            indices: Buffer::with_bytes(
+                ctx,
+                &ibytes,
+                vk::BufferUsageFlags::INDEX_BUFFER,
+                "mesh indices",
+            )?,
+            draws: mesh.draws.clone(),
+            submission: Submission::new(ctx, "mesh raster")?,
+            targets: None,
+        })
     }
 
     /// Renders the mean of `samples` (at least one) into a `width × height` image, plus the
@@ -274,9 +246,7 @@ impl RasterPass {
             .as_ref()
             .map_or(true, |t| (t.width, t.height) != (width, height))
         {
-            if let Some(t) = self.targets.take() {
-                t.destroy(ctx);
-            }
+            self.targets = None;
             self.targets = Some(Targets::new(ctx, width, height)?);
         }
         let Some(t) = self.targets.as_mut() else {
@@ -284,9 +254,14 @@ impl RasterPass {
         };
         let extent = vk::Extent2D { width, height };
         let pixels = width as u64 * height as u64;
-        let (vb, ib) = (self.vertices.buffer, self.indices.buffer);
-        let (draws, sets) = (&self.draws, &self.sets);
-        let b = &self.b;
+        let draws = Draws {
+            vertices: self.vertices.buffer,
+            indices: self.indices.buffer,
+            draws: &self.draws,
+            sets: &self.textures.sets,
+            layout: *self.pipelines.layout,
+        };
+        let b = &self.pipelines;
         let (accum, geom, depth) = (&t.accum, &t.geometry, &t.depth);
         let readback = t.readback.buffer;
         self.submission.run(ctx, |d, cmd| {
@@ -305,33 +280,8 @@ impl RasterPass {
                 to: stage::DEPTH_WRITE,
             };
             format_barrier(d, cmd, depth.image, DEPTH_FORMAT, to_depth);
-            let draw_all = |pipeline: vk::Pipeline, p: &Projection| {
-                let push = as_bytes(std::slice::from_ref(p));
-                // SAFETY: recording inside a rendering instance whose formats match.
-                unsafe {
-                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
-                    d.cmd_push_constants(
-                        cmd,
-                        b.layout,
-                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                        0,
-                        push,
-                    );
-                    d.cmd_bind_vertex_buffers(cmd, 0, &[vb], &[0]);
-                    d.cmd_bind_index_buffer(cmd, ib, 0, vk::IndexType::UINT32);
-                    for draw in draws {
-                        let set = sets[draw.texture.unwrap_or(sets.len() - 1)];
-                        d.cmd_bind_descriptor_sets(
-                            cmd,
-                            vk::PipelineBindPoint::GRAPHICS,
-                            b.layout,
-                            0,
-                            &[set],
-                            &[],
-                        );
-                        d.cmd_draw_indexed(cmd, draw.index_count, 1, draw.first_index, 0, 0);
-                    }
-                }
+            let draw_all = |pipeline: &Owned<vk::Pipeline>, p: &Projection| {
+                draws.record(d, cmd, **pipeline, p)
             };
             for (k, p) in samples.iter().enumerate() {
                 if k > 0 {
@@ -349,8 +299,8 @@ impl RasterPass {
                     },
                     Some((depth.views[0], 0.0)),
                 );
-                draw_all(b.prepass, p);
-                draw_all(b.accum, p);
+                draw_all(&b.prepass, p);
+                draw_all(&b.accum, p);
                 // SAFETY: inside the rendering instance begun above.
                 unsafe { d.cmd_end_rendering(cmd) };
             }
@@ -387,7 +337,7 @@ impl RasterPass {
                     vk::AttachmentLoadOp::CLEAR,
                     Some((depth.views[0], 0.0)),
                 );
-                draw_all(b.geometry, g);
+                draw_all(&b.geometry, g);
                 // SAFETY: inside the rendering instance begun above.
                 unsafe { d.cmd_end_rendering(cmd) };
                 copy(geom.image, pixels * 16);
@@ -407,16 +357,54 @@ impl RasterPass {
             geometry,
         })
     }
+}
 
-    /// Frees everything (see the module docs for the order).
-    pub fn destroy(mut self, ctx: &GpuContext) {
-        if let Some(t) = self.targets.take() {
-            t.destroy(ctx);
+/// What one sample's draws bind: the mesh buffers, a descriptor set per draw's texture and the
+/// layout of the push constants.
+struct Draws<'a> {
+    vertices: vk::Buffer,
+    indices: vk::Buffer,
+    draws: &'a [MeshDraw],
+    /// Descriptor set per texture, the white texture's last.
+    sets: &'a [vk::DescriptorSet],
+    layout: vk::PipelineLayout,
+}
+
+impl Draws<'_> {
+    /// Records every draw of the mesh with `pipeline` under projection `p`.
+    fn record(
+        &self,
+        d: &ash::Device,
+        cmd: vk::CommandBuffer,
+        pipeline: vk::Pipeline,
+        p: &Projection,
+    ) {
+        let push = as_bytes(std::slice::from_ref(p));
+        // SAFETY: recording inside a rendering instance whose formats match.
+        unsafe {
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+            d.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                0,
+                push,
+            );
+            d.cmd_bind_vertex_buffers(cmd, 0, &[self.vertices], &[0]);
+            d.cmd_bind_index_buffer(cmd, self.indices, 0, vk::IndexType::UINT32);
+            for draw in self.draws {
+                let set = self.sets[draw.texture.unwrap_or(self.sets.len() - 1)];
+                d.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.layout,
+                    0,
+                    &[set],
+                    &[],
+                );
+                d.cmd_draw_indexed(cmd, draw.index_count, 1, draw.first_index, 0, 0);
+            }
         }
-        self.submission.destroy(ctx);
-        self.vertices.destroy(ctx);
-        self.indices.destroy(ctx);
-        self.b.destroy(ctx);
     }
 }
 
@@ -443,120 +431,61 @@ fn attachments_barrier(d: &ash::Device, cmd: vk::CommandBuffer) {
     };
 }
 
-/// Handles of the pass under construction (null until created); destroying it frees exactly
-/// those that exist, so a failed set-up leaks nothing.
-#[derive(Default)]
-struct PassBuilder {
-    sampler_clamp: vk::Sampler,
-    sampler_repeat: vk::Sampler,
-    set_layout: vk::DescriptorSetLayout,
-    layout: vk::PipelineLayout,
-    pool: vk::DescriptorPool,
-    prepass: vk::Pipeline,
-    accum: vk::Pipeline,
-    geometry: vk::Pipeline,
-    textures: Vec<Image>,
-    vertices: Option<Buffer>,
-    indices: Option<Buffer>,
-    submission: Option<Submission>,
+/// The three mesh pipelines and their layouts.
+struct MeshPipelines {
+    prepass: Owned<vk::Pipeline>,
+    accum: Owned<vk::Pipeline>,
+    geometry: Owned<vk::Pipeline>,
+    layout: Owned<vk::PipelineLayout>,
+    set_layout: Owned<vk::DescriptorSetLayout>,
 }
 
-impl PassBuilder {
-    /// Creates everything; returns the descriptor sets (per texture, then the white one).
-    fn build(&mut self, ctx: &GpuContext, mesh: &MeshScene) -> Result<Vec<vk::DescriptorSet>> {
-        let d = &ctx.device;
-        let sampler = |mode| {
-            vk::SamplerCreateInfo::default()
-                .mag_filter(vk::Filter::LINEAR)
-                .min_filter(vk::Filter::LINEAR)
-                .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
-                .address_mode_u(mode)
-                .address_mode_v(mode)
-                .address_mode_w(mode)
-                .max_lod(0.0)
-        };
-        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        // SAFETY: valid device and create infos throughout this block.
-        unsafe {
-            self.sampler_clamp = d
-                .create_sampler(&sampler(vk::SamplerAddressMode::CLAMP_TO_EDGE), None)
-                .vk("vkCreateSampler")?;
-            self.sampler_repeat = d
-                .create_sampler(&sampler(vk::SamplerAddressMode::REPEAT), None)
-                .vk("vkCreateSampler")?;
-            ctx.name(self.sampler_clamp, "mesh texture sampler (clamp)");
-            ctx.name(self.sampler_repeat, "mesh texture sampler (repeat)");
-            let bindings = [vk::DescriptorSetLayoutBinding::default()
-                .binding(0)
-                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
-            self.set_layout = d
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                    None,
-                )
-                .vk("vkCreateDescriptorSetLayout")?;
-            let push = [vk::PushConstantRange::default()
-                .stage_flags(stages)
-                .offset(0)
-                .size(PUSH_BYTES as u32)];
-            let set_layouts = [self.set_layout];
-            self.layout = d
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&set_layouts)
-                        .push_constant_ranges(&push),
-                    None,
-                )
-                .vk("vkCreatePipelineLayout")?;
-        }
+impl MeshPipelines {
+    fn new(ctx: &GpuContext) -> Result<Self> {
+        let bindings = [vk::DescriptorSetLayoutBinding::default()
+            .binding(0)
+            .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+            .descriptor_count(1)
+            .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
+        let set_layout = pipeline::set_layout(ctx, &bindings, "mesh set layout")?;
+        let push = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT)
+            .offset(0)
+            .size(PUSH_BYTES as u32)];
+        let layout = pipeline::pipeline_layout(ctx, &[*set_layout], &push, "mesh layout")?;
         let vert = shaders::module(ctx, shaders::MESH_VERT, "mesh.vert")?;
-        let accum = shaders::module(ctx, shaders::MESH_ACCUM_FRAG, "mesh_accum.frag");
-        let geom = shaders::module(ctx, shaders::MESH_GEOM_FRAG, "mesh_geom.frag");
-        let made = (|| -> Result<()> {
-            let (Ok(accum), Ok(geom)) = (&accum, &geom) else {
-                return Err(Error::Vulkan(
-                    "cannot create the mesh shader modules".into(),
-                ));
-            };
-            self.prepass = mesh_pipeline(ctx, self.layout, vert, *accum, Mode::DepthPrepass)?;
-            self.accum = mesh_pipeline(ctx, self.layout, vert, *accum, Mode::Accumulate)?;
-            self.geometry = mesh_pipeline(ctx, self.layout, vert, *geom, Mode::Geometry)?;
-            ctx.name(self.prepass, "mesh depth pre-pass pipeline");
-            ctx.name(self.accum, "mesh accumulation pipeline");
-            ctx.name(self.geometry, "mesh geometry pipeline");
-            Ok(())
-        })();
-        for m in [Ok(vert), accum, geom].into_iter().flatten() {
-            // SAFETY: pipelines keep their own copy of the code.
-            unsafe { d.destroy_shader_module(m, None) };
-        }
-        made?;
+        let accum = shaders::module(ctx, shaders::MESH_ACCUM_FRAG, "mesh_accum.frag")?;
+        let geom = shaders::module(ctx, shaders::MESH_GEOM_FRAG, "mesh_geom.frag")?;
+        let make = |frag: &Owned<vk::ShaderModule>, mode, name| {
+            mesh_pipeline(ctx, *layout, *vert, **frag, mode, name)
+        };
+        Ok(MeshPipelines {
+            prepass: make(&accum, Mode::DepthPrepass, "mesh depth pre-pass pipeline")?,
+            accum: make(&accum, Mode::Accumulate, "mesh accumulation pipeline")?,
+            geometry: make(&geom, Mode::Geometry, "mesh geometry pipeline")?,
+            layout,
+            set_layout,
+        })
+    }
+}
 
-        // Mesh buffers (host-visible: the scenes are small).
-        let mut vbytes = Vec::with_capacity(mesh.vertices.len() * VERTEX_BYTES);
-        for v in &mesh.vertices {
-            for f in v.to_floats() {
-                vbytes.extend_from_slice(&f.to_ne_bytes());
-            }
-        }
-        let ibytes: Vec<u8> = mesh.indices.iter().flat_map(|i| i.to_ne_bytes()).collect();
-        self.vertices = Some(Buffer::with_bytes(
-            ctx,
-            &vbytes,
-            vk::BufferUsageFlags::VERTEX_BUFFER,
-            "mesh vertices",
-        )?);
-        self.indices = Some(Buffer::with_bytes(
-            ctx,
-            &ibytes,
-            vk::BufferUsageFlags::INDEX_BUFFER,
-            "mesh indices",
-        )?);
-        let submission = Submission::new(ctx, "mesh raster")?;
+/// The mesh's textures (and a 1×1 white one for untextured draws) with a descriptor set each.
+struct MeshTextures {
+    _images: Vec<Image>,
+    /// Descriptor set per texture, the white texture's last.
+    sets: Vec<vk::DescriptorSet>,
+    _pool: Owned<vk::DescriptorPool>,
+    _clamp: Owned<vk::Sampler>,
+    _repeat: Owned<vk::Sampler>,
+}
 
-        // Textures, then a 1×1 white one for untextured draws, through one staging upload.
+impl MeshTextures {
+    /// Uploads every texture through one staging buffer and writes their sets.
+    fn new(
+        ctx: &GpuContext,
+        mesh: &MeshScene,
+        set_layout: vk::DescriptorSetLayout,
+    ) -> Result<Self> {
         let white = [255u8; 4];
         let mut all: Vec<(u32, u32, &[u8], bool, String)> = mesh
             .textures
@@ -564,7 +493,6 @@ impl PassBuilder {
             .map(|t| (t.width, t.height, &t.rgba[..], t.repeat, t.name.clone()))
             .collect();
         all.push((1, 1, &white[..], false, "white texture".into()));
-        let total: usize = all.iter().map(|a| a.2.len()).sum();
         for (w, h, data, _, name) in &all {
             if data.len() != (*w as usize) * (*h as usize) * 4 {
                 return Err(Error::Invalid(format!(
@@ -574,19 +502,20 @@ impl PassBuilder {
                 )));
             }
         }
-        for (w, h, _, _, name) in &all {
-            let desc = ImageDesc::new_2d(
-                vk::Format::R8G8B8A8_SRGB,
-                *w,
-                *h,
-                vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
-            );
-            self.textures
-                .push(Image::new(ctx, desc, &[vk::Format::R8G8B8A8_SRGB], name)?);
-        }
+        let images = all
+            .iter()
+            .map(|(w, h, _, _, name)| {
+                let desc = ImageDesc::new_2d(
+                    vk::Format::R8G8B8A8_SRGB,
+                    *w,
+                    *h,
+                    vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+                );
+                Image::new(ctx, desc, &[vk::Format::R8G8B8A8_SRGB], name)
+            })
+            .collect::<Result<Vec<_>>>()?;
         let mut at = 0u64;
-        let regions: Vec<ImageRegion> = self
-            .textures
+        let regions: Vec<ImageRegion> = images
             .iter()
             .zip(&all)
             .map(|(image, a)| {
@@ -598,88 +527,60 @@ impl PassBuilder {
                 }
             })
             .collect();
-        let upload = upload_images(ctx, &regions, total as u64, "mesh texture staging", |dst| {
+        upload_images(ctx, &regions, at, "mesh texture staging", |dst| {
             let mut at = 0usize;
             for (_, _, data, _, _) in &all {
                 dst[at..at + data.len()].copy_from_slice(data);
                 at += data.len();
             }
             Ok(())
-        });
-        self.submission = Some(submission);
-        upload?;
-
-        // One descriptor set per texture.
-        let n = self.textures.len() as u32;
+        })?;
+        let sampler = |mode, name| {
+            let info = vk::SamplerCreateInfo::default()
+                .mag_filter(vk::Filter::LINEAR)
+                .min_filter(vk::Filter::LINEAR)
+                .mipmap_mode(vk::SamplerMipmapMode::NEAREST)
+                .address_mode_u(mode)
+                .address_mode_v(mode)
+                .address_mode_w(mode)
+                .max_lod(0.0);
+            pipeline::sampler(ctx, &info, name)
+        };
+        let clamp = sampler(
+            vk::SamplerAddressMode::CLAMP_TO_EDGE,
+            "mesh texture sampler (clamp)",
+        )?;
+        let repeat = sampler(
+            vk::SamplerAddressMode::REPEAT,
+            "mesh texture sampler (repeat)",
+        )?;
+        let n = images.len() as u32;
         let sizes = [vk::DescriptorPoolSize {
             ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
             descriptor_count: n,
         }];
-        // SAFETY: valid device; the sets are written with live views and samplers.
-        let sets = unsafe {
-            self.pool = d
-                .create_descriptor_pool(
-                    &vk::DescriptorPoolCreateInfo::default()
-                        .max_sets(n)
-                        .pool_sizes(&sizes),
-                    None,
-                )
-                .vk("vkCreateDescriptorPool")?;
-            let layouts = vec![self.set_layout; n as usize];
-            let sets = d
-                .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default()
-                        .descriptor_pool(self.pool)
-                        .set_layouts(&layouts),
-                )
-                .vk("vkAllocateDescriptorSets")?;
-            for (i, set) in sets.iter().enumerate() {
-                let sampler = if all[i].3 {
-                    self.sampler_repeat
-                } else {
-                    self.sampler_clamp
-                };
-                let info = [vk::DescriptorImageInfo::default()
-                    .sampler(sampler)
-                    .image_view(self.textures[i].views[0])
-                    .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)];
-                let write = vk::WriteDescriptorSet::default()
-                    .dst_set(*set)
-                    .dst_binding(0)
-                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                    .image_info(&info);
-                d.update_descriptor_sets(&[write], &[]);
-            }
-            sets
-        };
-        Ok(sets)
-    }
-
-    fn destroy(mut self, ctx: &GpuContext) {
-        if let Some(s) = self.submission.take() {
-            s.destroy(ctx);
+        let pool = pipeline::descriptor_pool(ctx, n, &sizes, "mesh texture descriptors")?;
+        let sets = pipeline::allocate_sets(ctx, *pool, &vec![set_layout; n as usize])?;
+        for ((set, image), a) in sets.iter().zip(&images).zip(&all) {
+            let info = [vk::DescriptorImageInfo::default()
+                .sampler(if a.3 { *repeat } else { *clamp })
+                .image_view(image.views[0])
+                .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)];
+            let write = vk::WriteDescriptorSet::default()
+                .dst_set(*set)
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .image_info(&info);
+            // SAFETY: a new, unused set; the view and sampler are live.
+            unsafe { ctx.device.update_descriptor_sets(&[write], &[]) };
         }
-        if let Some(b) = self.vertices.take() {
-            b.destroy(ctx);
-        }
-        if let Some(b) = self.indices.take() {
-            b.destroy(ctx);
-        }
-        for t in self.textures.drain(..) {
-            t.destroy(ctx);
-        }
-        let d = &ctx.device;
-        // SAFETY: nothing uses these objects any more; destroying null handles is a no-op.
-        unsafe {
-            d.destroy_pipeline(self.prepass, None);
-            d.destroy_pipeline(self.accum, None);
-            d.destroy_pipeline(self.geometry, None);
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_pool(self.pool, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
-            d.destroy_sampler(self.sampler_clamp, None);
-            d.destroy_sampler(self.sampler_repeat, None);
-        }
+        Ok(MeshTextures {
+            _images: images,
+            sets,
+            _pool: pool,
+            _clamp: clamp,
+            _repeat: repeat,
+        })
     }
 }
 
@@ -696,7 +597,8 @@ fn mesh_pipeline(
     vert: vk::ShaderModule,
     frag: vk::ShaderModule,
     mode: Mode,
-) -> Result<vk::Pipeline> {
+    name: &str,
+) -> Result<Owned<vk::Pipeline>> {
     let bindings = [vk::VertexInputBindingDescription::default()
         .binding(0)
         .stride(VERTEX_BYTES as u32)
@@ -743,6 +645,7 @@ fn mesh_pipeline(
             vertex_attributes: &attributes,
             frag_constants: &[],
         },
+        name,
     )
 }
 

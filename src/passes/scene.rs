@@ -26,21 +26,22 @@
 //! ([`ScenePass::record`]'s `slot`), so a frame never overwrites what an earlier frame in flight
 //! still reads.
 //!
-//! Destruction order: overlay buffers → cloud buffer → pipelines → layout.
+//! Everything frees itself when the pass is dropped, in field order: overlay buffers → cloud
+//! buffer → pipelines → layout.
 
 use ash::vk;
 
-use crate::error::{Error, Result, VkContext};
+use crate::error::{Error, Result};
 use image::RgbaImage;
 
 use crate::gpu::commands::{
     begin_rendering, format_barrier, record_readback, stage, ImageReadback, ImageTransition,
     Submission,
 };
-use crate::gpu::pipeline::{graphics_pipeline, Blend, DepthTest, PipelineDesc};
+use crate::gpu::pipeline::{self, graphics_pipeline, Blend, DepthTest, PipelineDesc};
 use crate::gpu::pod::{as_bytes, Pod};
 use crate::gpu::resources::{Buffer, Image, ImageDesc};
-use crate::gpu::{shaders, GpuContext};
+use crate::gpu::{shaders, GpuContext, Owned};
 use crate::scene::ColourVertex;
 
 /// Colour format of scene targets (linear blending, encoded storage).
@@ -126,18 +127,12 @@ impl SceneTarget {
             (SCENE_FORMAT, attach | src, "scene cloud layer"),
             (DEPTH_FORMAT, depth_attach | src, "scene cloud depth"),
         ];
-        let mut made: Vec<Image> = Vec::new();
-        for (format, usage, name) in specs {
-            match Image::new(ctx, ImageDesc::new_2d(format, w, h, usage), &[format], name) {
-                Ok(i) => made.push(i),
-                Err(e) => {
-                    for i in made {
-                        i.destroy(ctx);
-                    }
-                    return Err(e);
-                }
-            }
-        }
+        let made = specs
+            .into_iter()
+            .map(|(format, usage, name)| {
+                Image::new(ctx, ImageDesc::new_2d(format, w, h, usage), &[format], name)
+            })
+            .collect::<Result<Vec<Image>>>()?;
         let mut it = made.into_iter();
         let mut next = || it.next().expect("four images made above");
         Ok(SceneTarget {
@@ -156,14 +151,7 @@ impl SceneTarget {
     pub fn read(&self, ctx: &GpuContext, layout: stage::End) -> Result<RgbaImage> {
         let (w, h) = (self.width, self.height);
         let mut readback = Buffer::readback(ctx, w as u64 * h as u64 * 4, "scene readback")?;
-        let submission = match Submission::new(ctx, "scene readback") {
-            Ok(s) => s,
-            Err(e) => {
-                readback.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let ran = submission.run(ctx, |d, cmd| {
+        Submission::new(ctx, "scene readback")?.run(ctx, |d, cmd| {
             let copy = ImageReadback {
                 image: self.color.image,
                 from: layout,
@@ -174,27 +162,14 @@ impl SceneTarget {
                 offset: 0,
             };
             record_readback(d, cmd, &copy);
-        });
-        submission.destroy(ctx);
-        let image = ran.and_then(|()| {
-            readback.invalidate(ctx)?;
-            let mut raw = readback.bytes_mut()[..(w * h * 4) as usize].to_vec();
-            for p in raw.chunks_exact_mut(4) {
-                p[3] = 255;
-            }
-            RgbaImage::from_raw(w, h, raw)
-                .ok_or_else(|| Error::Internal("scene readback size mismatch".into()))
-        });
-        readback.destroy(ctx);
-        image
-    }
-
-    /// Frees the images (the GPU must be done with them).
-    pub fn destroy(self, ctx: &GpuContext) {
-        self.cloud_depth.destroy(ctx);
-        self.cloud_color.destroy(ctx);
-        self.depth.destroy(ctx);
-        self.color.destroy(ctx);
+        })?;
+        readback.invalidate(ctx)?;
+        let mut raw = readback.bytes_mut()[..(w * h * 4) as usize].to_vec();
+        for p in raw.chunks_exact_mut(4) {
+            p[3] = 255;
+        }
+        RgbaImage::from_raw(w, h, raw)
+            .ok_or_else(|| Error::Internal("scene readback size mismatch".into()))
     }
 }
 
@@ -203,54 +178,23 @@ pub struct ScenePass {
     overlay: Vec<Option<Buffer>>,
     cloud: Option<Buffer>,
     cloud_count: u32,
-    points: vk::Pipeline,
-    lines: vk::Pipeline,
-    quad: vk::Pipeline,
-    markers: vk::Pipeline,
-    layout: vk::PipelineLayout,
+    points: Owned<vk::Pipeline>,
+    lines: Owned<vk::Pipeline>,
+    quad: Owned<vk::Pipeline>,
+    markers: Owned<vk::Pipeline>,
+    layout: Owned<vk::PipelineLayout>,
     max_point_size: f32,
 }
 
 impl ScenePass {
     /// Creates the pipelines, with `slots` overlay buffers (one per frame in flight).
     pub fn new(ctx: &GpuContext, slots: usize) -> Result<Self> {
-        let d = &ctx.device;
         let push = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::VERTEX)
             .size(PUSH_BYTES)];
-        let info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&push);
-        // SAFETY: valid device and create info.
-        let layout =
-            unsafe { d.create_pipeline_layout(&info, None) }.vk("vkCreatePipelineLayout")?;
-        let range = ctx.properties.limits.point_size_range;
-        let mut pass = ScenePass {
-            overlay: (0..slots.max(1)).map(|_| None).collect(),
-            cloud: None,
-            cloud_count: 0,
-            points: vk::Pipeline::null(),
-            lines: vk::Pipeline::null(),
-            quad: vk::Pipeline::null(),
-            markers: vk::Pipeline::null(),
-            layout,
-            max_point_size: if ctx.large_points { range[1] } else { 1.0 },
-        };
-        if let Err(e) = pass.make_pipelines(ctx) {
-            pass.destroy(ctx);
-            return Err(e);
-        }
-        Ok(pass)
-    }
-
-    fn make_pipelines(&mut self, ctx: &GpuContext) -> Result<()> {
+        let layout = pipeline::pipeline_layout(ctx, &[], &push, "scene layout")?;
         let vert = shaders::module(ctx, shaders::SCENE_VERT, "scene.vert")?;
-        let frag = match shaders::module(ctx, shaders::SCENE_FRAG, "scene.frag") {
-            Ok(f) => f,
-            Err(e) => {
-                // SAFETY: unused module.
-                unsafe { ctx.device.destroy_shader_module(vert, None) };
-                return Err(e);
-            }
-        };
+        let frag = shaders::module(ctx, shaders::SCENE_FRAG, "scene.frag")?;
         let bindings = [vk::VertexInputBindingDescription::default()
             .binding(0)
             .stride(VERTEX_BYTES as u32)
@@ -273,9 +217,9 @@ impl ScenePass {
             })
         };
         let base = PipelineDesc {
-            layout: self.layout,
-            vert,
-            frag,
+            layout: *layout,
+            vert: *vert,
+            frag: *frag,
             color_format: SCENE_FORMAT,
             topology: vk::PrimitiveTopology::POINT_LIST,
             blend: Blend::Replace,
@@ -285,51 +229,38 @@ impl ScenePass {
             vertex_attributes: &attributes,
             frag_constants: &[],
         };
-        let made = (|| -> Result<()> {
-            self.points = graphics_pipeline(ctx, &base)?;
-            ctx.name(self.points, "scene points");
-            self.lines = graphics_pipeline(
-                ctx,
-                &PipelineDesc {
-                    topology: vk::PrimitiveTopology::LINE_LIST,
-                    ..base
-                },
-            )?;
-            ctx.name(self.lines, "scene lines");
-            self.quad = graphics_pipeline(
-                ctx,
-                &PipelineDesc {
-                    topology: vk::PrimitiveTopology::TRIANGLE_LIST,
-                    blend: Blend::Alpha,
-                    depth: depth(vk::CompareOp::GREATER_OR_EQUAL, false),
-                    ..base
-                },
-            )?;
-            ctx.name(self.quad, "scene plane quad");
-            self.markers = graphics_pipeline(
-                ctx,
-                &PipelineDesc {
-                    depth: depth(vk::CompareOp::ALWAYS, false),
-                    ..base
-                },
-            )?;
-            ctx.name(self.markers, "scene markers");
-            Ok(())
-        })();
-        // SAFETY: pipelines keep their own copy of the code.
-        unsafe {
-            ctx.device.destroy_shader_module(vert, None);
-            ctx.device.destroy_shader_module(frag, None);
-        }
-        made
+        let lines = PipelineDesc {
+            topology: vk::PrimitiveTopology::LINE_LIST,
+            ..base
+        };
+        let quad = PipelineDesc {
+            topology: vk::PrimitiveTopology::TRIANGLE_LIST,
+            blend: Blend::Alpha,
+            depth: depth(vk::CompareOp::GREATER_OR_EQUAL, false),
+            ..base
+        };
+        let markers = PipelineDesc {
+            depth: depth(vk::CompareOp::ALWAYS, false),
+            ..base
+        };
+        let range = ctx.properties.limits.point_size_range;
+        Ok(ScenePass {
+            overlay: (0..slots.max(1)).map(|_| None).collect(),
+            cloud: None,
+            cloud_count: 0,
+            points: graphics_pipeline(ctx, &base, "scene points")?,
+            lines: graphics_pipeline(ctx, &lines, "scene lines")?,
+            quad: graphics_pipeline(ctx, &quad, "scene plane quad")?,
+            markers: graphics_pipeline(ctx, &markers, "scene markers")?,
+            layout,
+            max_point_size: if ctx.large_points { range[1] } else { 1.0 },
+        })
     }
 
     /// Replaces the point cloud. The GPU must not be using the old one (call it before the
     /// first frame, or after waiting for the frames in flight).
     pub fn set_cloud(&mut self, ctx: &GpuContext, points: &[ColourVertex]) -> Result<()> {
-        if let Some(b) = self.cloud.take() {
-            b.destroy(ctx);
-        }
+        self.cloud = None;
         self.cloud_count = 0;
         if points.is_empty() {
             return Ok(());
@@ -388,7 +319,7 @@ impl ScenePass {
                     d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
                     d.cmd_push_constants(
                         cmd,
-                        self.layout,
+                        *self.layout,
                         vk::ShaderStageFlags::VERTEX,
                         0,
                         as_bytes(&[push(size)]),
@@ -421,7 +352,7 @@ impl ScenePass {
             );
             if let Some(cloud) = &self.cloud {
                 draw(
-                    self.points,
+                    *self.points,
                     cloud.buffer,
                     0,
                     self.cloud_count as usize,
@@ -436,51 +367,7 @@ impl ScenePass {
         }
 
         // 2. Copy the layer into the target.
-        barrier(&target.color, stage::DISCARD, stage::TRANSFER_DST);
-        barrier(&target.depth, stage::DISCARD, stage::TRANSFER_DST);
-        for (src, dst, aspect) in [
-            (
-                &target.cloud_color,
-                &target.color,
-                vk::ImageAspectFlags::COLOR,
-            ),
-            (
-                &target.cloud_depth,
-                &target.depth,
-                vk::ImageAspectFlags::DEPTH,
-            ),
-        ] {
-            let layers = vk::ImageSubresourceLayers {
-                aspect_mask: aspect,
-                mip_level: 0,
-                base_array_layer: 0,
-                layer_count: 1,
-            };
-            let region = vk::ImageCopy {
-                src_subresource: layers,
-                src_offset: vk::Offset3D::default(),
-                dst_subresource: layers,
-                dst_offset: vk::Offset3D::default(),
-                extent: vk::Extent3D {
-                    width: target.width,
-                    height: target.height,
-                    depth: 1,
-                },
-            };
-            // SAFETY: recording outside a rendering instance; layouts set by the barriers.
-            unsafe {
-                d.cmd_copy_image(
-                    cmd,
-                    src.image,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    dst.image,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[region],
-                )
-            };
-        }
-        barrier(&target.color, stage::TRANSFER_DST, stage::COLOR_WRITE);
-        barrier(&target.depth, stage::TRANSFER_DST, stage::DEPTH_WRITE);
+        copy_cloud_layer(d, cmd, target);
 
         // 3. The overlay over the cloud, depth-tested against it.
         begin_loaded(d, cmd, extent, target);
@@ -489,17 +376,17 @@ impl ScenePass {
             overlay.triangles.len(),
             overlay.points.len(),
         );
-        draw(self.lines, overlay_buffer, 0, nl, 1.0);
+        draw(*self.lines, overlay_buffer, 0, nl, 1.0);
         draw(
-            self.points,
+            *self.points,
             overlay_buffer,
             nl + nt,
             np,
             0.5 * view.marker_size,
         );
-        draw(self.quad, overlay_buffer, nl, nt, 1.0);
+        draw(*self.quad, overlay_buffer, nl, nt, 1.0);
         draw(
-            self.markers,
+            *self.markers,
             overlay_buffer,
             nl + nt + np,
             overlay.markers.len(),
@@ -524,9 +411,7 @@ impl ScenePass {
             .ok_or_else(|| Error::Invalid(format!("scene pass has no frame slot {slot}")))?;
         let needed = (n.max(1) as u64) * VERTEX_BYTES;
         if slot_buffer.as_ref().map_or(true, |b| b.size < needed) {
-            if let Some(b) = slot_buffer.take() {
-                b.destroy(ctx);
-            }
+            *slot_buffer = None;
             // Grow geometrically so a growing number of picks does not reallocate every frame.
             let size = needed.next_power_of_two().max(64 * VERTEX_BYTES);
             *slot_buffer = Some(Buffer::new(
@@ -547,23 +432,66 @@ impl ScenePass {
         buffer.bytes_mut()[..bytes.len()].copy_from_slice(bytes);
         Ok(buffer.buffer)
     }
+}
 
-    /// Frees everything (see the module docs for the order). The GPU must be done with it.
-    pub fn destroy(mut self, ctx: &GpuContext) {
-        for b in self.overlay.drain(..).flatten() {
-            b.destroy(ctx);
-        }
-        if let Some(b) = self.cloud.take() {
-            b.destroy(ctx);
-        }
-        // SAFETY: no pending work uses these objects; null handles are ignored.
+/// Copies the cached cloud layer (colour and depth) into `target`'s images, leaving them ready
+/// to draw over.
+fn copy_cloud_layer(d: &ash::Device, cmd: vk::CommandBuffer, target: &SceneTarget) {
+    let barrier = |image: &Image, from, to| {
+        format_barrier(
+            d,
+            cmd,
+            image.image,
+            image.desc.format,
+            ImageTransition { from, to },
+        );
+    };
+    barrier(&target.color, stage::DISCARD, stage::TRANSFER_DST);
+    barrier(&target.depth, stage::DISCARD, stage::TRANSFER_DST);
+    let pairs = [
+        (
+            &target.cloud_color,
+            &target.color,
+            vk::ImageAspectFlags::COLOR,
+        ),
+        (
+            &target.cloud_depth,
+            &target.depth,
+            vk::ImageAspectFlags::DEPTH,
+        ),
+    ];
+    for (src, dst, aspect) in pairs {
+        let layers = vk::ImageSubresourceLayers {
+            aspect_mask: aspect,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let region = vk::ImageCopy {
+            src_subresource: layers,
+            src_offset: vk::Offset3D::default(),
+            dst_subresource: layers,
+            dst_offset: vk::Offset3D::default(),
+            extent: vk::Extent3D {
+                width: target.width,
+                height: target.height,
+                depth: 1,
+            },
+        };
+        // SAFETY: recording outside a rendering instance; layouts set by the barriers.
         unsafe {
-            for p in [self.points, self.lines, self.quad, self.markers] {
-                ctx.device.destroy_pipeline(p, None);
-            }
-            ctx.device.destroy_pipeline_layout(self.layout, None);
-        }
+            d.cmd_copy_image(
+                cmd,
+                src.image,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                dst.image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[region],
+            )
+        };
     }
+    barrier(&target.color, stage::TRANSFER_DST, stage::COLOR_WRITE);
+    barrier(&target.depth, stage::TRANSFER_DST, stage::DEPTH_WRITE);
 }
 
 /// Begins rendering into `target` keeping the colour and depth already there.

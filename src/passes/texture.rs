@@ -106,7 +106,7 @@ pub fn check_fits(
     Ok(())
 }
 
-/// The uploaded light field. Not `Clone`; free with [`LightFieldTexture::destroy`].
+/// The uploaded light field. Not `Clone`; freed when dropped.
 pub struct LightFieldTexture {
     pub image: Image,
     pub storage: ViewStorage,
@@ -147,10 +147,7 @@ impl LightFieldTexture {
             ViewStorage::Linear16 => &[format],
         };
         let image = Image::new(ctx, desc, view_formats, "light field views")?;
-        if let Err(e) = write_views(ctx, &image, storage, lf) {
-            image.destroy(ctx);
-            return Err(e);
-        }
+        write_views(ctx, &image, storage, lf)?;
         Ok(LightFieldTexture {
             image,
             storage,
@@ -205,11 +202,6 @@ impl LightFieldTexture {
     /// [`Self::reupload`] needs.
     pub fn staging_bytes(&self) -> u64 {
         staging_layout(self.storage, self.width, self.height, self.layers).1
-    }
-
-    /// Frees the texture.
-    pub fn destroy(self, ctx: &GpuContext) {
-        self.image.destroy(ctx);
     }
 }
 

@@ -771,37 +771,7 @@ pub fn plan_antialias_reusing(
         e => e,
     })?;
     let scene = scene_depth(depth, &base.reference_camera, (lf.width, lf.height))?;
-    let mut cells = Vec::new();
-    for (index, v) in lf.views.iter().enumerate() {
-        if excluded.get(index).copied().unwrap_or(false) {
-            continue;
-        }
-        let pos = DVec2::new(v.s as f64, v.t as f64);
-        let (area, rect) = cell(&aperture, pos, base.reference, lf.grid.cols, lf.grid.rows);
-        // A gaussian has no rim: its views keep their point weights over whole cells.
-        let (weight, rect) = match aperture.shape {
-            ApertureShape::Gaussian => (
-                base.views
-                    .iter()
-                    .find(|p| p.index == index)
-                    .map_or(0.0, |p| p.weight),
-                [-0.5, 0.5, -0.5, 0.5],
-            ),
-            _ => (area, rect),
-        };
-        if weight > 0.0 {
-            cells.push((index, weight, rect));
-        }
-    }
-    // An aperture smaller than the quadrature's resolution (radius ≈ 0: a pinhole) has no
-    // measurable cell: then it is the plain plan's views, each a point (no footprint).
-    if cells.is_empty() {
-        cells = base
-            .views
-            .iter()
-            .map(|p| (p.index, p.weight, [0.0; 4]))
-            .collect();
-    }
+    let cells = aperture_cells(lf, base, aperture, excluded);
     let mut views = Vec::new();
     let mut footprints = Vec::new();
     for (index, weight, [u0, u1, v0, v1]) in cells {
@@ -833,27 +803,11 @@ pub fn plan_antialias_reusing(
         });
         footprints.push(fp);
     }
-    // The front search reaches as far as any view's parallax over the scene's depth range:
-    // farther than that, no view can see an occluder at a pixel.
     let mut scene = scene;
-    let valid = scene.inverse_depth.iter().filter(|&&v| v >= 0.0);
-    let (lo, hi) = valid.fold((f32::INFINITY, -1f32), |(a, b), &v| (a.min(v), b.max(v)));
     // Without the occlusion tests the front stays the pixel's own σ: nothing is nearer, and
     // the shader's and the model's tests never run.
-    if hi > lo && settings.occlusion && !settings.defocus {
-        let reach = footprints
-            .iter()
-            .map(|f| f.parallax.truncate().length())
-            .fold(0.0, f64::max)
-            * (hi - lo) as f64;
-        let r = (reach.ceil() as u32 + 1).min(MAX_FRONT_RADIUS);
-        scene.front = max_filter(
-            &scene.inverse_depth,
-            scene.width as usize,
-            scene.height as usize,
-            r as usize,
-        );
-        scene.front_radius = r;
+    if settings.occlusion && !settings.defocus {
+        search_fronts(&mut scene, &footprints);
     }
     if views.len() > MAX_VIEWS {
         return Err(Error::Invalid(format!(
@@ -904,6 +858,72 @@ pub fn plan_antialias_reusing(
         },
         settings,
     })
+}
+
+/// Each view's aperture cell: `(view index, weight, [u0, u1, v0, v1])`, the part of its cell
+/// inside `aperture` in grid steps around the view. An aperture smaller than the quadrature's
+/// resolution (radius ≈ 0: a pinhole) has no measurable cell: then the plain plan's views, each
+/// a point (no footprint).
+fn aperture_cells(
+    lf: &LightField,
+    base: &RefocusPlan,
+    aperture: Aperture,
+    excluded: &[bool],
+) -> Vec<(usize, f64, [f64; 4])> {
+    let mut cells = Vec::new();
+    for (index, v) in lf.views.iter().enumerate() {
+        if excluded.get(index).copied().unwrap_or(false) {
+            continue;
+        }
+        let pos = DVec2::new(v.s as f64, v.t as f64);
+        let (area, rect) = cell(&aperture, pos, base.reference, lf.grid.cols, lf.grid.rows);
+        // A gaussian has no rim: its views keep their point weights over whole cells.
+        let (weight, rect) = match aperture.shape {
+            ApertureShape::Gaussian => (
+                base.views
+                    .iter()
+                    .find(|p| p.index == index)
+                    .map_or(0.0, |p| p.weight),
+                [-0.5, 0.5, -0.5, 0.5],
+            ),
+            _ => (area, rect),
+        };
+        if weight > 0.0 {
+            cells.push((index, weight, rect));
+        }
+    }
+    if cells.is_empty() {
+        cells = base
+            .views
+            .iter()
+            .map(|p| (p.index, p.weight, [0.0; 4]))
+            .collect();
+    }
+    cells
+}
+
+/// Sets `scene`'s front (the nearest σ around each pixel) for the occlusion tests. The search
+/// reaches as far as any view's parallax over the scene's depth range: farther than that, no
+/// view can see an occluder at a pixel.
+fn search_fronts(scene: &mut SceneDepth, footprints: &[Footprint]) {
+    let valid = scene.inverse_depth.iter().filter(|&&v| v >= 0.0);
+    let (lo, hi) = valid.fold((f32::INFINITY, -1f32), |(a, b), &v| (a.min(v), b.max(v)));
+    if hi <= lo {
+        return;
+    }
+    let reach = footprints
+        .iter()
+        .map(|f| f.parallax.truncate().length())
+        .fold(0.0, f64::max)
+        * (hi - lo) as f64;
+    let r = (reach.ceil() as u32 + 1).min(MAX_FRONT_RADIUS);
+    scene.front = max_filter(
+        &scene.inverse_depth,
+        scene.width as usize,
+        scene.height as usize,
+        r as usize,
+    );
+    scene.front_radius = r;
 }
 
 /// [`plan_antialias`] with the depth of `lf`'s map-carrying view ([`LightField::view_depth`]);

@@ -395,36 +395,7 @@ fn add_primitive(
     let colors: Option<Vec<[f32; 4]>> = reader.read_colors(0).map(|c| c.into_rgba_f32().collect());
     let normals: Option<Vec<[f32; 3]>> = reader.read_normals().map(|n| n.collect());
     let texture = match (&info, &uvs) {
-        (Some(info), Some(_)) => {
-            let tex = info.texture();
-            let image_index = tex.source().index();
-            let repeat = tex.sampler().wrap_s() != gltf::texture::WrappingMode::ClampToEdge;
-            let key = image_index * 2 + repeat as usize;
-            match textures.get(&key) {
-                Some(&i) => Some(i),
-                None => {
-                    let data = images
-                        .get(image_index)
-                        .ok_or_else(|| bad(format!("image {image_index} is missing")))?;
-                    let rgba = to_rgba8(data).ok_or_else(|| {
-                        bad(format!(
-                            "image {image_index} has the unsupported format {:?} (8-bit \
-                             images only)",
-                            data.format
-                        ))
-                    })?;
-                    mesh.textures.push(MeshTexture {
-                        width: data.width,
-                        height: data.height,
-                        rgba,
-                        repeat,
-                        name: format!("glTF image {image_index}"),
-                    });
-                    textures.insert(key, mesh.textures.len() - 1);
-                    Some(mesh.textures.len() - 1)
-                }
-            }
-        }
+        (Some(info), Some(_)) => Some(mesh_texture(info, images, textures, mesh).map_err(bad)?),
         _ => None,
     };
     // Normals transform with the inverse transpose of the linear part.
@@ -449,18 +420,7 @@ fn add_primitive(
             .iter()
             .map(|v| (normal_matrix * DVec3::from(v.map(f64::from))).normalize_or_zero())
             .collect(),
-        _ => {
-            // Smooth normals: area-weighted face normals summed per vertex.
-            let mut acc = vec![DVec3::ZERO; positions.len()];
-            for tri in indices.chunks_exact(3) {
-                let [a, b, c] = [0, 1, 2].map(|k| world_pos[tri[k] as usize]);
-                let n = (b - a).cross(c - a);
-                for &k in tri {
-                    acc[k as usize] += n;
-                }
-            }
-            acc.into_iter().map(|n| n.normalize_or_zero()).collect()
-        }
+        _ => smooth_normals(&world_pos, &indices),
     };
     let vertices: Vec<MeshVertex> = (0..positions.len())
         .map(|i| {
@@ -481,6 +441,54 @@ fn add_primitive(
         .collect();
     mesh.push(&vertices, &indices, texture);
     Ok(())
+}
+
+/// The index in `mesh.textures` of the base colour texture `info` (its image in its wrapping
+/// mode), added on first use; `textures` maps image and mode to the index.
+fn mesh_texture(
+    info: &gltf::texture::Info,
+    images: &[gltf::image::Data],
+    textures: &mut HashMap<usize, usize>,
+    mesh: &mut MeshScene,
+) -> std::result::Result<usize, String> {
+    let tex = info.texture();
+    let image_index = tex.source().index();
+    let repeat = tex.sampler().wrap_s() != gltf::texture::WrappingMode::ClampToEdge;
+    let key = image_index * 2 + repeat as usize;
+    if let Some(&i) = textures.get(&key) {
+        return Ok(i);
+    }
+    let data = images
+        .get(image_index)
+        .ok_or_else(|| format!("image {image_index} is missing"))?;
+    let rgba = to_rgba8(data).ok_or_else(|| {
+        format!(
+            "image {image_index} has the unsupported format {:?} (8-bit images only)",
+            data.format
+        )
+    })?;
+    mesh.textures.push(MeshTexture {
+        width: data.width,
+        height: data.height,
+        rgba,
+        repeat,
+        name: format!("glTF image {image_index}"),
+    });
+    textures.insert(key, mesh.textures.len() - 1);
+    Ok(mesh.textures.len() - 1)
+}
+
+/// Smooth normals: area-weighted face normals of the triangles `indices` summed per vertex.
+fn smooth_normals(positions: &[DVec3], indices: &[u32]) -> Vec<DVec3> {
+    let mut acc = vec![DVec3::ZERO; positions.len()];
+    for tri in indices.chunks_exact(3) {
+        let [a, b, c] = [0, 1, 2].map(|k| positions[tri[k] as usize]);
+        let n = (b - a).cross(c - a);
+        for &k in tri {
+            acc[k as usize] += n;
+        }
+    }
+    acc.into_iter().map(|n| n.normalize_or_zero()).collect()
 }
 
 /// 8-bit glTF image data → RGBA8 (grey expands to RGB).

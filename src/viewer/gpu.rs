@@ -11,10 +11,10 @@
 //! (`SceneImage::record`) → overlay rows, only those that changed (`Overlay::upload_rows`) →
 //! compose the window (`compose`) → capture it for a screenshot (`record_capture`) → present.
 //!
-//! Destruction order: wait idle → frames (run deferred releases) → readback → overlay staging
-//! and image → scene target → scene pass → refocus targets → refocus pass → texture →
-//! frame staging → timestamps → compositor → swapchain (and its surface). The context goes last, with its
-//! last `Arc`.
+//! Teardown (in `Drop`): wait idle, then every field frees itself in declaration order:
+//! frames → readback → overlay → scene target → scene pass → refocus targets → refocus pass →
+//! texture → frame staging → timestamps → compositor → swapchain (and its surface). The
+//! context goes with its last user.
 
 use std::sync::Arc;
 
@@ -34,6 +34,7 @@ use crate::gpu::swapchain::{Acquire, PresentMode, Swapchain};
 use crate::gpu::timing::Timestamps;
 use crate::gpu::upload::Staging;
 use crate::gpu::GpuContext;
+use crate::jobs::refocus as refocus_job;
 use crate::lightfield::LightField;
 use crate::passes::panel::{Compositor, PanelMode, Rect};
 use crate::passes::refocus::{Accumulate, RefocusPass, RefocusTarget};
@@ -358,9 +359,7 @@ impl ViewerGpu {
             let old = sc.format;
             sc.recreate(&ctx, extent)?;
             if sc.format != old {
-                if let Some(c) = self.compositor.take() {
-                    c.destroy(&ctx);
-                }
+                self.compositor = None;
                 self.compositor = Some(Compositor::new(&ctx, sc.format)?);
             }
         }
@@ -371,15 +370,7 @@ impl ViewerGpu {
     /// target the first time). Callers have waited for the frames in flight.
     pub fn rebuild_panels(&mut self, layout: &Layout) -> Result<()> {
         let ctx = Arc::clone(&self.ctx);
-        if let Some(s) = self.scene.take() {
-            s.target.destroy(&ctx);
-        }
-        if let Some(o) = self.overlay.take() {
-            o.image.destroy(&ctx);
-            for b in o.staging {
-                b.destroy(&ctx);
-            }
-        }
+        (self.scene, self.overlay) = (None, None);
         let (sw, sh) = (
             (layout.scene.width as u32).max(1),
             (layout.scene.height as u32).max(1),
@@ -408,22 +399,13 @@ impl ViewerGpu {
             ready: false,
         };
         for i in 0..FRAMES_IN_FLIGHT {
-            match Buffer::new(
+            overlay.staging.push(Buffer::new(
                 &ctx,
                 ww as u64 * wh as u64 * 4,
                 vk::BufferUsageFlags::TRANSFER_SRC,
                 true,
                 &format!("overlay staging {i}"),
-            ) {
-                Ok(b) => overlay.staging.push(b),
-                Err(e) => {
-                    overlay.image.destroy(&ctx);
-                    for b in overlay.staging {
-                        b.destroy(&ctx);
-                    }
-                    return Err(e);
-                }
-            }
+            )?);
         }
         self.overlay = Some(overlay);
         // Before the views are attached (the loading screen) there is nothing to refocus into.
@@ -479,9 +461,7 @@ impl ViewerGpu {
         let (Some(pass), Some(targets)) = (self.pass.as_mut(), self.targets.as_mut()) else {
             return Err(Error::Internal("the viewer was not fully created".into()));
         };
-        if let Some((_, t, _)) = targets.preview.take() {
-            t.destroy(&ctx);
-        }
+        targets.preview = None;
         targets.preview_ready = false;
         if targets.shown.is_some_and(|d| d > 1) {
             targets.shown = None;
@@ -668,76 +648,40 @@ impl ViewerGpu {
         let Some(pass) = self.pass.as_mut() else {
             return Err(Error::Internal("the viewer was not fully created".into()));
         };
-        let plan = match aa {
-            Some(aa) => {
-                pass.set_antialias(&ctx, aa)?;
-                &aa.plan
-            }
-            None => {
-                pass.set_views(plan)?;
-                plan
-            }
-        };
-        // As `render`'s renderer: the surface after anti-aliasing (one scene depth for both).
-        if let Some(sp) = surface {
-            pass.set_surface(sp)?;
-        }
+        let with_surface = refocus_job::upload_refocus(&ctx, pass, plan, aa, surface)?;
+        let plan = aa.map_or(plan, |aa| &aa.plan);
         let (w, h) = size;
         let mut target = pass.create_target(&ctx, w, h)?;
-        let captured = (|| -> Result<RgbaImage> {
-            let mut readback = Buffer::readback(&ctx, w as u64 * h as u64 * 4, "capture")?;
-            let submission = Submission::new(&ctx, "refocus capture");
-            let submission = match submission {
-                Ok(s) => s,
-                Err(e) => {
-                    readback.destroy(&ctx);
-                    return Err(e);
-                }
-            };
-            let m = plan.m.as_vec3();
-            let accumulate = Accumulate {
-                m: [m.x, m.y, m.z],
-                views: 0..plan.views.len(),
-                clear: true,
-                strategy: self.strategy,
-                filter: self.filter,
-                averaging,
-                antialias: aa.map_or(0, |a| a.settings.max_samples),
-                surface: surface.is_some(),
-            };
-            let mut recorded = Ok(());
-            let ran = submission.run(&ctx, |d, cmd| {
-                recorded = pass
-                    .record_accumulate(&ctx, cmd, &mut target, &accumulate)
-                    .and_then(|()| {
-                        pass.record_resolve(&ctx, cmd, &target, OutputFormat::Srgb8, averaging)
-                    });
-                if recorded.is_ok() {
-                    // The buffer holds w·h·4 bytes.
-                    let copy = ImageReadback {
-                        image: target.out8.image,
-                        from: stage::COLOR_WRITE,
-                        then: None,
-                        width: w,
-                        height: h,
-                        buffer: readback.buffer,
-                        offset: 0,
-                    };
-                    record_readback(d, cmd, &copy);
-                }
-            });
-            submission.destroy(&ctx);
-            let out = ran.and(recorded).and_then(|()| {
-                readback.invalidate(&ctx)?;
-                let raw = readback.bytes_mut()[..(w * h * 4) as usize].to_vec();
-                RgbaImage::from_raw(w, h, raw)
-                    .ok_or_else(|| Error::Internal("capture size mismatch".into()))
-            });
-            readback.destroy(&ctx);
-            out
-        })();
-        target.destroy(&ctx);
-        captured
+        let mut readback = Buffer::readback(&ctx, w as u64 * h as u64 * 4, "capture")?;
+        let m = plan.m.as_vec3();
+        let accumulate = Accumulate {
+            m: [m.x, m.y, m.z],
+            views: 0..plan.views.len(),
+            clear: true,
+            strategy: self.strategy,
+            filter: self.filter,
+            averaging,
+            antialias: aa.map_or(0, |a| a.settings.max_samples),
+            surface: with_surface,
+        };
+        let output = (OutputFormat::Srgb8, Some(readback.buffer));
+        let mut recorded = Ok(());
+        Submission::new(&ctx, "refocus capture")?.run(&ctx, |_, cmd| {
+            recorded = refocus_job::record_refocus(
+                &ctx,
+                cmd,
+                pass,
+                &mut target,
+                &accumulate,
+                output,
+                None,
+            );
+        })?;
+        recorded?;
+        readback.invalidate(&ctx)?;
+        let raw = readback.bytes_mut()[..(w * h * 4) as usize].to_vec();
+        RgbaImage::from_raw(w, h, raw)
+            .ok_or_else(|| Error::Internal("capture size mismatch".into()))
     }
 
     /// The scene panel as last drawn (sRGB-encoded RGBA).
@@ -994,10 +938,8 @@ fn record_capture(
 ) -> Result<()> {
     let bytes = extent.width as u64 * extent.height as u64 * 4;
     if readback.as_ref().map_or(true, |b| b.size < bytes) {
-        if let Some(b) = readback.take() {
-            // The last capture waited for its frame: the buffer is idle.
-            b.destroy(ctx);
-        }
+        // The last capture waited for its frame: the old buffer is idle.
+        *readback = None;
         *readback = Some(Buffer::readback(ctx, bytes, "window readback")?);
     }
     let buffer = readback.as_ref().map(|b| b.buffer).unwrap_or_default();
@@ -1061,52 +1003,10 @@ fn read_timing(
 
 impl Drop for ViewerGpu {
     fn drop(&mut self) {
-        let ctx = Arc::clone(&self.ctx);
-        // SAFETY: waiting has no preconditions; afterwards nothing below is in use.
+        // SAFETY: waiting has no preconditions; afterwards nothing is in use, and the fields
+        // free themselves in declaration order.
         unsafe {
-            let _ = ctx.device.device_wait_idle();
-        }
-        if let Some(f) = self.frames.take() {
-            f.destroy(&ctx);
-        }
-        if let Some(b) = self.readback.take() {
-            b.destroy(&ctx);
-        }
-        if let Some(o) = self.overlay.take() {
-            for b in o.staging {
-                b.destroy(&ctx);
-            }
-            o.image.destroy(&ctx);
-        }
-        if let Some(s) = self.scene.take() {
-            s.target.destroy(&ctx);
-        }
-        if let Some(p) = self.scene_pass.take() {
-            p.destroy(&ctx);
-        }
-        if let Some(t) = self.targets.take() {
-            t.full.destroy(&ctx);
-            if let Some((_, p, _)) = t.preview {
-                p.destroy(&ctx);
-            }
-        }
-        if let Some(p) = self.pass.take() {
-            p.destroy(&ctx);
-        }
-        if let Some(t) = self.texture.take() {
-            t.destroy(&ctx);
-        }
-        if let Some(s) = self.staging.take() {
-            s.destroy(&ctx);
-        }
-        for t in self.timestamps.drain(..).flatten() {
-            t.destroy(&ctx);
-        }
-        if let Some(c) = self.compositor.take() {
-            c.destroy(&ctx);
-        }
-        if let Some(s) = self.swapchain.take() {
-            s.destroy(&ctx);
+            let _ = self.ctx.device.device_wait_idle();
         }
     }
 }

@@ -26,6 +26,7 @@ use glam::{DVec2, DVec3};
 use super::orbit::OrbitCamera;
 use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
+use crate::geometry::camera::Camera;
 use crate::geometry::depth::ViewDepth;
 use crate::geometry::normals::NormalParams;
 use crate::geometry::picking::{nudge_plane, KeyboardPlane, Nudge};
@@ -557,60 +558,11 @@ impl ViewerState {
                 self.orbit = self.initial_orbit;
                 Effect::SceneView
             }
-            Action::Reset => {
-                self.pending_clicks.clear();
-                self.pending_points.clear();
-                self.placed_clicks.clear();
-                let moved = self.orbit != self.initial_orbit;
-                self.orbit = self.initial_orbit;
-                // Anti-aliasing is the user's choice of how to look (X), not a focus: R
-                // keeps it.
-                let initial = Core {
-                    antialias: self.core.antialias,
-                    ..self.initial
-                };
-                match self.change_recorded(lf, |_, core| {
-                    *core = initial;
-                    Ok(())
-                }) {
-                    // Only the scene camera was off its start.
-                    Effect::Marked if moved => Effect::SceneView,
-                    effect => effect,
-                }
-            }
+            Action::Reset => self.reset(lf),
             Action::Quit => return Effect::Quit,
             Action::Undo => self.step_history(lf, false),
             Action::Redo => self.step_history(lf, true),
-            Action::ThreeClick(pixel) => {
-                self.pending_points.clear();
-                self.placed_clicks.clear();
-                self.pending_clicks.push(pixel);
-                if self.pending_clicks.len() < 3 {
-                    return self.mark_pending(self.pending_clicks.len(), "Shift+click");
-                }
-                let p: Vec<DVec2> = std::mem::take(&mut self.pending_clicks);
-                let effect = self.change_recorded(lf, |_, core| {
-                    core.focus = FocusRequest {
-                        target: FocusTarget::ThreeClicks([p[0], p[1], p[2]]),
-                        nudge: None,
-                    };
-                    Ok(())
-                });
-                match effect {
-                    Effect::Refused(_) if image_collinear(&p) => {
-                        // Back-projected, points on one image line span a plane through the
-                        // camera: say so in the user's terms, not as a plane distance of 1e-16.
-                        let why = COLLINEAR_CLICKS.to_string();
-                        self.message = Some(why.clone());
-                        Effect::Refused(why)
-                    }
-                    Effect::Refused(_) => effect,
-                    _ => {
-                        self.placed_clicks = p;
-                        effect
-                    }
-                }
-            }
+            Action::ThreeClick(pixel) => self.three_click(lf, pixel),
             Action::ScenePick(point) => {
                 self.pending_clicks.clear();
                 self.placed_clicks.clear();
@@ -650,6 +602,60 @@ impl ViewerState {
             self.marks_version += 1;
         }
         effect
+    }
+
+    /// R: the initial focus and scene camera, keeping anti-aliasing (the user's choice of how
+    /// to look, X, not a focus).
+    fn reset(&mut self, lf: &LightField) -> Effect {
+        self.pending_clicks.clear();
+        self.pending_points.clear();
+        self.placed_clicks.clear();
+        let moved = self.orbit != self.initial_orbit;
+        self.orbit = self.initial_orbit;
+        let initial = Core {
+            antialias: self.core.antialias,
+            ..self.initial
+        };
+        match self.change_recorded(lf, |_, core| {
+            *core = initial;
+            Ok(())
+        }) {
+            // Only the scene camera was off its start.
+            Effect::Marked if moved => Effect::SceneView,
+            effect => effect,
+        }
+    }
+
+    /// A Shift+click: the third places the plane through the three clicked points.
+    fn three_click(&mut self, lf: &LightField, pixel: DVec2) -> Effect {
+        self.pending_points.clear();
+        self.placed_clicks.clear();
+        self.pending_clicks.push(pixel);
+        if self.pending_clicks.len() < 3 {
+            return self.mark_pending(self.pending_clicks.len(), "Shift+click");
+        }
+        let p: Vec<DVec2> = std::mem::take(&mut self.pending_clicks);
+        let effect = self.change_recorded(lf, |_, core| {
+            core.focus = FocusRequest {
+                target: FocusTarget::ThreeClicks([p[0], p[1], p[2]]),
+                nudge: None,
+            };
+            Ok(())
+        });
+        match effect {
+            Effect::Refused(_) if image_collinear(&p) => {
+                // Back-projected, points on one image line span a plane through the camera:
+                // say so in the user's terms, not as a plane distance of 1e-16.
+                let why = COLLINEAR_CLICKS.to_string();
+                self.message = Some(why.clone());
+                Effect::Refused(why)
+            }
+            Effect::Refused(_) => effect,
+            _ => {
+                self.placed_clicks = p;
+                effect
+            }
+        }
     }
 
     fn mark_pending(&mut self, n: usize, how: &str) -> Effect {
@@ -886,51 +892,7 @@ fn modify(
                 ..Nudge::default()
             })
         }
-        Action::DisparitySteps(n) => {
-            let step = disparity_step(lf) * n;
-            // A tilted or swung plane keeps its orientation: the scroll moves it along the
-            // reference axis by the same step in disparity (or inverse depth) that moves a
-            // frontoparallel plane, instead of silently replacing it with a frontoparallel one.
-            if let Some(plane) = resolved.plane {
-                let kb = KeyboardPlane::of(&plane, camera)?;
-                if kb.tilt_deg.abs() > TILTED_DEG || kb.swing_deg.abs() > TILTED_DEG {
-                    let z = kb.distance;
-                    let z_new = stepped_depth(lf, z, n)?;
-                    let (plane, _) = nudge_plane(
-                        &plane,
-                        camera,
-                        Nudge {
-                            distance: z_new - z,
-                            ..Nudge::default()
-                        },
-                    )?;
-                    core.focus = FocusSpec::Plane(plane).into();
-                    return Ok(());
-                }
-            }
-            let current = match (core.focus.target, resolved.plane) {
-                (FocusTarget::Spec(FocusSpec::Disparity(d)), _) => Some(d),
-                (_, Some(plane)) => {
-                    let z = KeyboardPlane::of(&plane, camera)?.distance;
-                    lf.rig.as_ref().map(|rig| rig.disparity_of_depth(z))
-                }
-                (_, None) => Some(0.0),
-            };
-            match current {
-                Some(d) => core.focus = FocusSpec::Disparity(d + step).into(),
-                None => {
-                    // A calibrated rig without the parallel-rig disparity: frontoparallel to
-                    // the camera at the stepped depth.
-                    let plane = resolved.plane.ok_or_else(no_plane)?;
-                    let z = KeyboardPlane::of(&plane, camera)?.distance;
-                    let p =
-                        Plane::from_focus_tilt_swing(camera, stepped_depth(lf, z, n)?, 0.0, 0.0)?;
-                    core.focus = FocusSpec::Plane(p).into();
-                }
-            }
-            core.anchor = None;
-            Ok(())
-        }
+        Action::DisparitySteps(n) => step_disparity(lf, core, n, resolved, camera),
         Action::ApertureRadius(delta) => {
             let min = if core.aperture.shape == ApertureShape::Gaussian {
                 0.5
@@ -977,26 +939,7 @@ fn modify(
             core.surface = SurfaceChoice::default();
             Ok(())
         }
-        Action::Slab(fraction) => {
-            need_depth(lf)?;
-            let plane = resolved.plane.ok_or_else(no_plane)?;
-            if core.surface.all_in_focus {
-                return Err(Error::Invalid(
-                    "all in focus is on (G turns it off); it has no slab".into(),
-                ));
-            }
-            if core.surface.kept().next().is_some() {
-                return Err(Error::Invalid(
-                    "a focus slab lies around one plane: drop the kept planes (Backspace) first"
-                        .into(),
-                ));
-            }
-            let d = plane.normal.dot(plane.point - camera.centre()).abs();
-            let w = core.surface.slab.unwrap_or(0.0) + fraction * d;
-            // Narrowed to (about) nothing: the single plane again.
-            core.surface.slab = (w > 1e-6 * d).then_some(w);
-            Ok(())
-        }
+        Action::Slab(fraction) => widen_slab(lf, core, fraction, resolved, camera),
         Action::ToggleAllInFocus => {
             need_depth(lf)?;
             core.surface.all_in_focus = !core.surface.all_in_focus;
@@ -1012,6 +955,82 @@ fn modify(
         // Handled by `ViewerState::apply` before the core is copied.
         _ => Ok(()),
     }
+}
+
+/// Scroll: the focus `n` disparity steps nearer (or farther, negative).
+fn step_disparity(
+    lf: &LightField,
+    core: &mut Core,
+    n: f64,
+    resolved: &ResolvedFocus,
+    camera: &Camera,
+) -> Result<()> {
+    let step = disparity_step(lf) * n;
+    // A tilted or swung plane keeps its orientation: the scroll moves it along the reference
+    // axis by the same step in disparity (or inverse depth) that moves a frontoparallel plane,
+    // instead of silently replacing it with a frontoparallel one.
+    if let Some(plane) = resolved.plane {
+        let kb = KeyboardPlane::of(&plane, camera)?;
+        if kb.tilt_deg.abs() > TILTED_DEG || kb.swing_deg.abs() > TILTED_DEG {
+            let z = kb.distance;
+            let z_new = stepped_depth(lf, z, n)?;
+            let nudge = Nudge {
+                distance: z_new - z,
+                ..Nudge::default()
+            };
+            let (plane, _) = nudge_plane(&plane, camera, nudge)?;
+            core.focus = FocusSpec::Plane(plane).into();
+            return Ok(());
+        }
+    }
+    let current = match (core.focus.target, resolved.plane) {
+        (FocusTarget::Spec(FocusSpec::Disparity(d)), _) => Some(d),
+        (_, Some(plane)) => {
+            let z = KeyboardPlane::of(&plane, camera)?.distance;
+            lf.rig.as_ref().map(|rig| rig.disparity_of_depth(z))
+        }
+        (_, None) => Some(0.0),
+    };
+    match current {
+        Some(d) => core.focus = FocusSpec::Disparity(d + step).into(),
+        None => {
+            // A calibrated rig without the parallel-rig disparity: frontoparallel to the camera
+            // at the stepped depth.
+            let plane = resolved.plane.ok_or_else(no_plane)?;
+            let z = KeyboardPlane::of(&plane, camera)?.distance;
+            let p = Plane::from_focus_tilt_swing(camera, stepped_depth(lf, z, n)?, 0.0, 0.0)?;
+            core.focus = FocusSpec::Plane(p).into();
+        }
+    }
+    core.anchor = None;
+    Ok(())
+}
+
+/// `[` / `]`: the focus slab around the plane widened by `fraction` of its distance (narrowed
+/// when negative; to nothing, the single plane again).
+fn widen_slab(
+    lf: &LightField,
+    core: &mut Core,
+    fraction: f64,
+    resolved: &ResolvedFocus,
+    camera: &Camera,
+) -> Result<()> {
+    need_depth(lf)?;
+    let plane = resolved.plane.ok_or_else(no_plane)?;
+    if core.surface.all_in_focus {
+        return Err(Error::Invalid(
+            "all in focus is on (G turns it off); it has no slab".into(),
+        ));
+    }
+    if core.surface.kept().next().is_some() {
+        return Err(Error::Invalid(
+            "a focus slab lies around one plane: drop the kept planes (Backspace) first".into(),
+        ));
+    }
+    let d = plane.normal.dot(plane.point - camera.centre()).abs();
+    let w = core.surface.slab.unwrap_or(0.0) + fraction * d;
+    core.surface.slab = (w > 1e-6 * d).then_some(w);
+    Ok(())
 }
 
 /// The viewer's state on `lf` focused by `focus`, with the default aperture and linear

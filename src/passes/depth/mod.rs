@@ -13,8 +13,8 @@
 //! shader: llvmpipe's sampler path is far slower than plain loads, and the sweep reads
 //! `planes × views` samples per pixel.
 //!
-//! Destruction order: pipelines → pipeline layout → descriptor pool (frees the set) → set
-//! layout → timestamps → buffers.
+//! Everything frees itself when the sweep is done, in field order: buffers → timestamps →
+//! pipelines → pipeline layout → descriptor pool (frees the set) → set layout.
 
 pub mod interface;
 
@@ -27,14 +27,14 @@ pub use interface::{DepthPush, GpuSweepView};
 use crate::depth::guide::{guide_pixels, GuidePixel};
 use crate::depth::sweep::SweepPlan;
 use crate::depth::{Aggregation, CostKind, Refine, SweepOutput, SweepParams};
-use crate::error::{Error, Result, VkContext};
+use crate::error::{Error, Result};
 use crate::gpu::commands::{memory_barrier, Submission};
-use crate::gpu::pipeline::compute_pipeline;
+use crate::gpu::pipeline::{self, compute_pipeline};
 use crate::gpu::pod::{as_bytes, Pod};
 use crate::gpu::resources::Buffer;
 use crate::gpu::shaders;
 use crate::gpu::timing::Timestamps;
-use crate::gpu::GpuContext;
+use crate::gpu::{GpuContext, Owned};
 
 /// Workgroup edge of `depth_cost.comp`.
 const COST_TILE: u32 = 8;
@@ -58,22 +58,20 @@ pub fn run_sweep(
     params: &SweepParams,
     progress: &ProgressBar,
 ) -> Result<(SweepOutput, Option<f64>)> {
-    let mut pass = SweepPass::default();
-    let result = pass.run(ctx, plan, images, params, progress);
-    pass.destroy(ctx);
-    result
+    SweepPass::default().run(ctx, plan, images, params, progress)
 }
 
-/// Buffers, pipelines and descriptors of one sweep. Every field starts null/empty, so
-/// [`SweepPass::destroy`] frees exactly what a (possibly failed) set-up created.
+/// Buffers, pipelines and descriptors of one sweep, made as the sweep sets up (so a failed
+/// set-up frees exactly what it made).
 #[derive(Default)]
 struct SweepPass {
     buffers: Vec<Buffer>,
     timestamps: Option<Timestamps>,
-    set_layout: vk::DescriptorSetLayout,
-    layout: vk::PipelineLayout,
-    pool: vk::DescriptorPool,
-    pipelines: Vec<vk::Pipeline>,
+    /// Per [`Stage`]; `None` for the stages the aggregation does not use.
+    pipelines: Vec<Option<Owned<vk::Pipeline>>>,
+    layout: Option<Owned<vk::PipelineLayout>>,
+    pool: Option<Owned<vk::DescriptorPool>>,
+    set_layout: Option<Owned<vk::DescriptorSetLayout>>,
 }
 
 /// Index of the result buffer in `SweepPass::buffers` (= its binding; the buffers are bound
@@ -203,32 +201,21 @@ impl SweepPass {
         let submission = Submission::new(ctx, "depth sweep")?;
         let mut gpu_ms = Some(0.0);
         let mut first = 0;
-        let result = loop {
-            if first >= plan.planes {
-                break Ok(());
-            }
+        while first < plan.planes {
             let count = chunk.min(plan.planes - first);
             push.plane_first = first as u32;
             push.plane_count = count as u32;
             let last = first + count == plan.planes;
-            let r = submission.run(ctx, |d, cmd| {
+            submission.run(ctx, |d, cmd| {
                 self.record_chunk(d, cmd, set, &push, params, last);
-            });
-            if let Err(e) = r {
-                break Err(e);
-            }
+            })?;
             gpu_ms = match (&self.timestamps, gpu_ms) {
-                (Some(ts), Some(total)) => match ts.read_ms(ctx) {
-                    Ok(ms) => ms.map(|ms| total + ms[0]),
-                    Err(e) => break Err(e),
-                },
+                (Some(ts), Some(total)) => ts.read_ms(ctx)?.map(|ms| total + ms[0]),
                 _ => None,
             };
             first += count;
             progress.inc(count as u64);
-        };
-        submission.destroy(ctx);
-        result?;
+        }
 
         let out = &mut self.buffers[RESULT];
         out.invalidate(ctx)?;
@@ -261,19 +248,13 @@ impl SweepPass {
         }
         let (w, h, k) = (push.width, push.height, push.plane_count);
         let n = w * h;
+        let layout = self.layout.as_deref().copied().unwrap_or_default();
         // SAFETY: recording outside a rendering instance; the set matches the layout.
         unsafe {
-            d.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.layout,
-                0,
-                &[set],
-                &[],
-            );
+            d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, layout, 0, &[set], &[]);
             d.cmd_push_constants(
                 cmd,
-                self.layout,
+                layout,
                 vk::ShaderStageFlags::COMPUTE,
                 0,
                 as_bytes(std::slice::from_ref(push)),
@@ -281,13 +262,14 @@ impl SweepPass {
         }
         let dispatch = |stage: Stage, groups: (u32, u32)| {
             compute_barrier(d, cmd);
+            // The aggregation only dispatches the stages it made pipelines for.
+            let pipeline = self.pipelines[stage as usize]
+                .as_deref()
+                .copied()
+                .unwrap_or_default();
             // SAFETY: recording; the pipeline uses the bound layout and push range.
             unsafe {
-                d.cmd_bind_pipeline(
-                    cmd,
-                    vk::PipelineBindPoint::COMPUTE,
-                    self.pipelines[stage as usize],
-                );
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
                 d.cmd_dispatch(cmd, groups.0, groups.1, 1);
             }
         };
@@ -344,7 +326,6 @@ impl SweepPass {
 
     /// The descriptor set layout (9 storage buffers), pipeline layout, pool and the one set.
     fn descriptors(&mut self, ctx: &GpuContext) -> Result<vk::DescriptorSet> {
-        let d = &ctx.device;
         let bindings: Vec<_> = (0..self.buffers.len() as u32)
             .map(|i| {
                 vk::DescriptorSetLayoutBinding::default()
@@ -354,54 +335,19 @@ impl SweepPass {
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
             .collect();
-        // SAFETY: valid device and create infos.
-        self.set_layout = unsafe {
-            d.create_descriptor_set_layout(
-                &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                None,
-            )
-        }
-        .vk("vkCreateDescriptorSetLayout")?;
-        ctx.name(self.set_layout, "depth sweep set layout");
+        let set_layout = pipeline::set_layout(ctx, &bindings, "depth sweep set layout")?;
         let push = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
             .offset(0)
             .size(std::mem::size_of::<DepthPush>() as u32)];
-        let layouts = [self.set_layout];
-        // SAFETY: valid device and create info.
-        self.layout = unsafe {
-            d.create_pipeline_layout(
-                &vk::PipelineLayoutCreateInfo::default()
-                    .set_layouts(&layouts)
-                    .push_constant_ranges(&push),
-                None,
-            )
-        }
-        .vk("vkCreatePipelineLayout")?;
-        ctx.name(self.layout, "depth sweep pipeline layout");
+        let layout =
+            pipeline::pipeline_layout(ctx, &[*set_layout], &push, "depth sweep pipeline layout")?;
         let sizes = [vk::DescriptorPoolSize {
             ty: vk::DescriptorType::STORAGE_BUFFER,
             descriptor_count: bindings.len() as u32,
         }];
-        // SAFETY: valid device and create info.
-        self.pool = unsafe {
-            d.create_descriptor_pool(
-                &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(1)
-                    .pool_sizes(&sizes),
-                None,
-            )
-        }
-        .vk("vkCreateDescriptorPool")?;
-        // SAFETY: the pool has room for this set.
-        let set = unsafe {
-            d.allocate_descriptor_sets(
-                &vk::DescriptorSetAllocateInfo::default()
-                    .descriptor_pool(self.pool)
-                    .set_layouts(&layouts),
-            )
-        }
-        .vk("vkAllocateDescriptorSets")?[0];
+        let pool = pipeline::descriptor_pool(ctx, 1, &sizes, "depth sweep descriptors")?;
+        let set = pipeline::allocate_sets(ctx, *pool, &[*set_layout])?[0];
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = self
             .buffers
             .iter()
@@ -424,7 +370,10 @@ impl SweepPass {
             })
             .collect();
         // SAFETY: a new, unused set; the infos reference live buffers.
-        unsafe { d.update_descriptor_sets(&writes, &[]) };
+        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+        self.set_layout = Some(set_layout);
+        self.layout = Some(layout);
+        self.pool = Some(pool);
         Ok(set)
     }
 
@@ -456,10 +405,11 @@ impl SweepPass {
             Aggregation::Box => ![1, 2, 4, 5].contains(&i),
             Aggregation::None => ![1, 2, 3, 4, 5, 6].contains(&i),
         };
+        let layout = self.layout.as_deref().copied().unwrap_or_default();
         for (i, (spirv, name, constant)) in stages.into_iter().enumerate() {
             if !needed(i) {
-                // Never bound: a null handle keeps the indices of `Stage`.
-                self.pipelines.push(vk::Pipeline::null());
+                // Never bound: `None` keeps the indices of `Stage`.
+                self.pipelines.push(None);
                 continue;
             }
             let module = shaders::module(ctx, spirv, name)?;
@@ -469,34 +419,11 @@ impl SweepPass {
                 _ => 0,
             };
             let constants = [constant, second];
-            let p = compute_pipeline(ctx, self.layout, module, &constants);
-            // SAFETY: pipelines keep their own copy of the code.
-            unsafe { ctx.device.destroy_shader_module(module, None) };
-            let p = p?;
-            ctx.name(p, &format!("{name} pipeline"));
-            self.pipelines.push(p);
+            let name = format!("{name} pipeline");
+            let p = compute_pipeline(ctx, layout, *module, &constants, &name)?;
+            self.pipelines.push(Some(p));
         }
         Ok(())
-    }
-
-    /// Frees everything (see the module docs for the order). The GPU must be done with it.
-    fn destroy(self, ctx: &GpuContext) {
-        let d = &ctx.device;
-        // SAFETY: every submission of this pass completed; null handles are no-ops.
-        unsafe {
-            for p in self.pipelines {
-                d.destroy_pipeline(p, None);
-            }
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_pool(self.pool, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
-        }
-        if let Some(t) = self.timestamps {
-            t.destroy(ctx);
-        }
-        for b in self.buffers {
-            b.destroy(ctx);
-        }
     }
 }
 
@@ -526,14 +453,7 @@ fn upload(ctx: &GpuContext, buffers: &[Buffer], data: &[&[u8]]) -> Result<()> {
             at += bytes.len();
         }
     }
-    let submission = match Submission::new(ctx, "depth upload") {
-        Ok(s) => s,
-        Err(e) => {
-            staging.destroy(ctx);
-            return Err(e);
-        }
-    };
-    let r = submission.run(ctx, |d, cmd| {
+    Submission::new(ctx, "depth upload")?.run(ctx, |d, cmd| {
         for ((buffer, bytes), offset) in buffers.iter().zip(data).zip(&offsets) {
             if bytes.is_empty() {
                 continue;
@@ -558,10 +478,7 @@ fn upload(ctx: &GpuContext, buffers: &[Buffer], data: &[&[u8]]) -> Result<()> {
                 &vk::DependencyInfo::default().memory_barriers(&barrier),
             )
         };
-    });
-    submission.destroy(ctx);
-    staging.destroy(ctx);
-    r
+    })
 }
 
 /// Compute writes (and everything before) finish before later compute reads and writes.

@@ -15,12 +15,12 @@ use std::ops::Range;
 use ash::vk;
 
 use super::interface::RefocusPush;
-use crate::error::{Error, Result, VkContext};
+use crate::error::{Error, Result};
 use crate::gpu::commands::{image_barrier, memory_barrier, stage, ImageTransition, Submission};
-use crate::gpu::pipeline::compute_pipeline;
+use crate::gpu::pipeline::{self, compute_pipeline};
 use crate::gpu::pod::as_bytes;
 use crate::gpu::resources::{Image, ImageDesc};
-use crate::gpu::{shaders, GpuContext};
+use crate::gpu::{shaders, GpuContext, Owned};
 
 /// The summed-area tables' format: f32 sums (the table stage subtracts an offset near each
 /// view's mean first, so small boxes keep their precision at 512² and beyond). The box stage
@@ -43,10 +43,11 @@ pub struct DefocusKey {
 
 /// The images, descriptors and pipelines of the defocus stage.
 pub struct DefocusStage {
-    set_layout: vk::DescriptorSetLayout,
-    pool: vk::DescriptorPool,
+    pipelines: Vec<((DefocusKey, u32), Owned<vk::Pipeline>)>,
+    layout: Owned<vk::PipelineLayout>,
+    _pool: Owned<vk::DescriptorPool>,
+    _set_layout: Owned<vk::DescriptorSetLayout>,
     set: vk::DescriptorSet,
-    layout: vk::PipelineLayout,
     size: (u32, u32),
     /// Views the images hold (layers).
     capacity: u32,
@@ -56,7 +57,6 @@ pub struct DefocusStage {
     /// it was built from (`None`: nothing valid). The tables depend on the views alone, so
     /// they are built once, not per frame.
     tables: Vec<Option<(u32, u32)>>,
-    pipelines: Vec<((DefocusKey, u32), vk::Pipeline)>,
 }
 
 impl DefocusStage {
@@ -67,29 +67,6 @@ impl DefocusStage {
         input_layout: vk::DescriptorSetLayout,
         size: (u32, u32),
     ) -> Result<Self> {
-        let mut stage = DefocusStage {
-            set_layout: vk::DescriptorSetLayout::null(),
-            pool: vk::DescriptorPool::null(),
-            set: vk::DescriptorSet::null(),
-            layout: vk::PipelineLayout::null(),
-            size,
-            capacity: 0,
-            sat: None,
-            defocused: None,
-            tables: Vec::new(),
-            pipelines: Vec::new(),
-        };
-        match stage.build(ctx, input_layout) {
-            Ok(()) => Ok(stage),
-            Err(e) => {
-                stage.destroy(ctx);
-                Err(e)
-            }
-        }
-    }
-
-    fn build(&mut self, ctx: &GpuContext, input_layout: vk::DescriptorSetLayout) -> Result<()> {
-        let d = &ctx.device;
         use vk::DescriptorType as T;
         let binding = |i: u32, ty| {
             vk::DescriptorSetLayoutBinding::default()
@@ -99,49 +76,33 @@ impl DefocusStage {
                 .stage_flags(vk::ShaderStageFlags::COMPUTE)
         };
         let bindings = [binding(0, T::STORAGE_IMAGE), binding(1, T::STORAGE_IMAGE)];
+        let set_layout = pipeline::set_layout(ctx, &bindings, "defocus set layout")?;
         let sizes = [vk::DescriptorPoolSize {
             ty: T::STORAGE_IMAGE,
             descriptor_count: 2,
         }];
-        // SAFETY: valid device and create infos; each handle is stored before the next call,
-        // so a failure leaves only live handles for destroy().
-        unsafe {
-            self.set_layout = d
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                    None,
-                )
-                .vk("vkCreateDescriptorSetLayout")?;
-            self.pool = d
-                .create_descriptor_pool(
-                    &vk::DescriptorPoolCreateInfo::default()
-                        .max_sets(1)
-                        .pool_sizes(&sizes),
-                    None,
-                )
-                .vk("vkCreateDescriptorPool")?;
-            self.set = d
-                .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default()
-                        .descriptor_pool(self.pool)
-                        .set_layouts(&[self.set_layout]),
-                )
-                .vk("vkAllocateDescriptorSets")?[0];
-            let push = [vk::PushConstantRange::default()
-                .stage_flags(vk::ShaderStageFlags::COMPUTE)
-                .offset(0)
-                .size(std::mem::size_of::<RefocusPush>() as u32)];
-            let sets = [input_layout, self.set_layout];
-            self.layout = d
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&sets)
-                        .push_constant_ranges(&push),
-                    None,
-                )
-                .vk("vkCreatePipelineLayout")?;
-        }
-        self.reserve(ctx, 1).map(drop)
+        let pool = pipeline::descriptor_pool(ctx, 1, &sizes, "defocus descriptors")?;
+        let set = pipeline::allocate_sets(ctx, *pool, &[*set_layout])?[0];
+        let push = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .offset(0)
+            .size(std::mem::size_of::<RefocusPush>() as u32)];
+        let layout =
+            pipeline::pipeline_layout(ctx, &[input_layout, *set_layout], &push, "defocus layout")?;
+        let mut stage = DefocusStage {
+            pipelines: Vec::new(),
+            layout,
+            _pool: pool,
+            _set_layout: set_layout,
+            set,
+            size,
+            capacity: 0,
+            sat: None,
+            defocused: None,
+            tables: Vec::new(),
+        };
+        stage.reserve(ctx, 1)?;
+        Ok(stage)
     }
 
     /// Makes room for `views` views (layers), recreating both images when they hold fewer.
@@ -164,18 +125,12 @@ impl DefocusStage {
             &[SAT_FORMAT],
             "defocus summed-area tables",
         )?;
-        let defocused = match Image::new(
+        let defocused = Image::new(
             ctx,
             desc(DEFOCUSED_FORMAT, w, h),
             &[DEFOCUSED_FORMAT],
             "defocused views",
-        ) {
-            Ok(i) => i,
-            Err(e) => {
-                sat.destroy(ctx);
-                return Err(e);
-            }
-        };
+        )?;
         // Both live in GENERAL from now on.
         let general = ImageTransition {
             from: stage::UNDEFINED,
@@ -187,25 +142,12 @@ impl DefocusStage {
                     | vk::AccessFlags2::SHADER_STORAGE_WRITE,
             ),
         };
-        let made = Submission::new(ctx, "defocus image layouts").and_then(|s| {
-            let r = s.run(ctx, |d, cmd| {
-                image_barrier(d, cmd, sat.image, views, general);
-                image_barrier(d, cmd, defocused.image, views, general);
-            });
-            s.destroy(ctx);
-            r
-        });
-        if let Err(e) = made {
-            sat.destroy(ctx);
-            defocused.destroy(ctx);
-            return Err(e);
-        }
-        if let Some(old) = self.sat.replace(sat) {
-            old.destroy(ctx);
-        }
-        if let Some(old) = self.defocused.replace(defocused) {
-            old.destroy(ctx);
-        }
+        Submission::new(ctx, "defocus image layouts")?.run(ctx, |d, cmd| {
+            image_barrier(d, cmd, sat.image, views, general);
+            image_barrier(d, cmd, defocused.image, views, general);
+        })?;
+        self.sat = Some(sat);
+        self.defocused = Some(defocused);
         self.capacity = views;
         self.tables = vec![None; views as usize];
         let storage = |img: &Image| {
@@ -253,7 +195,7 @@ impl DefocusStage {
 
     fn pipeline(&mut self, ctx: &GpuContext, key: DefocusKey, stage: u32) -> Result<vk::Pipeline> {
         if let Some((_, p)) = self.pipelines.iter().find(|(k, _)| *k == (key, stage)) {
-            return Ok(*p);
+            return Ok(**p);
         }
         // The accumulation's constant ids 0-7 (refocus_accumulate.glsl), then STAGE.
         let constants = [
@@ -268,14 +210,12 @@ impl DefocusStage {
             stage,
         ];
         let module = shaders::module(ctx, shaders::DEFOCUS_COMP, "defocus.comp")?;
-        let p = compute_pipeline(ctx, self.layout, module, &constants);
-        // SAFETY: pipelines keep their own copy of the code.
-        unsafe { ctx.device.destroy_shader_module(module, None) };
-        let p = p?;
         let what = ["table rows", "table columns", "box"][stage as usize];
-        ctx.name(p, &format!("defocus {what} pipeline ({key:?})"));
+        let name = format!("defocus {what} pipeline ({key:?})");
+        let p = compute_pipeline(ctx, *self.layout, *module, &constants, &name)?;
+        let raw = *p;
         self.pipelines.push(((key, stage), p));
-        Ok(p)
+        Ok(raw)
     }
 
     /// Records the stages for the uploaded views `views` (their warps and footprints in
@@ -341,14 +281,14 @@ impl DefocusStage {
             d.cmd_bind_descriptor_sets(
                 cmd,
                 vk::PipelineBindPoint::COMPUTE,
-                self.layout,
+                *self.layout,
                 0,
                 &[input_set, self.set],
                 &[],
             );
             d.cmd_push_constants(
                 cmd,
-                self.layout,
+                *self.layout,
                 vk::ShaderStageFlags::COMPUTE,
                 0,
                 as_bytes(&[push]),
@@ -377,25 +317,5 @@ impl DefocusStage {
             (shaders, A::SHADER_SAMPLED_READ),
         );
         Ok(())
-    }
-
-    /// Frees everything it holds. The GPU must be done with it.
-    pub fn destroy(self, ctx: &GpuContext) {
-        let d = &ctx.device;
-        // SAFETY: nothing uses these objects any more; destroying null handles is a no-op.
-        unsafe {
-            for (_, p) in &self.pipelines {
-                d.destroy_pipeline(*p, None);
-            }
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_pool(self.pool, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
-        }
-        if let Some(i) = self.sat {
-            i.destroy(ctx);
-        }
-        if let Some(i) = self.defocused {
-            i.destroy(ctx);
-        }
     }
 }

@@ -7,17 +7,19 @@
 //! attachment (fragment strategies), a storage image (compute) and sampled by the resolve, and
 //! one layout for all three keeps the barriers to plain memory dependencies.
 //!
-//! Destruction order: descriptor pool (frees the sets) → outputs → accumulation image.
+//! Everything frees itself when the target is dropped, in field order: descriptor pool (frees
+//! the sets) → accumulation image → outputs.
 
 use ash::vk;
 
 use crate::error::{Result, VkContext};
 use crate::gpu::resources::{Image, ImageDesc};
-use crate::gpu::GpuContext;
+use crate::gpu::{GpuContext, Owned, OwnedResult};
 use crate::refocus::settings::{Accumulation, OutputFormat};
 
 /// Accumulation and outputs of one output size.
 pub struct RefocusTarget {
+    _pool: Owned<vk::DescriptorPool>,
     pub width: u32,
     pub height: u32,
     pub accum_format: vk::Format,
@@ -26,7 +28,6 @@ pub struct RefocusTarget {
     pub out8: Image,
     /// R32G32B32A32_SFLOAT.
     pub outf: Image,
-    pool: vk::DescriptorPool,
     /// The accumulation image as a sampled image (resolve, set 0).
     pub(super) resolve_set: vk::DescriptorSet,
     /// The accumulation image as a storage image (compute strategy, set 1); null when the
@@ -64,117 +65,26 @@ impl RefocusTarget {
             ImageDesc::new_2d(vk::Format::R8G8B8A8_UNORM, width, height, out_usage),
             &[vk::Format::R8G8B8A8_UNORM],
             "refocus output (8-bit)",
-        );
-        let out8 = match out8 {
-            Ok(i) => i,
-            Err(e) => {
-                accum.destroy(ctx);
-                return Err(e);
-            }
-        };
+        )?;
         let outf = Image::new(
             ctx,
             ImageDesc::new_2d(vk::Format::R32G32B32A32_SFLOAT, width, height, out_usage),
             &[vk::Format::R32G32B32A32_SFLOAT],
             "refocus output (float)",
-        );
-        let outf = match outf {
-            Ok(i) => i,
-            Err(e) => {
-                accum.destroy(ctx);
-                out8.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let mut target = RefocusTarget {
+        )?;
+        let (pool, resolve_set, storage_set) = make_sets(ctx, &accum, storage, layouts, sampler)?;
+        Ok(RefocusTarget {
+            _pool: pool,
             width,
             height,
             accum_format,
             accum,
             out8,
             outf,
-            pool: vk::DescriptorPool::null(),
-            resolve_set: vk::DescriptorSet::null(),
-            storage_set: vk::DescriptorSet::null(),
+            resolve_set,
+            storage_set,
             accum_ready: false,
-        };
-        if let Err(e) = target.make_sets(ctx, storage, layouts, sampler) {
-            target.destroy(ctx);
-            return Err(e);
-        }
-        Ok(target)
-    }
-
-    fn make_sets(
-        &mut self,
-        ctx: &GpuContext,
-        storage: bool,
-        (resolve_layout, storage_layout): (vk::DescriptorSetLayout, vk::DescriptorSetLayout),
-        sampler: vk::Sampler,
-    ) -> Result<()> {
-        let d = &ctx.device;
-        let sizes = [
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                descriptor_count: 1,
-            },
-            vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::STORAGE_IMAGE,
-                descriptor_count: 1,
-            },
-        ];
-        // SAFETY: valid device and create info.
-        self.pool = unsafe {
-            d.create_descriptor_pool(
-                &vk::DescriptorPoolCreateInfo::default()
-                    .max_sets(2)
-                    .pool_sizes(&sizes),
-                None,
-            )
-        }
-        .vk("vkCreateDescriptorPool")?;
-        ctx.name(self.pool, "refocus target descriptors");
-        let layouts: Vec<_> = if storage {
-            vec![resolve_layout, storage_layout]
-        } else {
-            vec![resolve_layout]
-        };
-        // SAFETY: the pool has room for these sets.
-        let sets = unsafe {
-            d.allocate_descriptor_sets(
-                &vk::DescriptorSetAllocateInfo::default()
-                    .descriptor_pool(self.pool)
-                    .set_layouts(&layouts),
-            )
-        }
-        .vk("vkAllocateDescriptorSets")?;
-        self.resolve_set = sets[0];
-        let view = self.accum.views[0];
-        let sampled = [vk::DescriptorImageInfo::default()
-            .sampler(sampler)
-            .image_view(view)
-            .image_layout(vk::ImageLayout::GENERAL)];
-        let stored = [vk::DescriptorImageInfo::default()
-            .image_view(view)
-            .image_layout(vk::ImageLayout::GENERAL)];
-        let mut writes = vec![vk::WriteDescriptorSet::default()
-            .dst_set(self.resolve_set)
-            .dst_binding(0)
-            .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-            .image_info(&sampled)];
-        if storage {
-            self.storage_set = sets[1];
-            writes.push(
-                vk::WriteDescriptorSet::default()
-                    .dst_set(self.storage_set)
-                    .dst_binding(0)
-                    .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
-                    .image_info(&stored),
-            );
-        }
-        // SAFETY: the sets are new and unused; the infos reference live views.
-        unsafe { d.update_descriptor_sets(&writes, &[]) };
-        Ok(())
+        })
     }
 
     /// The format the views are summed in.
@@ -194,13 +104,84 @@ impl RefocusTarget {
         };
         (image, image.views[0])
     }
+}
 
-    /// Frees everything (see the module docs for the order). The GPU must be done with it.
-    pub fn destroy(self, ctx: &GpuContext) {
-        // SAFETY: no pending work uses the pool; destroying it frees its sets.
-        unsafe { ctx.device.destroy_descriptor_pool(self.pool, None) };
-        self.out8.destroy(ctx);
-        self.outf.destroy(ctx);
-        self.accum.destroy(ctx);
+/// The descriptor pool and the sets reading `accum`: sampled for the resolve, and as a storage
+/// image for the compute strategy when `storage` (else a null set).
+fn make_sets(
+    ctx: &GpuContext,
+    accum: &Image,
+    storage: bool,
+    (resolve_layout, storage_layout): (vk::DescriptorSetLayout, vk::DescriptorSetLayout),
+    sampler: vk::Sampler,
+) -> Result<(
+    Owned<vk::DescriptorPool>,
+    vk::DescriptorSet,
+    vk::DescriptorSet,
+)> {
+    let d = &ctx.device;
+    let sizes = [
+        vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+            descriptor_count: 1,
+        },
+        vk::DescriptorPoolSize {
+            ty: vk::DescriptorType::STORAGE_IMAGE,
+            descriptor_count: 1,
+        },
+    ];
+    // SAFETY: valid device and create info.
+    let pool = unsafe {
+        d.create_descriptor_pool(
+            &vk::DescriptorPoolCreateInfo::default()
+                .max_sets(2)
+                .pool_sizes(&sizes),
+            None,
+        )
     }
+    .vk("vkCreateDescriptorPool")
+    .owned(ctx)?;
+    ctx.name(*pool, "refocus target descriptors");
+    let layouts: Vec<_> = if storage {
+        vec![resolve_layout, storage_layout]
+    } else {
+        vec![resolve_layout]
+    };
+    // SAFETY: the pool has room for these sets.
+    let sets = unsafe {
+        d.allocate_descriptor_sets(
+            &vk::DescriptorSetAllocateInfo::default()
+                .descriptor_pool(*pool)
+                .set_layouts(&layouts),
+        )
+    }
+    .vk("vkAllocateDescriptorSets")?;
+    let view = accum.views[0];
+    let sampled = [vk::DescriptorImageInfo::default()
+        .sampler(sampler)
+        .image_view(view)
+        .image_layout(vk::ImageLayout::GENERAL)];
+    let stored = [vk::DescriptorImageInfo::default()
+        .image_view(view)
+        .image_layout(vk::ImageLayout::GENERAL)];
+    let mut writes = vec![vk::WriteDescriptorSet::default()
+        .dst_set(sets[0])
+        .dst_binding(0)
+        .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+        .image_info(&sampled)];
+    let storage_set = if storage {
+        writes.push(
+            vk::WriteDescriptorSet::default()
+                .dst_set(sets[1])
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
+                .image_info(&stored),
+        );
+        sets[1]
+    } else {
+        vk::DescriptorSet::null()
+    };
+    // SAFETY: the sets are new and unused; the infos reference live views.
+    unsafe { d.update_descriptor_sets(&writes, &[]) };
+    Ok((pool, sets[0], storage_set))
 }
