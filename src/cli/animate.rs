@@ -141,12 +141,7 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
     let first = &report.first;
     let views = first.views_plan().views.len();
     let (w, h) = report.size;
-    // The first frame includes the upload and any depth estimate; the others are the
-    // steady state, what each frame costs.
-    let mean = |v: &[f64]| (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
-    let mean_ms = mean(&report.frame_ms[1.min(report.frame_ms.len())..]);
-    let gpu: Vec<f64> = report.gpu_ms.iter().skip(1).flatten().copied().collect();
-    let gpu_mean = mean(&gpu);
+    let (mean_ms, gpu_mean) = (report.mean_frame_ms(), report.mean_gpu_ms());
     if r.json {
         let motion = match animation.motion {
             Motion::Sweep { key, from, to } => {

@@ -79,15 +79,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         .as_ref()
         .map_or(&frame_plan.plan, |a| &a.plan);
     let (out_w, out_h) = settings.size.unwrap_or((plan.width, plan.height));
-    let mean = |f: fn(&crate::jobs::batch::FrameTimes) -> Option<f64>| report.mean(f);
-    // The first frame's upload includes the whole set-up; the steady state leaves it out.
-    let steady_upload = report
-        .frames
-        .iter()
-        .skip(usize::from(report.frames.len() > 1))
-        .map(|t| t.upload_ms)
-        .sum::<f64>()
-        / (report.frames.len() - usize::from(report.frames.len() > 1)).max(1) as f64;
+    let means = report.means();
     if args.json {
         let mut out = plan_json(plan);
         let extra = json!({
@@ -118,15 +110,7 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
             "device": report.device,
             "wall_s": report.wall_s,
             "frames_per_second": report.frames_per_second,
-            "mean_ms": {
-                "decode": mean(|t| Some(t.decode_ms)),
-                "wait_for_decode": mean(|t| Some(t.wait_ms)),
-                "planning": mean(|t| Some(t.plan_ms)),
-                "upload": steady_upload,
-                "render_and_readback": mean(|t| Some(t.render_ms)),
-                "gpu_refocus": mean(|t| t.gpu_refocus_ms),
-                "encode": mean(|t| Some(t.encode_ms)),
-            },
+            "mean_ms": means,
             "per_frame": report.frames,
         });
         if let (Some(obj), Some(extra)) = (out.as_object_mut(), extra.as_object()) {
@@ -164,14 +148,15 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
         );
     }
     eprintln!(
-        "per frame: decode {} (background), waiting for it {}, planning {}, upload \
-         {steady_upload:.0} ms, render and readback {} (GPU refocus {}), encode {} (background)",
-        ms(mean(|t| Some(t.decode_ms))),
-        ms(mean(|t| Some(t.wait_ms))),
-        ms(mean(|t| Some(t.plan_ms))),
-        ms(mean(|t| Some(t.render_ms))),
-        ms(mean(|t| t.gpu_refocus_ms)),
-        ms(mean(|t| Some(t.encode_ms))),
+        "per frame: decode {} (background), waiting for it {}, planning {}, upload {:.0} ms, \
+         render and readback {} (GPU refocus {}), encode {} (background)",
+        ms(means.decode),
+        ms(means.wait_for_decode),
+        ms(means.planning),
+        means.upload,
+        ms(means.render_and_readback),
+        ms(means.gpu_refocus),
+        ms(means.encode),
     );
     Ok(())
 }

@@ -1,11 +1,11 @@
 //! `tiltfield info` and `tiltfield devices`.
 
 use clap::Args;
-use serde_json::json;
 
 use super::{load_light_field, LightFieldArgs};
 use crate::error::{Error, Result};
-use crate::lightfield::{DepthKind, Source};
+use crate::lightfield::summary::Summary;
+use crate::lightfield::{DepthKind, LightField, Source};
 
 #[derive(Debug, Args)]
 pub struct InfoArgs {
@@ -18,68 +18,21 @@ pub struct InfoArgs {
 
 pub fn run(args: &InfoArgs) -> Result<()> {
     let lf = load_light_field(&args.lf)?;
-    let centre = lf.grid.centre();
-    let ref_cam = lf.camera_at(centre)?;
-    let c0 = lf.views[0].camera.centre();
-    let extent = lf
-        .views
-        .iter()
-        .map(|v| (v.camera.centre() - c0).length())
-        .fold(0.0, f64::max);
-    let rotated = lf
-        .views
-        .iter()
-        .any(|v| !(v.camera.r - ref_cam.r).abs_diff_eq(glam::DMat3::ZERO, 1e-9));
-    let depth: Vec<_> = lf
-        .depth
-        .iter()
-        .map(|(i, d)| {
-            let v = &lf.views[*i];
-            let finite: Vec<f32> = d.values.iter().copied().filter(|x| x.is_finite()).collect();
-            let (lo, hi) = finite
-                .iter()
-                .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &x| {
-                    (a.min(x), b.max(x))
-                });
-            json!({
-                "view": [v.s, v.t],
-                "kind": d.kind,
-                "source": d.source,
-                "valid_fraction": finite.len() as f64 / d.values.len().max(1) as f64,
-                "range": if finite.is_empty() { json!(null) } else { json!([lo, hi]) },
-            })
-        })
-        .collect();
-    let dark: Vec<(usize, usize)> = lf
-        .views
-        .iter()
-        .zip(lf.dark_views())
-        .filter(|(_, dark)| *dark)
-        .map(|(v, _)| (v.s, v.t))
-        .collect();
-    let k = ref_cam.k;
-    let report = json!({
-        "name": lf.name,
-        "source": lf.source,
-        "grid": {"cols": lf.grid.cols, "rows": lf.grid.rows, "views": lf.grid.len()},
-        "view_size": [lf.width, lf.height],
-        "centre_camera": {
-            "fx": k.x_axis.x, "fy": k.y_axis.y, "cx": k.z_axis.x, "cy": k.z_axis.y,
-            "centre": [ref_cam.centre().x, ref_cam.centre().y, ref_cam.centre().z],
-        },
-        "rig_extent": extent,
-        "rotated_cameras": rotated,
-        "parallel_rig": lf.rig,
-        "depth": depth,
-        "dark_views": dark,
-    });
+    let summary = lf.summary()?;
     if args.json {
+        // Through a JSON value: the keys print sorted, as every report of the tool.
+        let value = serde_json::to_value(&summary).map_err(|e| Error::Invalid(e.to_string()))?;
         println!(
             "{}",
-            serde_json::to_string_pretty(&report).map_err(|e| Error::Invalid(e.to_string()))?
+            serde_json::to_string_pretty(&value).map_err(|e| Error::Invalid(e.to_string()))?
         );
         return Ok(());
     }
+    print_text(&lf, &summary);
+    Ok(())
+}
+
+fn print_text(lf: &LightField, summary: &Summary) {
     let format = match &lf.source {
         Source::Hci(_) => "HCI benchmark folder",
         Source::Manifest { .. } => "tiltfield manifest",
@@ -108,24 +61,18 @@ pub fn run(args: &InfoArgs) -> Result<()> {
     }
     println!(
         "  grid        {} × {} views (s × t), {} in all",
-        lf.grid.cols,
-        lf.grid.rows,
-        lf.grid.len()
+        summary.grid.cols, summary.grid.rows, summary.grid.views
     );
     println!("  views       {} × {} px", lf.width, lf.height);
+    let cam = &summary.centre_camera;
     println!(
         "  centre cam  fx {:.2} fy {:.2} cx {:.2} cy {:.2} px, centre ({:.4}, {:.4}, {:.4})",
-        k.x_axis.x,
-        k.y_axis.y,
-        k.z_axis.x,
-        k.z_axis.y,
-        ref_cam.centre().x,
-        ref_cam.centre().y,
-        ref_cam.centre().z
+        cam.fx, cam.fy, cam.cx, cam.cy, cam.centre[0], cam.centre[1], cam.centre[2]
     );
     println!(
-        "  rig         extent {extent:.4} world units, {}",
-        if rotated {
+        "  rig         extent {:.4} world units, {}",
+        summary.rig_extent,
+        if summary.rotated_cameras {
             "rotated cameras"
         } else {
             "parallel cameras"
@@ -142,6 +89,7 @@ pub fn run(args: &InfoArgs) -> Result<()> {
         ),
         None => println!("  disparity   classic shift-and-sum (no parallel-rig parameters)"),
     }
+    let dark = &summary.dark_views;
     if !dark.is_empty() {
         println!(
             "  dark views  {} (almost) black, left out of the aperture by default: {}",
@@ -152,25 +100,22 @@ pub fn run(args: &InfoArgs) -> Result<()> {
                 .join(" ")
         );
     }
-    if lf.depth.is_empty() {
+    if summary.depth.is_empty() {
         println!("  depth       none (click-based plane placement unavailable)");
     }
-    for (i, d) in &lf.depth {
-        let v = &lf.views[*i];
+    for d in &summary.depth {
         let kind = match d.kind {
             DepthKind::Depth => "depth",
             DepthKind::Disparity => "disparity",
         };
-        let finite = d.values.iter().filter(|x| x.is_finite()).count();
         println!(
             "  {kind:<11} view ({}, {}) from {} ({:.1} % valid)",
-            v.s,
-            v.t,
+            d.view[0],
+            d.view[1],
             d.source,
-            100.0 * finite as f64 / d.values.len().max(1) as f64
+            100.0 * d.valid_fraction
         );
     }
-    Ok(())
 }
 
 /// `tiltfield devices` options.

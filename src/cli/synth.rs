@@ -15,7 +15,6 @@ use crate::error::{Error, Result};
 use crate::geometry::aperture::{Aperture, ApertureShape};
 use crate::jobs::raster::{render_light_field, Rasterizer};
 use crate::lightfield::{hci, manifest, GridSize, LightField};
-use crate::passes::texture::{check_fits, TextureLimits};
 use crate::refocus::{self, FocusSpec, RefocusRequest};
 use crate::synth::gltf::{self, gl_to_cv};
 use crate::synth::rig::encode;
@@ -528,17 +527,7 @@ pub fn run(args: &SynthArgs) -> Result<()> {
     check_out_dir(out)?;
     let mut r = Rasterizer::new(&placed.mesh, &args.gpu.options())?;
     let device = r.context().info.name.clone();
-    // The views are render targets: check the device's image limit before the rasterizer
-    // allocates them (RGBA32F colour and geometry, 16 bytes per pixel each).
-    let limits = TextureLimits::of(r.context());
-    check_fits(
-        1,
-        width,
-        height,
-        width as u64 * height as u64 * 16,
-        &limits,
-        &device,
-    )?;
+    r.check_view_size(width, height)?;
     let t_render = Instant::now();
     let synth = render_light_field(&mut r, &rig, args.samples, args.layout == Layout::Manifest)?;
     let render_s = t_render.elapsed().as_secs_f64();

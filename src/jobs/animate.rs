@@ -375,6 +375,24 @@ pub struct AnimationReport {
     pub wall_s: f64,
 }
 
+impl AnimationReport {
+    /// The mean wall time of a frame in the steady state, ms: the first frame includes the
+    /// upload and any depth estimate and is left out (`None` with one frame).
+    pub fn mean_frame_ms(&self) -> Option<f64> {
+        mean(&self.frame_ms[1.min(self.frame_ms.len())..])
+    }
+
+    /// The mean GPU refocus time of the steady-state frames, ms (`None` without timers).
+    pub fn mean_gpu_ms(&self) -> Option<f64> {
+        let gpu: Vec<f64> = self.gpu_ms.iter().skip(1).flatten().copied().collect();
+        mean(&gpu)
+    }
+}
+
+fn mean(v: &[f64]) -> Option<f64> {
+    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+}
+
 /// Renders `states` on `session` (one upload for all) and hands the frames to `sink` in the
 /// playback order of `animation` (frames shown again by `bounce` are kept, not rendered again).
 /// `depth` counts the planes of a depth estimate if the first frame needs one; `rendered` is

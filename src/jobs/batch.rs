@@ -122,11 +122,40 @@ pub struct BatchReport {
     pub device: String,
 }
 
+/// Mean per-frame times of a range (`None`: no frame has that time), as reports show them.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct MeanTimes {
+    pub decode: Option<f64>,
+    pub wait_for_decode: Option<f64>,
+    pub planning: Option<f64>,
+    /// The steady state: the first frame's upload includes the whole set-up and is left out
+    /// (unless it is the only frame).
+    pub upload: f64,
+    pub render_and_readback: Option<f64>,
+    pub gpu_refocus: Option<f64>,
+    pub encode: Option<f64>,
+}
+
 impl BatchReport {
     /// Mean of one timing over the frames (`None` when no frame has it).
     pub fn mean(&self, f: impl Fn(&FrameTimes) -> Option<f64>) -> Option<f64> {
         let v: Vec<f64> = self.frames.iter().filter_map(f).collect();
         (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    }
+
+    /// The mean of every per-frame time.
+    pub fn means(&self) -> MeanTimes {
+        let skip = usize::from(self.frames.len() > 1);
+        let uploads = self.frames.iter().skip(skip).map(|t| t.upload_ms);
+        MeanTimes {
+            decode: self.mean(|t| Some(t.decode_ms)),
+            wait_for_decode: self.mean(|t| Some(t.wait_ms)),
+            planning: self.mean(|t| Some(t.plan_ms)),
+            upload: uploads.sum::<f64>() / (self.frames.len() - skip).max(1) as f64,
+            render_and_readback: self.mean(|t| Some(t.render_ms)),
+            gpu_refocus: self.mean(|t| t.gpu_refocus_ms),
+            encode: self.mean(|t| Some(t.encode_ms)),
+        }
     }
 }
 

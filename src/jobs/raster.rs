@@ -274,6 +274,15 @@ impl Rasterizer {
     pub fn name(&self) -> &str {
         &self.name
     }
+
+    /// Fails, naming the limit, unless views of `width × height` fit the device as render
+    /// targets (RGBA32F colour and geometry, 16 bytes a pixel each): checked before anything
+    /// is allocated for them.
+    pub fn check_view_size(&self, width: u32, height: u32) -> Result<()> {
+        let limits = crate::passes::texture::TextureLimits::of(&self.ctx);
+        let bytes = width as u64 * height as u64 * 16;
+        crate::passes::texture::check_fits(1, width, height, bytes, &limits, &self.ctx.info.name)
+    }
 }
 
 /// Which of `jitters` sub-pixel jitters each of `count` pinholes takes: every jitter equally

@@ -20,6 +20,7 @@ pub mod images;
 pub mod manifest;
 pub mod pfm;
 pub mod ply;
+pub mod summary;
 pub mod technicolor;
 pub mod video;
 
