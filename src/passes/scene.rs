@@ -328,15 +328,7 @@ impl ScenePass {
                     d.cmd_draw(cmd, count as u32, 1, first as u32, 0);
                 }
             };
-        let barrier = |image: &Image, from, to| {
-            format_barrier(
-                d,
-                cmd,
-                image.image,
-                image.desc.format,
-                ImageTransition { from, to },
-            );
-        };
+        let barrier = |image: &Image, from, to| transition(d, cmd, image, from, to);
 
         // 1. The cloud layer, when the view changed.
         if cloud_changed || !target.cloud_valid {
@@ -434,18 +426,22 @@ impl ScenePass {
     }
 }
 
+/// One layout transition of a scene image (colour or depth, by its format).
+fn transition(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    image: &Image,
+    from: stage::End,
+    to: stage::End,
+) {
+    let t = ImageTransition { from, to };
+    format_barrier(d, cmd, image.image, image.desc.format, t);
+}
+
 /// Copies the cached cloud layer (colour and depth) into `target`'s images, leaving them ready
 /// to draw over.
 fn copy_cloud_layer(d: &ash::Device, cmd: vk::CommandBuffer, target: &SceneTarget) {
-    let barrier = |image: &Image, from, to| {
-        format_barrier(
-            d,
-            cmd,
-            image.image,
-            image.desc.format,
-            ImageTransition { from, to },
-        );
-    };
+    let barrier = |image: &Image, from, to| transition(d, cmd, image, from, to);
     barrier(&target.color, stage::DISCARD, stage::TRANSFER_DST);
     barrier(&target.depth, stage::DISCARD, stage::TRANSFER_DST);
     let pairs = [
