@@ -737,8 +737,8 @@ impl RefocusTargets {
         } else {
             &mut self.full
         };
-        pass.record_accumulate(ctx, cmd, target, &accumulate)?;
-        pass.record_resolve(ctx, cmd, target, OutputFormat::Srgb8, work.averaging)?;
+        let output = (OutputFormat::Srgb8, None);
+        refocus_job::record_refocus(ctx, cmd, pass, target, &accumulate, output, None)?;
         let to_read = ImageTransition {
             from: stage::COLOR_WRITE,
             to: stage::FRAGMENT_READ,
