@@ -592,6 +592,27 @@ fn render_options(
     Ok(RenderRequest(options))
 }
 
+/// The render request of `kwargs` (refocus's keywords) for the method `method`: the one
+/// keyword list, [`render_options`], called from Python, so keyword errors are Python's own;
+/// they name `method` (the list is registered as `animate`).
+fn request_for(
+    py: Python<'_>,
+    kwargs: Option<&Bound<'_, PyDict>>,
+    method: &str,
+) -> PyResult<RenderOptions> {
+    let request = wrap_pyfunction!(render_options, py)?
+        .call((), kwargs)
+        .map_err(|e| match e.is_instance_of::<PyTypeError>(py) {
+            true => PyTypeError::new_err(
+                e.value(py)
+                    .to_string()
+                    .replace("animate()", &format!("{method}()")),
+            ),
+            false => e,
+        })?;
+    Ok(request.downcast_into::<RenderRequest>()?.get().0.clone())
+}
+
 /// The motion of `animate`'s `sweep` and `orbit` keywords: exactly one, as the CLI's options.
 fn motion_of(sweep: Option<&Bound<'_, PyAny>>, orbit: Option<f64>) -> PyResult<Motion> {
     match (sweep, orbit) {
@@ -873,94 +894,14 @@ impl LightField {
     /// raises ``KeyboardInterrupt`` at once (the render finishes in the background; the next
     /// call waits for it). The views are uploaded on the first call; later calls cost the GPU
     /// time and a readback (:attr:`last_gpu_ms` is the GPU part).
-    #[pyo3(signature = (
-        *, disparity=None, plane=None, focus=None, tilt=None, swing=None, click=None,
-        points=None, points_3d=None, nudge_distance=None, nudge_tilt=None, nudge_swing=None,
-        normal_window=None, normal_method="inverse-depth", slab=None, all_in_focus=false,
-        aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
-        include_dark=false, antialias=None, antialias_samples=None, antialias_prefilter=None,
-        antialias_focus_test=None, antialias_focused_bicubic=None, antialias_occlusion=None,
-        antialias_defocus=None, strategy=None,
-        views_per_draw=None, filter=None, accumulation=None, warps=None, storage=None,
-        linear=false
-    ))]
-    #[allow(clippy::too_many_arguments)] // one keyword per CLI option, as the issue asks
+    #[pyo3(signature = (*, linear=false, **options))]
     fn refocus<'py>(
         &self,
         py: Python<'py>,
-        disparity: Option<&Bound<'py, PyAny>>,
-        plane: Option<&Bound<'py, PyAny>>,
-        focus: Option<&Bound<'py, PyAny>>,
-        tilt: Option<&Bound<'py, PyAny>>,
-        swing: Option<&Bound<'py, PyAny>>,
-        click: Option<&Bound<'py, PyAny>>,
-        points: Option<&Bound<'py, PyAny>>,
-        points_3d: Option<&Bound<'py, PyAny>>,
-        nudge_distance: Option<f64>,
-        nudge_tilt: Option<f64>,
-        nudge_swing: Option<f64>,
-        normal_window: Option<&Bound<'_, PyAny>>,
-        normal_method: &str,
-        slab: Option<f64>,
-        all_in_focus: bool,
-        aperture: &str,
-        aperture_radius: Option<f64>,
-        view: Option<&Bound<'py, PyAny>>,
-        size: Option<&Bound<'py, PyAny>>,
-        average: &str,
-        include_dark: bool,
-        antialias: Option<&Bound<'py, PyAny>>,
-        antialias_samples: Option<&Bound<'py, PyAny>>,
-        antialias_prefilter: Option<&Bound<'py, PyAny>>,
-        antialias_focus_test: Option<&Bound<'py, PyAny>>,
-        antialias_focused_bicubic: Option<&Bound<'py, PyAny>>,
-        antialias_occlusion: Option<&Bound<'py, PyAny>>,
-        antialias_defocus: Option<&Bound<'py, PyAny>>,
-        strategy: Option<&str>,
-        views_per_draw: Option<&Bound<'py, PyAny>>,
-        filter: Option<&str>,
-        accumulation: Option<&str>,
-        warps: Option<&str>,
-        storage: Option<&str>,
         linear: bool,
+        options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let mut options = render_options(
-            disparity,
-            plane,
-            focus,
-            tilt,
-            swing,
-            click,
-            points,
-            points_3d,
-            nudge_distance,
-            nudge_tilt,
-            nudge_swing,
-            normal_window,
-            normal_method,
-            slab,
-            all_in_focus,
-            aperture,
-            aperture_radius,
-            view,
-            size,
-            average,
-            include_dark,
-            antialias,
-            antialias_samples,
-            antialias_prefilter,
-            antialias_focus_test,
-            antialias_focused_bicubic,
-            antialias_occlusion,
-            antialias_defocus,
-            strategy,
-            views_per_draw,
-            filter,
-            accumulation,
-            warps,
-            storage,
-        )?
-        .0;
+        let mut options = request_for(py, options, "refocus")?;
         options.focus.validate().map_err(py_err)?;
         if linear {
             options.output = OutputFormat::Float;
@@ -1027,21 +968,7 @@ impl LightField {
                 "focal_stack: {name}= needs at least one value, all finite, got {values:?}"
             )));
         }
-        // `render_options` is named `animate` for Python's own keyword errors: say ours.
-        let mut base = wrap_pyfunction!(render_options, py)?
-            .call((), options)
-            .map_err(|e| match e.is_instance_of::<PyTypeError>(py) {
-                true => PyTypeError::new_err(
-                    e.value(py)
-                        .to_string()
-                        .replace("animate()", "focal_stack()"),
-                ),
-                false => e,
-            })?
-            .downcast_into::<RenderRequest>()?
-            .get()
-            .0
-            .clone();
+        let mut base = request_for(py, options, "focal_stack")?;
         if linear {
             base.output = OutputFormat::Float;
         }
@@ -1116,12 +1043,7 @@ impl LightField {
         path: Option<std::path::PathBuf>,
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Option<Bound<'py, PyAny>>> {
-        let base = wrap_pyfunction!(render_options, py)?
-            .call((), options)?
-            .downcast_into::<RenderRequest>()?
-            .get()
-            .0
-            .clone();
+        let base = request_for(py, options, "animate")?;
         let motion = motion_of(sweep, orbit)?;
         let frames = int_arg(Some(frames), "frames", 1..=animate::MAX_FRAMES as i64)?
             .unwrap_or_default() as usize;
