@@ -14,7 +14,7 @@ use std::sync::Arc;
 use clap::Args;
 use serde_json::json;
 
-use super::focus::{focus_json, focus_summary};
+use super::focus::focus_summary;
 use super::render::RenderArgs;
 use super::{check_output, device_load_limits, load_light_field_within};
 use crate::error::{Error, Result};
@@ -168,7 +168,7 @@ pub fn run(args: &AnimateArgs) -> Result<()> {
             "bytes": written.bytes,
             "size": [w, h],
             "cropped_to": written.cropped_to,
-            "focus": focus_json(&first.focus),
+            "focus": first.focus.json(),
             "views_used": views,
             "strategy": first.settings.strategy.name(),
             "strategy_source": first.strategy_source,

@@ -9,7 +9,7 @@ use clap::Args;
 use glam::DVec2;
 use serde_json::json;
 
-use super::focus::{focus_json, FocusArgs, FOCUS_OPTIONS};
+use super::focus::{FocusArgs, FOCUS_OPTIONS};
 use super::{load_light_field, parse_numbers, LightFieldArgs};
 use crate::error::{Error, Result};
 use crate::geometry::plane::Plane;
@@ -85,27 +85,25 @@ pub fn run(args: &CloudArgs) -> Result<()> {
     cloud.mesh.write(&args.output)?;
     let planes = cloud.plane.is_some() as usize + cloud.other_planes.len();
     if args.json {
-        let point = |p: &Plane| [p.point.x, p.point.y, p.point.z];
-        let normal = |p: &Plane| [p.normal.x, p.normal.y, p.normal.z];
         let report = json!({
             "output": args.output,
             "light_field": lf.name,
             "depth_map": {"source": cloud.depth_source, "view": [cloud.depth_view.0, cloud.depth_view.1], "kind": cloud.depth_kind},
-            "depth": super::depth::origin_json(&cloud.origin),
+            "depth": cloud.origin.json(),
             "points": cloud.points,
             "points_with_normal": cloud.points_with_normal,
             "normal_window": cloud.normals.window,
             "normals_ms": cloud.normals_ms,
             "plane": cloud.plane.as_ref().map(|p| json!({
-                "plane": {"point": point(&p.plane), "normal": normal(&p.plane)},
-                "focus": focus_json(&p.focus),
+                "plane": p.plane.json(),
+                "focus": p.focus.json(),
                 "half_size": p.half_size,
             })),
             "surface": {
                 "kind": cloud.surface.name(),
                 "slab_half_width": args.slab,
                 "other_planes": cloud.other_planes.iter()
-                    .map(|p| json!({"point": point(p), "normal": normal(p)}))
+                    .map(Plane::json)
                     .collect::<Vec<_>>(),
             },
             "cameras": cloud.cameras,

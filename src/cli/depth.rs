@@ -406,23 +406,3 @@ pub(crate) fn progress_bar_for(lf: &crate::lightfield::LightField) -> indicatif:
         .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     )
 }
-
-/// The `depth` object of a command's `--json`: where the depth came from.
-pub(crate) fn origin_json(origin: &crate::depth::DepthOrigin) -> serde_json::Value {
-    use crate::depth::DepthOrigin;
-    match origin {
-        DepthOrigin::Given { source } => json!({"origin": "given", "source": source}),
-        DepthOrigin::Estimated {
-            cached,
-            cache_file,
-            estimate,
-            min_confidence,
-        } => json!({
-            "origin": "estimated",
-            "cached": cached,
-            "cache_file": cache_file,
-            "min_confidence": min_confidence,
-            "estimate": estimate,
-        }),
-    }
-}

@@ -11,7 +11,6 @@
 
 use clap::Args;
 use glam::{DVec2, DVec3};
-use serde_json::{json, Value};
 
 use super::parse_numbers;
 use crate::error::Result;
@@ -273,65 +272,6 @@ impl FocusArgs {
             .map(|req| resolve_focus(lf, &req, reference))
             .transpose()
     }
-}
-
-fn v3(v: DVec3) -> [f64; 3] {
-    [v.x, v.y, v.z]
-}
-
-fn plane_json(p: &Plane) -> Value {
-    json!({"point": v3(p.point), "normal": v3(p.normal)})
-}
-
-/// The JSON report of a focus: `how`, `nudged`, `confidence` and, for picks, the details.
-pub fn focus_json(focus: &ResolvedFocus) -> Value {
-    let Some(pick) = &focus.pick else {
-        return json!({"how": focus.how, "nudged": false, "confidence": null});
-    };
-    let mut v = json!({
-        "how": focus.how,
-        "nudged": pick.nudge.is_some(),
-        "confidence": pick.confidence,
-        "plane_found": plane_json(&pick.found),
-        "plane": plane_json(&pick.plane),
-        "points": pick.points.iter().map(|p| v3(*p)).collect::<Vec<_>>(),
-    });
-    let obj = v.as_object_mut();
-    if let Some(obj) = obj {
-        if !pick.pixels.is_empty() {
-            obj.insert("pixels".into(), json!(pick.pixels));
-        }
-        if let Some(n) = &pick.normal {
-            obj.insert(
-                "normal_estimate".into(),
-                json!({
-                    "method": n.method,
-                    "normal": v3(n.normal),
-                    "centroid": v3(n.centroid),
-                    "confidence": n.confidence,
-                    "uncertainty_deg": n.uncertainty_deg,
-                    "planarity": n.planarity,
-                    "curvature": n.curvature,
-                    "view_angle_deg": n.view_angle_deg,
-                    "neighbours": n.neighbours,
-                    "rejected": n.rejected,
-                }),
-            );
-        }
-        if let Some(a) = pick.min_angle_deg {
-            obj.insert("min_angle_deg".into(), json!(a));
-        }
-        if let Some(n) = &pick.nudge {
-            obj.insert("nudge".into(), json!(n));
-        }
-        if let Some(d) = &focus.depth {
-            obj.insert(
-                "depth_map".into(),
-                json!({"source": d.source, "view": [d.view.0, d.view.1], "kind": d.kind}),
-            );
-        }
-    }
-    v
 }
 
 /// One human-readable line about a pick (`None` for the plain options).

@@ -6,7 +6,7 @@ use std::sync::Arc;
 
 use serde_json::json;
 
-use super::focus::{focus_json, focus_summary};
+use super::focus::focus_summary;
 use super::render::{plan_json, RenderArgs};
 use super::{check_output, device_load_limits};
 use crate::error::{Error, Result};
@@ -88,17 +88,17 @@ pub fn run(args: &RenderArgs, spec: &str) -> Result<()> {
                 "grid": [sequence.grid().cols, sequence.grid().rows],
                 "size": [sequence.view_size().0, sequence.view_size().1],
             },
-            "focus": planner.focus.as_ref().map(focus_json),
+            "focus": planner.focus.as_ref().map(crate::refocus::ResolvedFocus::json),
             "frames": frames,
             "outputs": frames.iter().map(|&f| pattern.path(f)).collect::<Vec<_>>(),
             "averaging": args.aperture.average,
             "surface": frame_plan.surface.as_ref().map(|s| {
-                s.json(planner.depth_origin.as_ref().map(super::depth::origin_json))
+                s.json(planner.depth_origin.as_ref().map(crate::depth::DepthOrigin::json))
             }),
             "antialias": with_depth_frames(
                 crate::refocus::antialias::antialias_json(
                     frame_plan.antialias.as_ref(),
-                    planner.depth_origin.as_ref().map(super::depth::origin_json),
+                    planner.depth_origin.as_ref().map(crate::depth::DepthOrigin::json),
                 ),
                 planner.depth_frames,
             ),

@@ -6,7 +6,7 @@ use std::time::Instant;
 use clap::Args;
 use serde_json::json;
 
-use super::focus::{focus_json, focus_summary, FocusArgs, FOCUS_OPTIONS};
+use super::focus::{focus_summary, FocusArgs, FOCUS_OPTIONS};
 use super::{
     check_output, device_load_limits, load_light_field_within, AntialiasArgs, ApertureArgs,
     GpuArgs, LightFieldArgs,
@@ -222,10 +222,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
                 "grid": [lf.grid.cols, lf.grid.rows],
                 "size": [lf.width, lf.height],
             },
-            "focus": focus_json(focus),
-            "depth": depth.as_ref().map(super::depth::origin_json),
-            "antialias": antialias_json(aa.as_ref(), depth.as_ref().map(super::depth::origin_json)),
-            "surface": surface_plan.json(depth.as_ref().map(super::depth::origin_json)),
+            "focus": focus.json(),
+            "depth": depth.as_ref().map(crate::depth::DepthOrigin::json),
+            "antialias": antialias_json(aa.as_ref(), depth.as_ref().map(crate::depth::DepthOrigin::json)),
+            "surface": surface_plan.json(depth.as_ref().map(crate::depth::DepthOrigin::json)),
             "output": args.output,
             "averaging": args.aperture.average,
             "strategy": prepared.settings.strategy.name(),

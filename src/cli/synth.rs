@@ -484,9 +484,8 @@ fn optical_truth(
         crate::io::save_png(&encode(&linear, width, height), p)
     })?;
     folder.track(&exr, |p| crate::io::save_exr(width, height, &linear, p))?;
-    let v3 = |v: DVec3| [v.x, v.y, v.z];
     let report = json!({
-        "plane": {"point": v3(plane.point), "normal": v3(plane.normal)},
+        "plane": plane.json(),
         "aperture_radius_steps": steps,
         "aperture_radius": steps * baseline,
         "pinholes": pinholes,

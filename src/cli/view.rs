@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use clap::Args;
 use serde_json::json;
 
-use super::focus::{focus_json, FocusArgs};
+use super::focus::FocusArgs;
 use super::render::{dark_views, plan_json};
 use super::{load_light_field, AntialiasArgs, ApertureArgs, GpuArgs, LightFieldArgs, ReadArgs};
 use crate::error::{Error, Result};
@@ -179,8 +179,8 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 "grid": [grid.cols, grid.rows],
                 "size": [size.0, size.1],
             },
-            "focus": focus_json(&state.resolved),
-            "depth": depth_origin.map(super::depth::origin_json),
+            "focus": state.resolved.json(),
+            "depth": depth_origin.map(crate::depth::DepthOrigin::json),
             "window_ms": report.milestones.window_ms,
             "first_frame_ms": report.milestones.first_frame_ms,
             "depth_ready_ms": report.milestones.depth_ready_ms,
@@ -190,7 +190,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 "used": state.antialias() && depth_origin.is_some(),
                 "max_samples": antialias.max_samples,
                 "defocus": antialias.defocus,
-                "depth_origin": depth_origin.map(super::depth::origin_json),
+                "depth_origin": depth_origin.map(crate::depth::DepthOrigin::json),
             },
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},
             "storage": ViewStorage::default(),

@@ -59,6 +59,25 @@ pub enum DepthOrigin {
 }
 
 impl DepthOrigin {
+    /// The `depth` object of a command's `--json`: where the depth came from (the estimate
+    /// in full).
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::to_value(self).unwrap_or_default()
+    }
+
+    /// Where the depth came from, by name only (a screenshot's sidecar: the full origin
+    /// carries the whole estimate).
+    pub fn brief_json(&self) -> serde_json::Value {
+        match self {
+            DepthOrigin::Given { source } => {
+                serde_json::json!({"origin": "given", "source": source})
+            }
+            DepthOrigin::Estimated { cached, .. } => {
+                serde_json::json!({"origin": "estimated", "cached": cached})
+            }
+        }
+    }
+
     /// The default window of a click's normal on this depth: 9 px on the light field's own
     /// map, 31 px on an estimate ([`crate::geometry::normals::ESTIMATED_DEPTH_WINDOW`]).
     pub fn normal_window(&self) -> u32 {

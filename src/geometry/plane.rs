@@ -20,6 +20,11 @@ pub struct Plane {
 }
 
 impl Plane {
+    /// `{"point": [x, y, z], "normal": [x, y, z]}`: a plane as every report writes it.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::json!({"point": self.point.to_array(), "normal": self.normal.to_array()})
+    }
+
     /// A plane through `point` with normal `normal` (normalised here). Refuses non-finite input
     /// and a zero normal.
     pub fn new(point: DVec3, normal: DVec3) -> Result<Self> {

@@ -128,6 +128,59 @@ pub struct ResolvedFocus {
     pub depth: Option<DepthInfo>,
 }
 
+impl ResolvedFocus {
+    /// The JSON report of a focus: `how`, `nudged`, `confidence` and, for picks, the details.
+    pub fn json(&self) -> serde_json::Value {
+        let Some(pick) = &self.pick else {
+            return serde_json::json!({"how": self.how, "nudged": false, "confidence": null});
+        };
+        let mut v = serde_json::json!({
+            "how": self.how,
+            "nudged": pick.nudge.is_some(),
+            "confidence": pick.confidence,
+            "plane_found": pick.found.json(),
+            "plane": pick.plane.json(),
+            "points": pick.points.iter().map(|p| p.to_array()).collect::<Vec<_>>(),
+        });
+        let obj = v.as_object_mut();
+        if let Some(obj) = obj {
+            if !pick.pixels.is_empty() {
+                obj.insert("pixels".into(), serde_json::json!(pick.pixels));
+            }
+            if let Some(n) = &pick.normal {
+                obj.insert(
+                    "normal_estimate".into(),
+                    serde_json::json!({
+                        "method": n.method,
+                        "normal": n.normal.to_array(),
+                        "centroid": n.centroid.to_array(),
+                        "confidence": n.confidence,
+                        "uncertainty_deg": n.uncertainty_deg,
+                        "planarity": n.planarity,
+                        "curvature": n.curvature,
+                        "view_angle_deg": n.view_angle_deg,
+                        "neighbours": n.neighbours,
+                        "rejected": n.rejected,
+                    }),
+                );
+            }
+            if let Some(a) = pick.min_angle_deg {
+                obj.insert("min_angle_deg".into(), serde_json::json!(a));
+            }
+            if let Some(n) = &pick.nudge {
+                obj.insert("nudge".into(), serde_json::json!(n));
+            }
+            if let Some(d) = &self.depth {
+                obj.insert(
+                    "depth_map".into(),
+                    serde_json::json!({"source": d.source, "view": [d.view.0, d.view.1], "kind": d.kind}),
+                );
+            }
+        }
+        v
+    }
+}
+
 /// Resolves `request` on `lf` for the reference view at grid position `reference` (fractional
 /// allowed). Errors name the problem: no usable depth at a click, collinear points, a nudge
 /// past 90°, a plane through the reference camera, a disparity beyond infinity, a reference

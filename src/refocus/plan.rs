@@ -278,7 +278,7 @@ pub fn plan_json(plan: &RefocusPlan) -> serde_json::Value {
     let v3 = |v: DVec3| [v.x, v.y, v.z];
     serde_json::json!({
         "method": plan.method,
-        "plane": plan.plane.map(|p| serde_json::json!({"point": v3(p.point), "normal": v3(p.normal)})),
+        "plane": plan.plane.map(|p| p.json()),
         "reference_view": [plan.reference.x, plan.reference.y],
         "reference_centre": v3(plan.reference_camera.centre()),
         "views_used": plan.views.len(),

@@ -302,8 +302,7 @@ impl SurfacePlan {
 
     /// The JSON description for reports: the surface, its planes, the slab width, the depth.
     pub fn json(&self, depth_origin: Option<serde_json::Value>) -> serde_json::Value {
-        let v3 = |v: DVec3| [v.x, v.y, v.z];
-        let pj = |p: &Plane| serde_json::json!({"point": v3(p.point), "normal": v3(p.normal)});
+        let pj = Plane::json;
         let planes: Vec<_> = match (&self.surface, &self.plane) {
             (FocusSurface::Planes(p), _) => p.iter().map(pj).collect(),
             (_, Some(p)) => vec![pj(p)],

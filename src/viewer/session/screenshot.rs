@@ -10,6 +10,7 @@ use super::super::gpu::ViewerGpu;
 use super::super::state::ViewerState;
 use crate::depth::DepthOrigin;
 use crate::error::Result;
+use crate::geometry::plane::Plane;
 use crate::lightfield::LightField;
 use crate::refocus::antialias::AntialiasPlan;
 use crate::refocus::surface::SurfacePlan;
@@ -92,27 +93,10 @@ pub fn surface_json(
     surface: Option<&SurfacePlan>,
     depth: Option<&DepthOrigin>,
 ) -> serde_json::Value {
-    // Where the depth came from, by name (the full origin carries the whole estimate).
-    let origin = depth.map(|o| match o {
-        DepthOrigin::Given { source } => serde_json::json!({"origin": "given", "source": source}),
-        DepthOrigin::Estimated { cached, .. } => {
-            serde_json::json!({"origin": "estimated", "cached": cached})
-        }
-    });
     match surface {
-        Some(sp) => sp.json(origin),
+        Some(sp) => sp.json(depth.map(DepthOrigin::brief_json)),
         None => {
-            let planes: Vec<_> = state
-                .plan
-                .plane
-                .iter()
-                .map(|p| {
-                    serde_json::json!({
-                        "point": [p.point.x, p.point.y, p.point.z],
-                        "normal": [p.normal.x, p.normal.y, p.normal.z],
-                    })
-                })
-                .collect();
+            let planes: Vec<_> = state.plan.plane.iter().map(Plane::json).collect();
             serde_json::json!({"kind": "plane", "planes": planes})
         }
     }
