@@ -268,6 +268,267 @@ fn at_depth_edge(
     })
 }
 
+/// What every pixel's fit shares: the images, the plan's views and the settings in the units
+/// the fit works in.
+struct FitSetup<'a> {
+    plan: &'a SweepPlan,
+    reference: Rgb32,
+    views: Vec<Rgb32>,
+    view_weights: &'a [f64],
+    /// Per view: the warp is a translation (a window samples as one texel block).
+    translation: Vec<bool>,
+    /// Plane spacing of the sweep parameter.
+    step: f64,
+    /// Window radius.
+    r: i64,
+    inv_two_sigma2: f64,
+    /// Depth-edge reach (p units); 0: none.
+    edge_reach: f64,
+    /// The prior's weight on p's start in the normal equations: (noise / prior deviation)².
+    start_prior: f64,
+    slope_prior: f64,
+    iterations: u32,
+}
+
+/// One pixel's colour-weighted window: position, reference colour and weight per pixel.
+type Window = Vec<(f64, f64, [f32; 3], f64)>;
+
+/// Per-view sums of one evaluation and the buffers of a row of pixels, kept across its pixels.
+struct ViewSums {
+    /// Per view: the windowed residual, and the normal equations of (p, ∂p/∂x, ∂p/∂y).
+    residual: Vec<f64>,
+    grad: Vec<[f64; 3]>,
+    hess: Vec<[f64; 6]>,
+    used: Vec<bool>,
+    /// The views not treated as occluded.
+    keep: Vec<bool>,
+    scratch: Vec<f64>,
+    block: Vec<Sample>,
+    window: Window,
+}
+
+impl ViewSums {
+    fn new(n_views: usize, r: i64) -> Self {
+        let side = 2 * r as usize + 1;
+        ViewSums {
+            residual: vec![0.0; n_views],
+            grad: vec![[0.0; 3]; n_views],
+            hess: vec![[0.0; 6]; n_views],
+            used: vec![false; n_views],
+            keep: vec![false; n_views],
+            scratch: Vec::with_capacity(n_views),
+            block: vec![Default::default(); side * side],
+            window: Vec::with_capacity(side * side),
+        }
+    }
+}
+
+impl FitSetup<'_> {
+    /// The window around `(x, y)` and its colour weights into `window`.
+    fn colour_window(&self, (x, y): (usize, usize), window: &mut Window) {
+        let (w, h) = (self.reference.w, self.reference.h);
+        let r = self.r;
+        let centre = self.reference.at(x, y);
+        window.clear();
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let (xx, yy) = (x as i64 + dx, y as i64 + dy);
+                if xx < 0 || yy < 0 || xx >= w as i64 || yy >= h as i64 {
+                    continue;
+                }
+                let c = self.reference.at(xx as usize, yy as usize);
+                let d2 = (0..3).map(|k| (c[k] - centre[k]).powi(2)).sum::<f32>() as f64 / 3.0;
+                window.push((xx as f64, yy as f64, c, (-d2 * self.inv_two_sigma2).exp()));
+            }
+        }
+    }
+
+    /// Every view's windowed residual and normal equations at the affine model `theta`
+    /// (p, ∂p/∂x, ∂p/∂y) around `(cx, cy)`, into `s`.
+    fn evaluate(&self, (cx, cy): (f64, f64), theta: [f64; 3], s: &mut ViewSums) {
+        let r = self.r;
+        let side = 2 * r as usize + 1;
+        let (wf, hf) = (self.reference.w as f64 - 0.5, self.reference.h as f64 - 0.5);
+        for (k, (v, img)) in self.plan.views.iter().zip(&self.views).enumerate() {
+            let mut sums = Sums::default();
+            // A translated view with a frontoparallel window (every first step) samples
+            // a whole texel block at one fraction.
+            let whole_block = self.translation[k]
+                && theta[1] == 0.0
+                && theta[2] == 0.0
+                && s.window.len() == side * side
+                && {
+                    let o = v.sample(DVec2::new(cx - r as f64, cy - r as f64), theta[0]);
+                    img.block(o.x / o.z, o.y / o.z, side, &mut s.block)
+                };
+            if whole_block {
+                let dq = (v.b.x as f32, v.b.y as f32);
+                for (&(xx, yy, c, wt), &sample) in s.window.iter().zip(s.block.iter()) {
+                    sums.add(sample, dq, c, wt, xx - cx, yy - cy);
+                }
+            } else {
+                for &(xx, yy, c, wt) in &s.window {
+                    let (dx, dy) = (xx - cx, yy - cy);
+                    let p = theta[0] + theta[1] * dx + theta[2] * dy;
+                    let q = v.sample(DVec2::new(xx, yy), p);
+                    if q.z <= 0.0 {
+                        continue;
+                    }
+                    let (qx, qy) = (q.x / q.z, q.y / q.z);
+                    if qx < -0.5 || qy < -0.5 || qx > wf || qy > hf {
+                        continue;
+                    }
+                    // d(sample position)/dp of the projective map.
+                    let dqx = (v.b.x - qx * v.b.z) / q.z;
+                    let dqy = (v.b.y - qy * v.b.z) / q.z;
+                    sums.add(img.sample(qx, qy), (dqx as f32, dqy as f32), c, wt, dx, dy);
+                }
+            }
+            let Sums { e, g, hh, n } = sums;
+            s.used[k] = n * 2 > s.window.len();
+            let vw = self.view_weights[k];
+            s.residual[k] = vw * e;
+            s.grad[k] = g.map(|x| vw * x);
+            s.hess[k] = hh.map(|x| vw * x);
+        }
+    }
+
+    /// One Gauss–Newton step of `theta` on the kept views' normal equations, with the priors
+    /// (slopes near 0, p near its start `p0`) and the clamps; `None` where the equations cannot
+    /// be solved (no gradient). Returns the step of p before its clamp to the winner's reach.
+    fn step(&self, theta: &mut [f64; 3], p0: f64, s: &ViewSums) -> Option<f64> {
+        let mut g = [0.0; 3];
+        let mut hh = [0.0; 6];
+        for k in (0..s.keep.len()).filter(|&k| s.keep[k]) {
+            for (sum, x) in g.iter_mut().zip(&s.grad[k]) {
+                *sum += x;
+            }
+            for (sum, x) in hh.iter_mut().zip(&s.hess[k]) {
+                *sum += x;
+            }
+        }
+        if hh[0].is_nan() || hh[0] <= 1e-12 {
+            return None;
+        }
+        // A prior pulls the slopes towards 0 (frontoparallel) where the window cannot
+        // tell them (weak texture); its weight scales with the data's own. Another
+        // holds p near its start (`start_planes`), with a fixed weight: it decides only
+        // where the data's own weight is small.
+        let lambda = self.slope_prior * hh[0];
+        let start_prior = self.start_prior;
+        let m = glam::DMat3::from_cols_array(&[
+            hh[0] + start_prior,
+            hh[1],
+            hh[2],
+            hh[1],
+            hh[3] + lambda,
+            hh[4],
+            hh[2],
+            hh[4],
+            hh[5] + lambda,
+        ]);
+        let rhs = glam::DVec3::new(
+            g[0] + start_prior * (theta[0] - p0),
+            g[1] + lambda * theta[1],
+            g[2] + lambda * theta[2],
+        );
+        if m.determinant().abs() < 1e-300 {
+            return None;
+        }
+        let d = -(m.inverse() * rhs);
+        if !d.is_finite() {
+            return None;
+        }
+        let step = self.step;
+        let delta = d.x.clamp(-step, step);
+        let max_away = MAX_PLANES_AWAY;
+        theta[0] = (theta[0] + delta).clamp(p0 - max_away * step, p0 + max_away * step);
+        // A slope of more than a plane per pixel is no surface the window can fit.
+        theta[1] = (theta[1] + d.y).clamp(-step, step);
+        theta[2] = (theta[2] + d.z).clamp(-step, step);
+        Some(delta)
+    }
+
+    /// The fitted p of pixel `(x, y)` whose start is `p0`, or `None` to keep the start.
+    fn fit_pixel(
+        &self,
+        param: &[f32],
+        (x, y): (usize, usize),
+        p0: f64,
+        s: &mut ViewSums,
+    ) -> Option<f64> {
+        let (w, h) = (self.reference.w, self.reference.h);
+        if !p0.is_finite() {
+            return None;
+        }
+        if self.edge_reach > 0.0 && at_depth_edge(param, (w, h), (x, y), p0, self.edge_reach) {
+            return None;
+        }
+        self.colour_window((x, y), &mut s.window);
+        let centre = (x as f64, y as f64);
+        let mut theta = [p0, 0.0, 0.0];
+        self.evaluate(centre, theta, s);
+        let e0 = keep_unoccluded(s);
+        if !e0.is_finite() {
+            return None;
+        }
+        for it in 0..self.iterations {
+            let Some(delta) = self.step(&mut theta, p0, s) else {
+                break;
+            };
+            // The last step needs no new residuals: nothing is decided on them.
+            if it + 1 == self.iterations {
+                break;
+            }
+            self.evaluate(centre, theta, s);
+            keep_unoccluded(s);
+            if delta.abs() < 1e-3 * self.step {
+                break;
+            }
+        }
+        theta[0].is_finite().then_some(theta[0])
+    }
+}
+
+/// Marks in `s.keep` the views not treated as occluded (none far above the
+/// [`OCCLUSION_QUANTILE`] view) and returns their total residual; infinite when no view was
+/// usable.
+fn keep_unoccluded(s: &mut ViewSums) -> f64 {
+    let ViewSums {
+        residual,
+        used,
+        keep,
+        scratch,
+        ..
+    } = s;
+    scratch.clear();
+    scratch.extend(
+        residual
+            .iter()
+            .zip(used.iter())
+            .filter(|(_, &u)| u)
+            .map(|(&r, _)| r),
+    );
+    if scratch.is_empty() {
+        keep.fill(false);
+        return f64::INFINITY;
+    }
+    let at = (scratch.len() as f64 * OCCLUSION_QUANTILE) as usize;
+    let cut = OCCLUDED_RATIO
+        * scratch
+            .select_nth_unstable_by(at, f64::total_cmp)
+            .1
+            .max(1e-12);
+    let mut sum = 0.0;
+    for ((k, &r), &u) in keep.iter_mut().zip(residual.iter()).zip(used.iter()) {
+        *k = u && r <= cut;
+        if *k {
+            sum += r;
+        }
+    }
+    sum
+}
+
 /// Refines the sweep parameter `param` (one per reference pixel, row-major) of `plan` against
 /// `images` (the reference first, then one per `plan.views`, the same size), each view's
 /// residuals weighted by `view_weights` (its inverse noise variance relative to the
@@ -295,201 +556,30 @@ pub fn refine(
         return param.to_vec();
     }
     let step = plan.step().abs().max(1e-12);
-    let r = params.radius as i64;
-    let inv_two_sigma2 = 1.0 / (2.0 * params.colour_sigma.max(1e-6).powi(2));
-    let edge_reach = params.edge_planes * step;
-    let (wf, hf) = (w as f64 - 0.5, h as f64 - 0.5);
-    let mut out = param.to_vec();
-    let slope_prior = params.slope_prior;
-    // The prior's weight in the normal equations: (noise / prior deviation)².
-    let start_prior = if params.start_planes > 0.0 {
-        (FIT_NOISE / (params.start_planes * step)).powi(2)
-    } else {
-        0.0
+    let setup = FitSetup {
+        plan,
+        reference,
+        views,
+        view_weights,
+        translation: plan.views.iter().map(|v| v.is_translation()).collect(),
+        step,
+        r: params.radius as i64,
+        inv_two_sigma2: 1.0 / (2.0 * params.colour_sigma.max(1e-6).powi(2)),
+        edge_reach: params.edge_planes * step,
+        start_prior: if params.start_planes > 0.0 {
+            (FIT_NOISE / (params.start_planes * step)).powi(2)
+        } else {
+            0.0
+        },
+        slope_prior: params.slope_prior,
+        iterations: params.iterations,
     };
-    let translation: Vec<bool> = plan.views.iter().map(|v| v.is_translation()).collect();
+    let mut out = param.to_vec();
     out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        // Per view: the windowed residual, and the normal equations of (p, ∂p/∂x, ∂p/∂y).
-        let n_views = views.len();
-        let mut residual = vec![0.0f64; n_views];
-        let mut grad = vec![[0.0f64; 3]; n_views];
-        let mut hess = vec![[0.0f64; 6]; n_views];
-        let mut used = vec![false; n_views];
-        let mut keep = vec![false; n_views];
-        let side = 2 * r as usize + 1;
-        let mut block: Vec<Sample> = vec![Default::default(); side * side];
-        let mut scratch = Vec::with_capacity(n_views);
-        // The window of the pixel at hand, its buffer kept across the row's pixels.
-        let mut window: Vec<(f64, f64, [f32; 3], f64)> =
-            Vec::with_capacity((2 * r as usize + 1).pow(2));
+        let mut sums = ViewSums::new(setup.views.len(), setup.r);
         for (x, value) in row.iter_mut().enumerate() {
-            let p0 = *value as f64;
-            if !p0.is_finite() {
-                continue;
-            }
-            if edge_reach > 0.0 && at_depth_edge(param, (w, h), (x, y), p0, edge_reach) {
-                continue;
-            }
-            // The window and its colour weights.
-            let centre = reference.at(x, y);
-            window.clear();
-            for dy in -r..=r {
-                for dx in -r..=r {
-                    let (xx, yy) = (x as i64 + dx, y as i64 + dy);
-                    if xx < 0 || yy < 0 || xx >= w as i64 || yy >= h as i64 {
-                        continue;
-                    }
-                    let c = reference.at(xx as usize, yy as usize);
-                    let d2 = (0..3).map(|k| (c[k] - centre[k]).powi(2)).sum::<f32>() as f64 / 3.0;
-                    window.push((xx as f64, yy as f64, c, (-d2 * inv_two_sigma2).exp()));
-                }
-            }
-            let (cx, cy) = (x as f64, y as f64);
-            let mut evaluate = |theta: [f64; 3],
-                                residual: &mut [f64],
-                                grad: &mut [[f64; 3]],
-                                hess: &mut [[f64; 6]],
-                                used: &mut [bool]| {
-                for (k, (v, img)) in plan.views.iter().zip(&views).enumerate() {
-                    let mut sums = Sums::default();
-                    // A translated view with a frontoparallel window (every first step) samples
-                    // a whole texel block at one fraction.
-                    let whole_block = translation[k]
-                        && theta[1] == 0.0
-                        && theta[2] == 0.0
-                        && window.len() == side * side
-                        && {
-                            let o = v.sample(DVec2::new(cx - r as f64, cy - r as f64), theta[0]);
-                            img.block(o.x / o.z, o.y / o.z, side, &mut block)
-                        };
-                    if whole_block {
-                        let dq = (v.b.x as f32, v.b.y as f32);
-                        for (&(xx, yy, c, wt), &sample) in window.iter().zip(block.iter()) {
-                            sums.add(sample, dq, c, wt, xx - cx, yy - cy);
-                        }
-                    } else {
-                        for &(xx, yy, c, wt) in &window {
-                            let (dx, dy) = (xx - cx, yy - cy);
-                            let p = theta[0] + theta[1] * dx + theta[2] * dy;
-                            let q = v.sample(DVec2::new(xx, yy), p);
-                            if q.z <= 0.0 {
-                                continue;
-                            }
-                            let (qx, qy) = (q.x / q.z, q.y / q.z);
-                            if qx < -0.5 || qy < -0.5 || qx > wf || qy > hf {
-                                continue;
-                            }
-                            // d(sample position)/dp of the projective map.
-                            let dqx = (v.b.x - qx * v.b.z) / q.z;
-                            let dqy = (v.b.y - qy * v.b.z) / q.z;
-                            sums.add(img.sample(qx, qy), (dqx as f32, dqy as f32), c, wt, dx, dy);
-                        }
-                    }
-                    let Sums { e, g, hh, n } = sums;
-                    used[k] = n * 2 > window.len();
-                    let vw = view_weights[k];
-                    residual[k] = vw * e;
-                    grad[k] = g.map(|x| vw * x);
-                    hess[k] = hh.map(|x| vw * x);
-                }
-            };
-            // The views not treated as occluded (none far above the quantile view) into `keep`,
-            // and their total residual; `scratch` is a buffer kept across the row's pixels.
-            let total =
-                |residual: &[f64], used: &[bool], keep: &mut [bool], scratch: &mut Vec<f64>| {
-                    scratch.clear();
-                    scratch.extend(
-                        residual
-                            .iter()
-                            .zip(used)
-                            .filter(|(_, &u)| u)
-                            .map(|(&r, _)| r),
-                    );
-                    if scratch.is_empty() {
-                        keep.fill(false);
-                        return f64::INFINITY;
-                    }
-                    let at = (scratch.len() as f64 * OCCLUSION_QUANTILE) as usize;
-                    let cut = OCCLUDED_RATIO
-                        * scratch
-                            .select_nth_unstable_by(at, f64::total_cmp)
-                            .1
-                            .max(1e-12);
-                    let mut sum = 0.0;
-                    for ((k, &r), &u) in keep.iter_mut().zip(residual).zip(used) {
-                        *k = u && r <= cut;
-                        if *k {
-                            sum += r;
-                        }
-                    }
-                    sum
-                };
-            let mut theta = [p0, 0.0, 0.0];
-            evaluate(theta, &mut residual, &mut grad, &mut hess, &mut used);
-            let e0 = total(&residual, &used, &mut keep, &mut scratch);
-            if !e0.is_finite() {
-                continue;
-            }
-            for it in 0..params.iterations {
-                let mut g = [0.0; 3];
-                let mut hh = [0.0; 6];
-                for k in (0..n_views).filter(|&k| keep[k]) {
-                    for i in 0..3 {
-                        g[i] += grad[k][i];
-                    }
-                    for i in 0..6 {
-                        hh[i] += hess[k][i];
-                    }
-                }
-                if hh[0].is_nan() || hh[0] <= 1e-12 {
-                    break;
-                }
-                // A prior pulls the slopes towards 0 (frontoparallel) where the window cannot
-                // tell them (weak texture); its weight scales with the data's own. Another
-                // holds p near its start (`start_planes`), with a fixed weight: it decides only
-                // where the data's own weight is small.
-                let lambda = slope_prior * hh[0];
-                let m = glam::DMat3::from_cols_array(&[
-                    hh[0] + start_prior,
-                    hh[1],
-                    hh[2],
-                    hh[1],
-                    hh[3] + lambda,
-                    hh[4],
-                    hh[2],
-                    hh[4],
-                    hh[5] + lambda,
-                ]);
-                let rhs = glam::DVec3::new(
-                    g[0] + start_prior * (theta[0] - p0),
-                    g[1] + lambda * theta[1],
-                    g[2] + lambda * theta[2],
-                );
-                if m.determinant().abs() < 1e-300 {
-                    break;
-                }
-                let d = -(m.inverse() * rhs);
-                if !d.is_finite() {
-                    break;
-                }
-                let delta = d.x.clamp(-step, step);
-                let max_away = MAX_PLANES_AWAY;
-                theta[0] = (theta[0] + delta).clamp(p0 - max_away * step, p0 + max_away * step);
-                // A slope of more than a plane per pixel is no surface the window can fit.
-                theta[1] = (theta[1] + d.y).clamp(-step, step);
-                theta[2] = (theta[2] + d.z).clamp(-step, step);
-                // The last step needs no new residuals: nothing is decided on them.
-                if it + 1 == params.iterations {
-                    break;
-                }
-                evaluate(theta, &mut residual, &mut grad, &mut hess, &mut used);
-                total(&residual, &used, &mut keep, &mut scratch);
-                if delta.abs() < 1e-3 * step {
-                    break;
-                }
-            }
-            if theta[0].is_finite() {
-                *value = theta[0] as f32;
+            if let Some(p) = setup.fit_pixel(param, (x, y), *value as f64, &mut sums) {
+                *value = p as f32;
             }
         }
     });
