@@ -1,7 +1,8 @@
 //! Compiles the GLSL shaders in `shaders/` to SPIR-V in OUT_DIR with shaderc; the crate embeds
 //! them with `include_bytes!`. Shader stage comes from the file extension.
 //!
-//! Also digests the depth estimator's source (`src/depth/`, `shaders/depth_*`) into
+//! Also digests the depth estimator's source (`src/depth/`, its GPU pass `src/passes/depth/`,
+//! its pipeline `src/jobs/depth.rs`, `shaders/depth_*`) into
 //! `TILTFIELD_DEPTH_SOURCE_DIGEST`, part of the depth cache's key: an estimate cached by a
 //! build whose estimator differed is never served (a hand-kept version number was once left
 //! unbumped, and caches served the old estimates).
@@ -14,7 +15,10 @@ use tiltfield_shaderc_link as _;
 fn main() {
     let shader_dir = Path::new("shaders");
     println!("cargo:rerun-if-changed=shaders");
-    println!("cargo:rerun-if-changed=src/depth");
+    for dir in DEPTH_SOURCE_DIRS {
+        println!("cargo:rerun-if-changed={dir}");
+    }
+    println!("cargo:rerun-if-changed={DEPTH_JOB}");
     println!(
         "cargo:rustc-env=TILTFIELD_DEPTH_SOURCE_DIGEST={:016x}",
         depth_source_digest(shader_dir)
@@ -60,14 +64,21 @@ fn main() {
     }
 }
 
+/// Folders whose every file is part of the depth estimator.
+const DEPTH_SOURCE_DIRS: [&str; 2] = ["src/depth", "src/passes/depth"];
+/// The job that runs the estimator's stages in order (the order is part of the estimate).
+const DEPTH_JOB: &str = "src/jobs/depth.rs";
+
 /// FNV-1a over the depth estimator's source files (name and bytes, in name order): anything
 /// that may change an estimate changes the digest. Comment edits do too, which only costs a
 /// fresh estimate.
 fn depth_source_digest(shader_dir: &Path) -> u64 {
-    let mut files: Vec<PathBuf> = std::fs::read_dir("src/depth")
-        .expect("src/depth folder")
+    let mut files: Vec<PathBuf> = DEPTH_SOURCE_DIRS
+        .iter()
+        .flat_map(|dir| std::fs::read_dir(dir).expect("depth source folder"))
         .map(|e| e.expect("readable entry").path())
         .collect();
+    files.push(PathBuf::from(DEPTH_JOB));
     files.extend(
         std::fs::read_dir(shader_dir)
             .expect("shaders/ folder")

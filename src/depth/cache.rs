@@ -33,7 +33,8 @@ use crate::lightfield::LightField;
 /// [`SOURCE_DIGEST`], so a change of the estimator's code alone already misses the cache.
 const ALGORITHM_VERSION: &str = "tiltfield-depth-8";
 
-/// A digest of the estimator's source (`src/depth/`, `shaders/depth_*`; build.rs).
+/// A digest of the estimator's source (`src/depth/`, `src/passes/depth/`, `src/jobs/depth.rs`,
+/// `shaders/depth_*`; build.rs).
 const SOURCE_DIGEST: &str = env!("TILTFIELD_DEPTH_SOURCE_DIGEST");
 
 /// Pixels whose confidence is below this are left out of the map installed by
