@@ -368,13 +368,19 @@ pub fn upload_refocus(
         Some(aa) => pass.set_antialias(ctx, aa)?,
         None => pass.set_views(plan)?,
     };
-    match surface {
-        Some(sp) if sp.rule != SurfaceRule::Plane => {
+    match active_surface(surface) {
+        Some(sp) => {
             pass.set_surface(sp)?;
             Ok(true)
         }
-        _ => Ok(false),
+        None => Ok(false),
     }
+}
+
+/// The surface the pass must run, if any: only surfaces beyond one plane take its SURFACE
+/// path (one plane is the plain path, unchanged).
+pub fn active_surface(surface: Option<&SurfacePlan>) -> Option<&SurfacePlan> {
+    surface.filter(|s| s.rule != SurfaceRule::Plane)
 }
 
 /// Records one refocus into `cmd`: the accumulation `a` into `target`, its resolve into

@@ -43,7 +43,7 @@ use crate::passes::texture::LightFieldTexture;
 use crate::refocus::antialias::AntialiasPlan;
 use crate::refocus::settings::ViewStorage;
 use crate::refocus::settings::{Filter, OutputFormat, Strategy};
-use crate::refocus::surface::{SurfacePlan, SurfaceRule};
+use crate::refocus::surface::SurfacePlan;
 use crate::refocus::{Averaging, RefocusPlan};
 
 use super::layout::Layout;
@@ -156,12 +156,6 @@ pub struct ViewerGpu {
     /// The focus surface the pass holds (uploaded by [`ViewerGpu::prepare`]; `None` after
     /// anything else may have rewritten the pass's scene depth).
     surface: Option<SurfacePlan>,
-}
-
-/// The surface the pass must run, if any: only surfaces beyond one plane take its SURFACE
-/// path (one plane is the plain path, unchanged).
-fn active(surface: Option<&SurfacePlan>) -> Option<&SurfacePlan> {
-    surface.filter(|s| s.rule != SurfaceRule::Plane)
 }
 
 fn out_size(full: (u32, u32), divisor: u32) -> (u32, u32) {
@@ -500,7 +494,7 @@ impl ViewerGpu {
         }
         // After anti-aliasing's upload (both bind one scene depth): the surface's terms and
         // depth, rewritten only when they changed, after the frames in flight are done.
-        if let Some(sp) = active(req.surface) {
+        if let Some(sp) = refocus_job::active_surface(req.surface) {
             if self.surface.as_ref() != Some(sp) {
                 self.wait_idle()?;
                 if let Some(p) = self.pass.as_mut() {
@@ -566,7 +560,7 @@ impl ViewerGpu {
             let work = RefocusWork {
                 plan: req.plan,
                 antialias: req.antialias.map_or(0, |a| a.settings.max_samples),
-                surface: active(req.surface).is_some(),
+                surface: refocus_job::active_surface(req.surface).is_some(),
                 batch,
                 averaging: req.averaging,
                 strategy: self.strategy,
@@ -643,7 +637,6 @@ impl ViewerGpu {
         self.wait_idle()?;
         // What the capture uploads is not necessarily what the next frame wants.
         self.surface = None;
-        let surface = active(surface);
         let ctx = Arc::clone(&self.ctx);
         let Some(pass) = self.pass.as_mut() else {
             return Err(Error::Internal("the viewer was not fully created".into()));
