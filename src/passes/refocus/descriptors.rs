@@ -106,16 +106,11 @@ pub(super) fn write_all(ctx: &GpuContext, sets: &[vk::DescriptorSet], inputs: &I
 /// Points binding 8 of `sets` at `visibility` (grown). The sets must be unused.
 pub(super) fn write_visibility(ctx: &GpuContext, sets: &[vk::DescriptorSet], visibility: &Buffer) {
     let info = whole(visibility);
-    let writes: Vec<_> = sets
-        .iter()
-        .map(|&set| {
-            write(set, 8)
-                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                .buffer_info(&info)
-        })
-        .collect();
-    // SAFETY: the caller guarantees the sets are unused; the info references a live buffer.
-    unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+    rewrite(ctx, sets, |set| {
+        write(set, 8)
+            .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+            .buffer_info(&info)
+    });
 }
 
 /// Points binding 9 of `sets` at the defocused views `info` (recreated). The sets must be
@@ -126,14 +121,20 @@ pub(super) fn write_defocused(
     info: vk::DescriptorImageInfo,
 ) {
     let info = [info];
-    let writes: Vec<_> = sets
-        .iter()
-        .map(|&set| {
-            write(set, 9)
-                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                .image_info(&info)
-        })
-        .collect();
-    // SAFETY: the caller guarantees the sets are unused; the info references a live image.
+    rewrite(ctx, sets, |set| {
+        write(set, 9)
+            .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+            .image_info(&info)
+    });
+}
+
+/// Applies one write, made by `write` for each set, to every set of `sets`.
+fn rewrite<'a>(
+    ctx: &GpuContext,
+    sets: &[vk::DescriptorSet],
+    write: impl Fn(vk::DescriptorSet) -> vk::WriteDescriptorSet<'a>,
+) {
+    let writes: Vec<_> = sets.iter().map(|&set| write(set)).collect();
+    // SAFETY: the caller guarantees the sets are unused; the writes reference live objects.
     unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
 }
