@@ -60,11 +60,6 @@ impl<H: DeviceChild> Owned<H> {
             ctx: ctx.clone(),
         }
     }
-
-    /// The raw handle.
-    pub fn raw(&self) -> H {
-        self.handle
-    }
 }
 
 impl<H: DeviceChild> std::ops::Deref for Owned<H> {

@@ -72,9 +72,10 @@ impl ViewInputs {
     }
 
     /// Writes `plan`'s warps unless they are what the buffer holds; returns whether it wrote.
-    /// `layers`: the texture's layer count (a plan's view indices must lie below it).
-    pub fn set(&mut self, plan: &RefocusPlan, layers: usize) -> Result<bool> {
-        if plan.views.len() > self.capacity || plan.views.iter().any(|v| v.index >= layers) {
+    /// A plan's view indices are texture layers, so they lie below the capacity too.
+    pub fn set(&mut self, plan: &RefocusPlan) -> Result<bool> {
+        let cap = self.capacity;
+        if plan.views.len() > cap || plan.views.iter().any(|v| v.index >= cap) {
             return Err(Error::Invalid(
                 "the refocus plan does not belong to this light field texture".into(),
             ));

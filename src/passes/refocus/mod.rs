@@ -226,7 +226,6 @@ pub struct RefocusPass {
     input_sets: Vec<vk::DescriptorSet>,
     storage: ViewStorage,
     view_size: [f32; 2],
-    layers: usize,
     views: ViewInputs,
     depth: SceneDepthInput,
     antialias: AntialiasInputs,
@@ -295,7 +294,6 @@ impl RefocusPass {
             input_sets,
             storage: texture.storage,
             view_size: [w as f32, h as f32],
-            layers: texture.layers as usize,
             views,
             depth,
             antialias,
@@ -418,7 +416,7 @@ impl RefocusPass {
     /// when they equal what the buffer holds, as after a plane change alone. The GPU must not be
     /// reading the buffer (callers wait for the frames that used it).
     pub fn set_views(&mut self, plan: &RefocusPlan) -> Result<bool> {
-        let changed = self.views.set(plan, self.layers)?;
+        let changed = self.views.set(plan)?;
         if changed {
             // The footprints belonged to the previous views.
             self.antialias.uploaded_footprints.clear();
