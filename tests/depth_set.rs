@@ -85,14 +85,14 @@ fn the_default_beats_the_sweep_and_the_naive_sweep_over_the_whole_set() {
     };
     let (d, s, n) = (mean("default"), mean("sweep"), mean("naive"));
     eprintln!("{}", testset::markdown(&rows));
-    // Measured at 64 px: default 18.5 % / 5.4, without the median 18.5 % / 8.3, sweep
-    // 24.7 % / 9.0, naive 46.5 % / 52.9.
+    // Measured at 64 px: default 17.0 % / 4.31, without the median 17.0 % / 7.18, sweep
+    // 24.7 % / 9.0, naive 46.5 % / 52.9 (before the global refinement: default 18.5 % / 5.4).
     assert!(
-        d.bad_pix_007 <= 25.0,
+        d.bad_pix_007 <= 20.0,
         "default mean BadPix0.07 {}",
         d.bad_pix_007
     );
-    assert!(d.mse_x100 <= 7.0, "default mean MSE×100 {}", d.mse_x100);
+    assert!(d.mse_x100 <= 5.0, "default mean MSE×100 {}", d.mse_x100);
     let nm = mean("no-median");
     assert!(d.mse_x100 <= nm.mse_x100 - 0.5, "{d:?} vs no median {nm:?}");
     assert!(
@@ -169,14 +169,12 @@ fn the_shaded_scenes_are_scored_and_held_to_their_measured_bounds() {
     assert_eq!(d.len(), 3, "three shaded scenes in the set");
     let (dm, nm) = (testset::mean(&d), testset::mean(&n));
     eprintln!("shaded: default {dm:?}, naive {nm:?}");
-    // Measured at 64 px: default 62.9 % / 8.87 mean (76.9, 62.2 and 49.7 %), naive
-    // 61.1 % / 54.2; before the equaliser left the lit scenes alone default 56.9 % / 10.2
-    // (49.5, 71.5 and 49.7 %: at 64 px the misapplied gain happened to hold the bust's dark
-    // wall, at 96 px it cost the bust 11 points) and naive 70.4 % / 54.8. In BadPix the
-    // default is no better than the naive sweep here; only its mean square error is. The
-    // issue's target is 12 % / 5 on each.
-    assert!(dm.bad_pix_007 <= 66.0, "{dm:?}");
-    assert!(dm.mse_x100 <= 11.0, "{dm:?}");
+    // Measured at 64 px: default 45.6 % / 7.15 mean (51.0, 41.5 and 44.4 %), naive
+    // 61.1 % / 54.2; before the global refinement 62.9 % / 8.87, before the equaliser left
+    // the lit scenes alone 56.9 % / 10.2. The target is 12 % / 5 on each.
+    assert!(dm.bad_pix_007 <= 50.0, "{dm:?}");
+    assert!(dm.mse_x100 <= 8.5, "{dm:?}");
+    assert!(nm.bad_pix_007 >= dm.bad_pix_007 + 10.0, "{nm:?} vs {dm:?}");
     assert!(nm.mse_x100 >= 3.0 * dm.mse_x100, "{nm:?} vs {dm:?}");
     assert!(d.iter().all(|r| r.scores.mse_x100.is_finite()));
 }

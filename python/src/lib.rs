@@ -1346,6 +1346,7 @@ impl LightField {
             naive,
             no_fit,
             no_snap,
+            no_smooth: false,
             median: u32_arg(median, "median")?,
             include_dark,
         };

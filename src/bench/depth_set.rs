@@ -141,12 +141,13 @@ pub fn hci(folder: &Path) -> Result<SetScene> {
 
 /// The estimator variants the set compares, by name: `default` (today's defaults), `naive`
 /// (SAD over the same views with box aggregation), `sweep` (the sweep alone: no median, no
-/// continuous fit, no edge snapping), `no-fit`, `no-median` and `no-snap` (the default without
-/// that step).
-pub const VARIANTS: [&str; 6] = [
+/// continuous fit, no global refinement, no edge snapping), `no-fit`, `no-median`, `no-smooth`
+/// and `no-snap` (the default without that step).
+pub const VARIANTS: [&str; 7] = [
     "default",
     "no-fit",
     "no-median",
+    "no-smooth",
     "no-snap",
     "sweep",
     "naive",
@@ -162,6 +163,7 @@ pub fn variant(name: &str) -> Result<DepthOptions> {
                 fit: false,
                 median_radius: 0,
                 edge_snap: false,
+                smooth: false,
                 ..SweepParams::default()
             },
             ..base
@@ -175,6 +177,13 @@ pub fn variant(name: &str) -> Result<DepthOptions> {
         }),
         "naive" => Ok(DepthOptions {
             params: SweepParams::baseline(),
+            ..base
+        }),
+        "no-smooth" => Ok(DepthOptions {
+            params: SweepParams {
+                smooth: false,
+                ..SweepParams::default()
+            },
             ..base
         }),
         "no-snap" => Ok(DepthOptions {

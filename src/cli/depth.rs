@@ -68,6 +68,10 @@ pub struct DepthArgs {
     /// sides of each depth jump (docs/depth.md, step 8)
     #[arg(long)]
     pub no_snap: bool,
+    /// Skip the global refinement after the fit: no second-order smoothness prior filling
+    /// weakly textured pixels from the surface around them (docs/depth.md, step 7b)
+    #[arg(long)]
+    pub no_smooth: bool,
     /// Window radius of the colour-weighted median of the sweep's winners (0: none; default
     /// 14, none with --naive; above 6 the window is sampled every other pixel and an odd
     /// radius rounds up): gives pixels of a faint surface back the depth of their own colour
@@ -217,6 +221,7 @@ pub fn options(args: &DepthArgs) -> Result<DepthOptions> {
         naive: args.naive,
         no_fit: args.no_fit,
         no_snap: args.no_snap,
+        no_smooth: args.no_smooth,
         median: args.median,
         include_dark: args.include_dark,
     }

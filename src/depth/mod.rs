@@ -41,6 +41,7 @@ pub mod metrics;
 pub mod photometric;
 pub mod refine;
 pub mod request;
+pub mod smooth;
 pub mod sweep;
 
 use image::RgbaImage;
@@ -204,6 +205,10 @@ pub struct SweepParams {
     /// Depth edges placed to the pixel after the other steps ([`edges`]).
     #[serde(default = "yes")]
     pub edge_snap: bool,
+    /// The global refinement after the fit: the views' evidence against a second-order
+    /// smoothness prior ([`smooth`]).
+    #[serde(default = "yes")]
+    pub smooth: bool,
 }
 
 fn median_sigma() -> f64 {
@@ -228,6 +233,7 @@ impl Default for SweepParams {
             median_radius: 14,
             median_sigma: median_sigma(),
             edge_snap: true,
+            smooth: true,
         }
     }
 }
@@ -242,6 +248,7 @@ impl SweepParams {
             fit: false,
             median_radius: 0,
             edge_snap: false,
+            smooth: false,
             ..SweepParams::default()
         }
     }

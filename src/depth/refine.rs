@@ -97,14 +97,14 @@ impl Default for RefineParams {
 }
 
 /// An image as f32 planar-free RGB rows, encoded values in [0, 1].
-struct Rgb32 {
-    w: usize,
-    h: usize,
+pub(super) struct Rgb32 {
+    pub(super) w: usize,
+    pub(super) h: usize,
     px: Vec<[f32; 3]>,
 }
 
 impl Rgb32 {
-    fn new(img: &RgbaImage) -> Self {
+    pub(super) fn new(img: &RgbaImage) -> Self {
         Rgb32 {
             w: img.width() as usize,
             h: img.height() as usize,
@@ -121,14 +121,14 @@ impl Rgb32 {
         }
     }
 
-    fn at(&self, x: usize, y: usize) -> [f32; 3] {
+    pub(super) fn at(&self, x: usize, y: usize) -> [f32; 3] {
         self.px[y * self.w + x]
     }
 
     /// Bilinear sample (clamp to edge) and its gradient ∂/∂x, ∂/∂y at pixel position (x, y),
     /// for `x, y > −1` (the fit only samples inside the image's half-pixel border).
     #[inline]
-    fn sample(&self, x: f64, y: f64) -> Sample {
+    pub(super) fn sample(&self, x: f64, y: f64) -> Sample {
         // Truncation is the floor above −1; `f64::floor` is a library call on the baseline
         // x86-64 target and was a tenth of the fit's time.
         let (i, j) = ((x + 1.0) as i64 - 1, (y + 1.0) as i64 - 1);
@@ -163,7 +163,7 @@ impl Rgb32 {
 }
 
 /// A bilinear sample: value, ∂/∂x, ∂/∂y per channel.
-type Sample = ([f32; 3], [f32; 3], [f32; 3]);
+pub(super) type Sample = ([f32; 3], [f32; 3], [f32; 3]);
 
 impl Rgb32 {
     /// The `n × n` bilinear samples (with gradients) at `(x0 + u, y0 + v)`, u, v < n, row by row
@@ -456,7 +456,7 @@ impl FitSetup<'_> {
         (x, y): (usize, usize),
         p0: f64,
         s: &mut ViewSums,
-    ) -> Option<f64> {
+    ) -> Option<(f64, f64)> {
         let (w, h) = (self.reference.w, self.reference.h);
         if !p0.is_finite() {
             return None;
@@ -472,6 +472,12 @@ impl FitSetup<'_> {
         if !e0.is_finite() {
             return None;
         }
+        // The data's weight on p at the start (the views kept): how precisely the window's
+        // own texture fixes p.
+        let precision: f64 = (0..s.keep.len())
+            .filter(|&k| s.keep[k])
+            .map(|k| s.hess[k][0])
+            .sum();
         for it in 0..self.iterations {
             let Some(delta) = self.step(&mut theta, p0, s) else {
                 break;
@@ -486,7 +492,7 @@ impl FitSetup<'_> {
                 break;
             }
         }
-        theta[0].is_finite().then_some(theta[0])
+        theta[0].is_finite().then_some((theta[0], precision))
     }
 }
 
@@ -541,19 +547,33 @@ pub fn refine(
     param: &[f32],
     params: &RefineParams,
 ) -> Vec<f32> {
+    refine_with_precision(plan, images, view_weights, param, params).0
+}
+
+/// [`refine`], and per pixel the data's weight on p in the fit's normal equations at the
+/// start (Σ over the kept views and the window of the squared derivative of the residual by
+/// p: how precisely the pixel's own window fixes p; 0 where the pixel was not fitted).
+pub fn refine_with_precision(
+    plan: &SweepPlan,
+    images: &[&RgbaImage],
+    view_weights: &[f64],
+    param: &[f32],
+    params: &RefineParams,
+) -> (Vec<f32>, Vec<f32>) {
     let (w, h) = (plan.width as usize, plan.height as usize);
+    let unchanged = || (param.to_vec(), vec![0.0; param.len()]);
     if images.len() != plan.views.len() + 1
         || view_weights.len() != plan.views.len()
         || param.len() != w * h
         || w == 0
         || h == 0
     {
-        return param.to_vec();
+        return unchanged();
     }
     let reference = Rgb32::new(images[0]);
     let views: Vec<Rgb32> = images[1..].par_iter().map(|i| Rgb32::new(i)).collect();
     if reference.w != w || reference.h != h || views.iter().any(|v| v.w != w || v.h != h) {
-        return param.to_vec();
+        return unchanged();
     }
     let step = plan.step().abs().max(1e-12);
     let setup = FitSetup {
@@ -575,15 +595,20 @@ pub fn refine(
         iterations: params.iterations,
     };
     let mut out = param.to_vec();
-    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-        let mut sums = ViewSums::new(setup.views.len(), setup.r);
-        for (x, value) in row.iter_mut().enumerate() {
-            if let Some(p) = setup.fit_pixel(param, (x, y), *value as f64, &mut sums) {
-                *value = p as f32;
+    let mut precision = vec![0f32; param.len()];
+    out.par_chunks_mut(w)
+        .zip(precision.par_chunks_mut(w))
+        .enumerate()
+        .for_each(|(y, (row, prec))| {
+            let mut sums = ViewSums::new(setup.views.len(), setup.r);
+            for (x, (value, prec)) in row.iter_mut().zip(prec.iter_mut()).enumerate() {
+                if let Some((p, h)) = setup.fit_pixel(param, (x, y), *value as f64, &mut sums) {
+                    *value = p as f32;
+                    *prec = h as f32;
+                }
             }
-        }
-    });
-    out
+        });
+    (out, precision)
 }
 
 #[cfg(test)]

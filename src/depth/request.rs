@@ -35,6 +35,8 @@ pub struct DepthRequest {
     pub no_fit: bool,
     /// Leave depth edges where the windows put them (no [`crate::depth::edges`] step).
     pub no_snap: bool,
+    /// Skip the global refinement after the fit ([`crate::depth::smooth`]).
+    pub no_smooth: bool,
     /// Radius of the colour-weighted median (0: none; default: the params').
     pub median: Option<u32>,
     pub include_dark: bool,
@@ -54,6 +56,7 @@ impl Default for DepthRequest {
             naive: false,
             no_fit: false,
             no_snap: false,
+            no_smooth: false,
             median: None,
             include_dark: false,
         }
@@ -96,6 +99,7 @@ impl DepthRequest {
             radius: self.radius.unwrap_or(base.radius),
             fit: base.fit && !self.no_fit,
             edge_snap: base.edge_snap && !self.no_snap,
+            smooth: base.smooth && !self.no_smooth,
             median_radius: self.median.unwrap_or(base.median_radius),
             ..base
         };
@@ -149,5 +153,12 @@ mod tests {
         };
         assert!(!no_snap.options().unwrap().params.edge_snap);
         assert!(DepthRequest::default().options().unwrap().params.edge_snap);
+        let no_smooth = DepthRequest {
+            no_smooth: true,
+            ..DepthRequest::default()
+        };
+        assert!(!no_smooth.options().unwrap().params.smooth);
+        assert!(no_smooth.options().unwrap().params.fit);
+        assert!(DepthRequest::default().options().unwrap().params.smooth);
     }
 }

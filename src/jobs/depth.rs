@@ -9,7 +9,8 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::depth::cache::{cache_dir, ensure_depth_in as ensure_with, DepthOrigin};
-use crate::depth::refine::{refine, RefineParams};
+use crate::depth::refine::{refine_with_precision, RefineParams};
+use crate::depth::smooth::{smooth, SmoothParams};
 use crate::depth::{
     self, coarse_plan, downscale, plane_count, range_from_coarse, DepthEstimate, DepthOptions,
     DepthTimings,
@@ -112,10 +113,36 @@ pub fn estimate(
     let fit_images: Vec<&RgbaImage> = std::iter::once(reference)
         .chain(fit_plan.views.iter().map(|v| image_of(v.index)))
         .collect();
-    if options.params.fit {
-        let t = Instant::now();
-        param = fit(&fit_plan, &fit_images, &equalised, &out.best_cost, &param);
-        log::info!("continuous fit: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
+    if options.params.fit || options.params.smooth {
+        let mut precision = Vec::new();
+        let inputs = FitInputs::new(&fit_plan, &fit_images, &equalised, &out.best_cost);
+        let images = inputs.images(&fit_images);
+        if options.params.fit {
+            let t = Instant::now();
+            (param, precision) = refine_with_precision(
+                &fit_plan,
+                &images,
+                &inputs.weights,
+                &param,
+                &RefineParams::default(),
+            );
+            log::info!("continuous fit: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
+        }
+        if options.params.smooth {
+            let t = Instant::now();
+            param = smooth(
+                &fit_plan,
+                &images,
+                &inputs.weights,
+                &param,
+                &precision,
+                &SmoothParams::default(),
+            );
+            log::info!(
+                "smoothness-weighted refinement: {:.0} ms",
+                t.elapsed().as_secs_f64() * 1e3
+            );
+        }
     }
     if options.params.edge_snap {
         let t = Instant::now();
@@ -158,48 +185,57 @@ fn fit_views(lf: &LightField, options: &DepthOptions) -> crate::depth::ViewSet {
     }
 }
 
-/// The continuous fit of [`crate::depth::refine`] on `fit_plan`'s views (`images`: the
-/// reference, then one per view, equalised like the sweep's), each weighted by 1/gain² of its
-/// equalisation; on noisy views ([`photometric::is_noisy`]) all images are smoothed once first.
-fn fit(
-    fit_plan: &crate::depth::sweep::SweepPlan,
-    images: &[&RgbaImage],
-    equalised: &HashMap<usize, photometric::Equalised>,
-    best_cost: &[f32],
-    param: &[f32],
-) -> Vec<f32> {
-    let weights: Vec<f64> = fit_plan
-        .views
-        .iter()
-        .map(|v| {
-            equalised
-                .get(&v.index)
-                .map_or(1.0, |e| 1.0 / (e.gain * e.gain).max(1e-6))
-        })
-        .collect();
-    let passes = u32::from(photometric::is_noisy(best_cost));
-    log::info!(
-        "continuous fit on {} views{}",
-        fit_plan.views.len(),
-        if passes > 0 {
-            ", smoothed (noisy views)"
-        } else {
-            ""
-        }
-    );
-    let smoothed: Vec<RgbaImage>;
-    let smoothed_refs: Vec<&RgbaImage>;
-    let images = if passes > 0 {
-        smoothed = images
+/// What the continuous fit and the global refinement match on `fit_plan`'s views: each view
+/// weighted by 1/gain² of its equalisation, and on noisy views ([`photometric::is_noisy`])
+/// every image smoothed once first.
+struct FitInputs {
+    weights: Vec<f64>,
+    smoothed: Option<Vec<RgbaImage>>,
+}
+
+impl FitInputs {
+    fn new(
+        fit_plan: &crate::depth::sweep::SweepPlan,
+        images: &[&RgbaImage],
+        equalised: &HashMap<usize, photometric::Equalised>,
+        best_cost: &[f32],
+    ) -> Self {
+        let weights: Vec<f64> = fit_plan
+            .views
             .iter()
-            .map(|i| photometric::smooth(i, passes))
+            .map(|v| {
+                equalised
+                    .get(&v.index)
+                    .map_or(1.0, |e| 1.0 / (e.gain * e.gain).max(1e-6))
+            })
             .collect();
-        smoothed_refs = smoothed.iter().collect();
-        &smoothed_refs
-    } else {
-        images
-    };
-    refine(fit_plan, images, &weights, param, &RefineParams::default())
+        let passes = u32::from(photometric::is_noisy(best_cost));
+        log::info!(
+            "continuous fit on {} views{}",
+            fit_plan.views.len(),
+            if passes > 0 {
+                ", smoothed (noisy views)"
+            } else {
+                ""
+            }
+        );
+        let smoothed = (passes > 0).then(|| {
+            images
+                .iter()
+                .map(|i| photometric::smooth(i, passes))
+                .collect()
+        });
+        FitInputs { weights, smoothed }
+    }
+
+    /// The images to match: the smoothed ones, else `images` (the reference, then one per
+    /// view, equalised like the sweep's).
+    fn images<'a>(&'a self, images: &[&'a RgbaImage]) -> Vec<&'a RgbaImage> {
+        match &self.smoothed {
+            Some(s) => s.iter().collect(),
+            None => images.to_vec(),
+        }
+    }
 }
 
 /// Light fields of at most this many views are fitted on all of them (more views, more
