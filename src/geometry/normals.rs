@@ -10,9 +10,11 @@
 //!
 //! Discontinuity guard: inverse depth w = 1/z is affine in the pixel coordinates on any plane,
 //! so each neighbour's w is compared with the centre's w (the median of its 3 × 3 neighbourhood
-//! brought to the centre along the trend, so one noisy pixel does not decide) extrapolated
-//! along the window's robust trend (the medians of the per-pixel changes of w in x and y): a
-//! neighbour enters the fit
+//! brought to the centre along the trend, so one noisy pixel does not decide, then moved to the
+//! mode of its side of the window by a few median steps within the guard, so a patch of the
+//! estimate slightly off its surface does not decide either) extrapolated along the window's
+//! robust trend (the medians of the per-pixel changes of w in x and y): a neighbour enters the
+//! fit
 //! only when `|w − (w_c + g_x Δu + g_y Δv)| ≤ τ·w_c`. A window that straddles a depth edge
 //! thus uses the centre's side only (pairs across the edge are too few to move the medians),
 //! and a steep but smooth surface keeps its whole window. τ = max(`max_depth_jump` (default
@@ -481,7 +483,30 @@ fn estimate_with(
             }
         }
     }
-    let wc = median(&mut s.diffs);
+    let mut wc = median(&mut s.diffs);
+    // The centre's 3 × 3 can itself sit on a patch where the estimate is a little off its
+    // surface: a depth map refined with a smoothness prior (docs/depth.md, step 7b) has
+    // little pixel noise left, so τ is tight, but can stay a few hundredths of a pixel off
+    // over a patch, and on `demo`'s wall a guard around the click's patch kept 96 of 961
+    // pixels (853 before the refinement). So the guard's centre climbs to the mode of its
+    // own side first: a few steps of moving it to the median residual of the pixels within
+    // the guard (a mean shift with the guard as its window). The other side of a depth
+    // edge lies beyond the guard and never enters it (a band three guards wide, tried
+    // first, let a 5 % step's far side pull the centre over).
+    for _ in 0..RECENTRE_STEPS {
+        s.diffs.clear();
+        for (_, z, (du, dv)) in &s.window {
+            let r = 1.0 / z - (wc + local.gx * du + local.gy * dv);
+            if r.abs() <= tau * wc {
+                s.diffs.push(r);
+            }
+        }
+        let shift = median(&mut s.diffs);
+        wc += shift;
+        if shift.abs() <= 0.05 * tau * wc {
+            break;
+        }
+    }
     s.chosen.clear();
     s.inverse.clear();
     for (p, z, (du, dv)) in &s.window {
@@ -567,6 +592,10 @@ fn inverse_fit(samples: &[(f64, f64, f64)], centre: (f64, f64), k: DMat3) -> Opt
 
 /// The guard's threshold is at least this many noise standard deviations.
 const NOISE_TO_GUARD: f64 = 4.0;
+
+/// At most this many steps move the guard's centre to the median residual of the pixels
+/// within the guard (see `estimate_with`).
+const RECENTRE_STEPS: usize = 8;
 
 /// The robust local behaviour of inverse depth w = 1/z in a window.
 struct LocalTrend {
