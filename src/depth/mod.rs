@@ -682,6 +682,42 @@ pub fn downscale(img: &RgbaImage, factor: u32) -> RgbaImage {
     })
 }
 
+/// What the refinement steps' tests start from: the depth set's tilted plane (3 × 3 views of
+/// 64²), all views matched over 9 planes of [−1, 1], and its exact disparity.
+#[cfg(test)]
+pub(crate) mod fixtures {
+    use super::*;
+
+    pub(crate) struct Tilted {
+        pub lf: LightField,
+        pub plan: SweepPlan,
+        pub exact: Vec<f32>,
+    }
+
+    impl Tilted {
+        pub(crate) fn new() -> Tilted {
+            let lf = crate::bench::depth_scenes::DepthScene::Tilted.light_field(3, 64);
+            let options = DepthOptions {
+                views: ViewSet::All,
+                range: Some((-1.0, 1.0)),
+                planes: Some(9),
+                ..Default::default()
+            };
+            let plan = plan(&lf, &options).unwrap();
+            let exact = crate::bench::depth_scenes::truth(&lf, DepthKind::Disparity);
+            Tilted { lf, plan, exact }
+        }
+
+        /// The reference, then the plan's views.
+        pub(crate) fn images(&self) -> Vec<&RgbaImage> {
+            std::iter::once(self.plan.reference)
+                .chain(self.plan.views.iter().map(|v| v.index))
+                .map(|i| &self.lf.views[i].image)
+                .collect()
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

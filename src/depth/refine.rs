@@ -614,9 +614,6 @@ pub fn refine_with_precision(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::depth_scenes::{truth, DepthScene};
-    use crate::depth::{plan, DepthOptions, ViewSet};
-    use crate::lightfield::DepthKind;
 
     #[test]
     fn a_texel_block_samples_as_each_position_alone_and_refuses_to_leave_the_image() {
@@ -651,19 +648,9 @@ mod tests {
 
     #[test]
     fn the_fit_pulls_a_perturbed_slanted_plane_back_to_its_true_disparity() {
-        let lf = DepthScene::Tilted.light_field(3, 64);
-        let options = DepthOptions {
-            views: ViewSet::All,
-            range: Some((-1.0, 1.0)),
-            planes: Some(9),
-            ..Default::default()
-        };
-        let plan = plan(&lf, &options).unwrap();
-        let images: Vec<&RgbaImage> = std::iter::once(plan.reference)
-            .chain(plan.views.iter().map(|v| v.index))
-            .map(|i| &lf.views[i].image)
-            .collect();
-        let exact = truth(&lf, DepthKind::Disparity);
+        let fixture = crate::depth::fixtures::Tilted::new();
+        let (plan, exact) = (&fixture.plan, &fixture.exact);
+        let images = fixture.images();
         let step = plan.step() as f32;
         // Start a third of a plane off everywhere, one pixel without a value.
         let mut start: Vec<f32> = exact.iter().map(|d| d + 0.33 * step).collect();
@@ -673,7 +660,7 @@ mod tests {
         let errors = |out: &[f32]| {
             let mut err: Vec<f32> = out
                 .iter()
-                .zip(&exact)
+                .zip(exact)
                 .enumerate()
                 .filter(|(i, (o, t))| {
                     let (x, y) = (i % 64, i / 64);

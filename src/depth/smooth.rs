@@ -555,25 +555,12 @@ pub fn smooth(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::depth_scenes::{truth, DepthScene};
-    use crate::depth::{plan, DepthOptions, ViewSet};
-    use crate::lightfield::DepthKind;
 
     #[test]
     fn the_prior_pulls_a_staircase_of_planes_back_onto_a_slanted_plane() {
-        let lf = DepthScene::Tilted.light_field(3, 64);
-        let options = DepthOptions {
-            views: ViewSet::All,
-            range: Some((-1.0, 1.0)),
-            planes: Some(9),
-            ..Default::default()
-        };
-        let plan = plan(&lf, &options).unwrap();
-        let images: Vec<&RgbaImage> = std::iter::once(plan.reference)
-            .chain(plan.views.iter().map(|v| v.index))
-            .map(|i| &lf.views[i].image)
-            .collect();
-        let exact = truth(&lf, DepthKind::Disparity);
+        let fixture = crate::depth::fixtures::Tilted::new();
+        let (plan, exact) = (&fixture.plan, &fixture.exact);
+        let images = fixture.images();
         let step = plan.step() as f32;
         let lo = plan.range.0 as f32;
         // The sweep's staircase: every pixel on its nearest plane; one pixel without a value.
@@ -587,7 +574,7 @@ mod tests {
         let error = |out: &[f32]| {
             let mut err: Vec<f32> = out
                 .iter()
-                .zip(&exact)
+                .zip(exact)
                 .enumerate()
                 .filter(|(i, _)| (4..60).contains(&(i % 64)) && (4..60).contains(&(i / 64)))
                 .map(|(_, (o, t))| (o - t).abs() / step)
