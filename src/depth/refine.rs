@@ -676,7 +676,7 @@ mod tests {
             start_planes: 0.0,
             ..RefineParams::default()
         };
-        let out = refine(&plan, &images, &weights, &start, &data_only);
+        let out = refine(plan, &images, &weights, &start, &data_only);
         assert!(out[0].is_nan());
         let (median, p90) = errors(&out);
         assert!(
@@ -687,7 +687,7 @@ mod tests {
         // plane, yet the data still move every pixel most of the way (without a step the
         // error would stay 0.33).
         let (median, p90) = errors(&refine(
-            &plan,
+            plan,
             &images,
             &weights,
             &start,
@@ -700,7 +700,7 @@ mod tests {
         // Mismatched inputs are returned unchanged.
         assert_eq!(
             refine(
-                &plan,
+                plan,
                 &images[..1],
                 &weights,
                 &start,

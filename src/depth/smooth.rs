@@ -584,7 +584,7 @@ mod tests {
         };
         let no_anchors = vec![0.0; start.len()];
         let out = smooth(
-            &plan,
+            plan,
             &images,
             &weights,
             &start,
@@ -597,7 +597,7 @@ mod tests {
         // Anchored pixels keep their values; with every pixel anchored nothing moves.
         let all = vec![f32::INFINITY; start.len()];
         let kept = smooth(
-            &plan,
+            plan,
             &images,
             &weights,
             &start,
@@ -610,7 +610,7 @@ mod tests {
             .all(|(a, b)| a.to_bits() == b.to_bits()));
         // Mismatched inputs are returned unchanged.
         let short = smooth(
-            &plan,
+            plan,
             &images[..1],
             &weights,
             &start,
