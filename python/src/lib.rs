@@ -1302,8 +1302,8 @@ impl LightField {
     /// "square:N"), ``view=(s, t)`` (whole grid positions; default the middle view),
     /// ``cost`` ("robust", "mean"), ``aggregation`` ("guided", "box", "none"), ``radius``,
     /// ``naive``, ``no_fit``, ``no_snap`` (depth edges left where the windows put them),
-    /// ``median`` (radius of the colour-weighted median; 0: none),
-    /// ``include_dark``.
+    /// ``no_smooth`` (no global refinement of weakly textured pixels), ``median`` (radius of
+    /// the colour-weighted median; 0: none), ``include_dark``.
     ///
     /// Returns a ``float32`` array (H, W), NaN where there is no value; with
     /// ``confidence=True`` the tuple ``(depth, confidence)``, the confidence a ``float32``
@@ -1312,8 +1312,8 @@ impl LightField {
     /// cache their own).
     #[pyo3(signature = (
         *, kind=None, planes=None, range=None, views="cross", view=None, cost=None,
-        aggregation=None, radius=None, naive=false, no_fit=false, no_snap=false, median=None,
-        include_dark=false, confidence=false
+        aggregation=None, radius=None, naive=false, no_fit=false, no_snap=false,
+        no_smooth=false, median=None, include_dark=false, confidence=false
     ))]
     #[allow(clippy::too_many_arguments)] // one keyword per `tiltfield depth` option
     fn depth<'py>(
@@ -1330,6 +1330,7 @@ impl LightField {
         naive: bool,
         no_fit: bool,
         no_snap: bool,
+        no_smooth: bool,
         median: Option<&Bound<'py, PyAny>>,
         include_dark: bool,
         confidence: bool,
@@ -1346,7 +1347,7 @@ impl LightField {
             naive,
             no_fit,
             no_snap,
-            no_smooth: false,
+            no_smooth,
             median: u32_arg(median, "median")?,
             include_dark,
         };
