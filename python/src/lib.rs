@@ -1302,7 +1302,8 @@ impl LightField {
     /// "square:N"), ``view=(s, t)`` (whole grid positions; default the middle view),
     /// ``cost`` ("robust", "mean"), ``aggregation`` ("guided", "box", "none"), ``radius``,
     /// ``naive``, ``no_fit``, ``no_snap`` (depth edges left where the windows put them),
-    /// ``no_smooth`` (no global refinement of weakly textured pixels), ``median`` (radius of
+    /// ``no_smooth`` (no global refinement of weakly textured pixels), ``no_plane_fill`` (the
+    /// estimate's dominant planes not given to their weakly textured pixels), ``median`` (radius of
     /// the colour-weighted median; 0: none), ``include_dark``.
     ///
     /// Returns a ``float32`` array (H, W), NaN where there is no value; with
@@ -1313,7 +1314,7 @@ impl LightField {
     #[pyo3(signature = (
         *, kind=None, planes=None, range=None, views="cross", view=None, cost=None,
         aggregation=None, radius=None, naive=false, no_fit=false, no_snap=false,
-        no_smooth=false, median=None, include_dark=false, confidence=false
+        no_smooth=false, no_plane_fill=false, median=None, include_dark=false, confidence=false
     ))]
     #[allow(clippy::too_many_arguments)] // one keyword per `tiltfield depth` option
     fn depth<'py>(
@@ -1331,6 +1332,7 @@ impl LightField {
         no_fit: bool,
         no_snap: bool,
         no_smooth: bool,
+        no_plane_fill: bool,
         median: Option<&Bound<'py, PyAny>>,
         include_dark: bool,
         confidence: bool,
@@ -1348,6 +1350,7 @@ impl LightField {
             no_fit,
             no_snap,
             no_smooth,
+            no_plane_fill,
             median: u32_arg(median, "median")?,
             include_dark,
         };

@@ -141,13 +141,14 @@ pub fn hci(folder: &Path) -> Result<SetScene> {
 
 /// The estimator variants the set compares, by name: `default` (today's defaults), `naive`
 /// (SAD over the same views with box aggregation), `sweep` (the sweep alone: no median, no
-/// continuous fit, no global refinement, no edge snapping), `no-fit`, `no-median`, `no-smooth`
-/// and `no-snap` (the default without that step).
-pub const VARIANTS: [&str; 7] = [
+/// continuous fit, no global refinement, no plane fill, no edge snapping), `no-fit`,
+/// `no-median`, `no-smooth`, `no-plane-fill` and `no-snap` (the default without that step).
+pub const VARIANTS: [&str; 8] = [
     "default",
     "no-fit",
     "no-median",
     "no-smooth",
+    "no-plane-fill",
     "no-snap",
     "sweep",
     "naive",
@@ -164,6 +165,7 @@ pub fn variant(name: &str) -> Result<DepthOptions> {
                 median_radius: 0,
                 edge_snap: false,
                 smooth: false,
+                plane_fill: false,
                 ..SweepParams::default()
             },
             ..base
@@ -182,6 +184,13 @@ pub fn variant(name: &str) -> Result<DepthOptions> {
         "no-smooth" => Ok(DepthOptions {
             params: SweepParams {
                 smooth: false,
+                ..SweepParams::default()
+            },
+            ..base
+        }),
+        "no-plane-fill" => Ok(DepthOptions {
+            params: SweepParams {
+                plane_fill: false,
                 ..SweepParams::default()
             },
             ..base

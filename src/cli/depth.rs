@@ -72,6 +72,10 @@ pub struct DepthArgs {
     /// weakly textured pixels from the surface around them (docs/depth.md, step 7b)
     #[arg(long)]
     pub no_smooth: bool,
+    /// Skip the plane fill: the dominant planes of the estimate (walls, floors) are not given
+    /// to their weakly textured pixels (docs/depth.md, step 7c)
+    #[arg(long)]
+    pub no_plane_fill: bool,
     /// Window radius of the colour-weighted median of the sweep's winners (0: none; default
     /// 14, none with --naive; above 6 the window is sampled every other pixel and an odd
     /// radius rounds up): gives pixels of a faint surface back the depth of their own colour
@@ -222,6 +226,7 @@ pub fn options(args: &DepthArgs) -> Result<DepthOptions> {
         no_fit: args.no_fit,
         no_snap: args.no_snap,
         no_smooth: args.no_smooth,
+        no_plane_fill: args.no_plane_fill,
         median: args.median,
         include_dark: args.include_dark,
     }

@@ -32,6 +32,7 @@
 //! [`ensure_depth`] gives a light field without a depth map its estimate, cached on disk keyed
 //! by content ([`cache`]); clicks, point clouds and the viewer call it.
 
+pub mod arbitrate;
 pub mod cache;
 pub mod cpu;
 pub mod edges;
@@ -39,6 +40,7 @@ pub mod guide;
 pub mod median;
 pub mod metrics;
 pub mod photometric;
+pub mod plane_fill;
 pub mod refine;
 pub mod request;
 pub mod smooth;
@@ -209,6 +211,10 @@ pub struct SweepParams {
     /// smoothness prior ([`smooth`]).
     #[serde(default = "yes")]
     pub smooth: bool,
+    /// The dominant planes of the estimate given to their weakly textured pixels after the
+    /// refinement ([`plane_fill`]).
+    #[serde(default = "yes")]
+    pub plane_fill: bool,
 }
 
 fn median_sigma() -> f64 {
@@ -234,6 +240,7 @@ impl Default for SweepParams {
             median_sigma: median_sigma(),
             edge_snap: true,
             smooth: true,
+            plane_fill: true,
         }
     }
 }
@@ -249,6 +256,7 @@ impl SweepParams {
             median_radius: 0,
             edge_snap: false,
             smooth: false,
+            plane_fill: false,
             ..SweepParams::default()
         }
     }

@@ -37,6 +37,8 @@ pub struct DepthRequest {
     pub no_snap: bool,
     /// Skip the global refinement after the fit ([`crate::depth::smooth`]).
     pub no_smooth: bool,
+    /// Skip the plane fill after the refinement ([`crate::depth::plane_fill`]).
+    pub no_plane_fill: bool,
     /// Radius of the colour-weighted median (0: none; default: the params').
     pub median: Option<u32>,
     pub include_dark: bool,
@@ -57,6 +59,7 @@ impl Default for DepthRequest {
             no_fit: false,
             no_snap: false,
             no_smooth: false,
+            no_plane_fill: false,
             median: None,
             include_dark: false,
         }
@@ -100,6 +103,7 @@ impl DepthRequest {
             fit: base.fit && !self.no_fit,
             edge_snap: base.edge_snap && !self.no_snap,
             smooth: base.smooth && !self.no_smooth,
+            plane_fill: base.plane_fill && !self.no_plane_fill,
             median_radius: self.median.unwrap_or(base.median_radius),
             ..base
         };

@@ -91,19 +91,6 @@ pub fn estimate(
         .iter()
         .map(|&k| plan.param(k as f64) as f32)
         .collect();
-    if options.params.median_radius > 0 {
-        let t = Instant::now();
-        param = crate::depth::median::weighted_median_twice(
-            &param,
-            reference,
-            options.params.median_radius,
-            options.params.median_sigma as f32,
-        );
-        log::info!(
-            "colour-weighted median: {:.0} ms",
-            t.elapsed().as_secs_f64() * 1e3
-        );
-    }
     let fit_plan = crate::depth::sweep::SweepPlan {
         views: fit_matched,
         ..plan.clone()
@@ -113,8 +100,28 @@ pub fn estimate(
     let fit_images: Vec<&RgbaImage> = std::iter::once(reference)
         .chain(fit_plan.views.iter().map(|v| image_of(v.index)))
         .collect();
+    if options.params.median_radius > 0 {
+        let t = Instant::now();
+        let median = crate::depth::median::weighted_median_twice(
+            &param,
+            reference,
+            options.params.median_radius,
+            options.params.median_sigma as f32,
+        );
+        log::info!(
+            "colour-weighted median: {:.0} ms",
+            t.elapsed().as_secs_f64() * 1e3
+        );
+        let t = Instant::now();
+        let back;
+        (param, back) = crate::depth::arbitrate::arbitrate(&fit_plan, &fit_images, &param, &median);
+        log::info!(
+            "winner against median: {back} pixels back to the sweep's winner, {:.0} ms",
+            t.elapsed().as_secs_f64() * 1e3
+        );
+    }
+    let mut precision = Vec::new();
     if options.params.fit || options.params.smooth {
-        let mut precision = Vec::new();
         let inputs = FitInputs::new(&fit_plan, &fit_images, &equalised, &out.best_cost);
         let images = inputs.images(&fit_images);
         if options.params.fit {
@@ -143,6 +150,22 @@ pub fn estimate(
                 t.elapsed().as_secs_f64() * 1e3
             );
         }
+    }
+    if options.params.plane_fill {
+        let t = Instant::now();
+        let planes;
+        (param, planes) = crate::depth::plane_fill::plane_fill(
+            &fit_plan,
+            &fit_images,
+            &param,
+            &precision,
+            SmoothParams::default().anchor_precision,
+        );
+        log::info!(
+            "plane fill: {} planes, {:.0} ms",
+            planes.len(),
+            t.elapsed().as_secs_f64() * 1e3
+        );
     }
     if options.params.edge_snap {
         let t = Instant::now();

@@ -223,6 +223,17 @@ def test_depth_without_the_refinement_equals_the_cli(cli, planes, tmp_path):
     assert not np.array_equal(got, planes.depth(planes=24), equal_nan=True)
 
 
+def test_depth_without_the_plane_fill_equals_the_cli(cli, tmp_path):
+    # The built-in demo's back wall and floor are planes the fill finds.
+    out = tmp_path / "d.pfm"
+    cli.ok("depth", "builtin:demo", "-o", str(out), "--no-plane-fill")
+    expected = read_pfm(out)
+    demo = tiltfield.open("builtin:demo")
+    got = demo.depth(no_plane_fill=True)
+    assert np.array_equal(got, expected, equal_nan=True)
+    assert not np.array_equal(got, demo.depth(), equal_nan=True)
+
+
 def test_depth_confidence_equals_the_cli_png(cli, planes, tmp_path):
     from PIL import Image
 
