@@ -160,27 +160,7 @@ pub fn arbitrate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::depth_set::{synthetic, SetScene};
-    use crate::depth::{plan, DepthOptions, ViewSet};
-
-    fn scene(name: &str) -> (SetScene, SweepPlan) {
-        let scene = synthetic(5, 64, Some(&[name.to_string()]))
-            .unwrap()
-            .remove(0);
-        let options = DepthOptions {
-            views: ViewSet::All,
-            ..DepthOptions::default()
-        };
-        let plan = plan(&scene.light_field, &options).unwrap();
-        (scene, plan)
-    }
-
-    fn images<'a>(scene: &'a SetScene, plan: &SweepPlan) -> Vec<&'a RgbaImage> {
-        let lf = &scene.light_field;
-        std::iter::once(&lf.views[plan.reference].image)
-            .chain(plan.views.iter().map(|v| &lf.views[v.index].image))
-            .collect()
-    }
+    use crate::depth::fixtures::SetScene;
 
     /// `truth` with every pixel within `band` pixels of a nearer neighbour (more than a
     /// disparity of `jump` nearer) given that neighbour's value: the nearer surface widened.
@@ -212,8 +192,8 @@ mod tests {
     /// back, and no pixel the median left right is changed.
     #[test]
     fn a_median_that_erased_a_shaded_surface_is_overruled() {
-        let (scene, plan) = scene("shaded-column");
-        let images = images(&scene, &plan);
+        let fixture = SetScene::new("shaded-column");
+        let (scene, plan, images) = (&fixture.scene, &fixture.plan, fixture.images());
         let truth = &scene.truth;
         let params = crate::depth::SweepParams::default();
         let median = crate::depth::median::weighted_median_twice(
@@ -233,7 +213,7 @@ mod tests {
             "{} pixels the median got wrong",
             wrong.len()
         );
-        let (out, back) = arbitrate(&plan, &images, truth, &median);
+        let (out, back) = arbitrate(plan, &images, truth, &median);
         let restored = wrong.iter().filter(|&&i| out[i] == truth[i]).count();
         eprintln!("{restored} of {} restored ({back} back)", wrong.len());
         // Measured: 103 of 196 (0 without the step); the rest agree with both values alike.
@@ -252,10 +232,10 @@ mod tests {
             "{changed} of {right} right pixels changed"
         );
         // A median that agrees with the winner is left alone.
-        assert_eq!(arbitrate(&plan, &images, truth, truth), (truth.to_vec(), 0));
+        assert_eq!(arbitrate(plan, &images, truth, truth), (truth.to_vec(), 0));
         // Maps of the wrong size come back unchanged.
         assert_eq!(
-            arbitrate(&plan, &images, &truth[1..], truth).0,
+            arbitrate(plan, &images, &truth[1..], truth).0,
             truth.to_vec()
         );
     }
@@ -265,12 +245,12 @@ mod tests {
     /// stays on nearly all of it.
     #[test]
     fn fattening_into_a_faint_wall_is_not_given_back() {
-        let (scene, plan) = scene("bust");
-        let images = images(&scene, &plan);
+        let fixture = SetScene::new("bust");
+        let (scene, plan, images) = (&fixture.scene, &fixture.plan, fixture.images());
         let (w, truth) = (plan.width as usize, &scene.truth);
         let (fattened, band) = widened(truth, w, 2, 0.3);
         assert!(band.len() > 100, "{} band pixels", band.len());
-        let (out, back) = arbitrate(&plan, &images, &fattened, truth);
+        let (out, back) = arbitrate(plan, &images, &fattened, truth);
         eprintln!("{back} of {} fattened pixels given back", band.len());
         assert!(back * 20 <= band.len(), "{back} of {}", band.len());
         assert!(band.iter().filter(|&&i| out[i] != truth[i]).count() == back);

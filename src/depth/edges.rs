@@ -171,26 +171,15 @@ pub fn snap_edges(plan: &SweepPlan, images: &[&RgbaImage], param: &[f32]) -> Vec
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::depth_set::synthetic;
-    use crate::depth::{plan, DepthOptions, ViewSet};
 
     /// The `planes` scene (a textured card before a textured back plane) with its exact
     /// disparity: of the card narrowed or widened by one pixel along its edges, the pixels
     /// the views clearly tell are put back, and the exact map is left as it is.
     #[test]
     fn a_silhouette_one_pixel_off_is_put_back() {
-        let scene = synthetic(5, 64, Some(&["planes".to_string()]))
-            .unwrap()
-            .remove(0);
+        let fixture = crate::depth::fixtures::SetScene::new("planes");
+        let (scene, plan, images) = (&fixture.scene, &fixture.plan, fixture.images());
         let lf = &scene.light_field;
-        let options = DepthOptions {
-            views: ViewSet::All,
-            ..DepthOptions::default()
-        };
-        let plan = plan(lf, &options).unwrap();
-        let images: Vec<&RgbaImage> = std::iter::once(&lf.views[plan.reference].image)
-            .chain(plan.views.iter().map(|v| &lf.views[v.index].image))
-            .collect();
         let (w, h) = (lf.width as usize, lf.height as usize);
         // HCI convention: the sweep parameter is the disparity.
         let truth = &scene.truth;
@@ -219,7 +208,7 @@ mod tests {
         }
         assert!(outside.len() > 40 && inside.len() > 40);
         let restored = |map: &[f32], moved: &[usize]| {
-            let snapped = snap_edges(&plan, &images, map);
+            let snapped = snap_edges(plan, &images, map);
             let n = moved
                 .iter()
                 .filter(|&&i| (snapped[i] - truth[i]).abs() < 0.1)
@@ -233,10 +222,10 @@ mod tests {
         assert!(restored(&narrowed, &inside) >= 0.3);
         assert!(restored(&widened, &outside) >= 0.1);
         let moved = outside.len();
-        let kept = snap_edges(&plan, &images, truth);
+        let kept = snap_edges(plan, &images, truth);
         let changed = (0..w * h).filter(|&i| kept[i] != truth[i]).count();
         assert!(changed * 20 <= moved, "{changed} exact values changed");
         // A map of the wrong size is returned unchanged.
-        assert_eq!(snap_edges(&plan, &images, &truth[1..]), truth[1..].to_vec());
+        assert_eq!(snap_edges(plan, &images, &truth[1..]), truth[1..].to_vec());
     }
 }

@@ -718,11 +718,41 @@ pub(crate) mod fixtures {
 
         /// The reference, then the plan's views.
         pub(crate) fn images(&self) -> Vec<&RgbaImage> {
-            std::iter::once(self.plan.reference)
-                .chain(self.plan.views.iter().map(|v| v.index))
-                .map(|i| &self.lf.views[i].image)
-                .collect()
+            reference_and_views(&self.lf, &self.plan)
         }
+    }
+
+    /// A scene of the depth set (5 × 5 views of 64²) with every view matched at the default
+    /// range and planes, and its exact disparity (`scene.truth`).
+    pub(crate) struct SetScene {
+        pub scene: crate::bench::depth_set::SetScene,
+        pub plan: SweepPlan,
+    }
+
+    impl SetScene {
+        pub(crate) fn new(name: &str) -> SetScene {
+            let scene = crate::bench::depth_set::synthetic(5, 64, Some(&[name.to_string()]))
+                .unwrap()
+                .remove(0);
+            let options = DepthOptions {
+                views: ViewSet::All,
+                ..DepthOptions::default()
+            };
+            let plan = plan(&scene.light_field, &options).unwrap();
+            SetScene { scene, plan }
+        }
+
+        /// The reference, then the plan's views.
+        pub(crate) fn images(&self) -> Vec<&RgbaImage> {
+            reference_and_views(&self.scene.light_field, &self.plan)
+        }
+    }
+
+    fn reference_and_views<'a>(lf: &'a LightField, plan: &SweepPlan) -> Vec<&'a RgbaImage> {
+        std::iter::once(plan.reference)
+            .chain(plan.views.iter().map(|v| v.index))
+            .map(|i| &lf.views[i].image)
+            .collect()
     }
 }
 

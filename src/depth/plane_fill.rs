@@ -419,35 +419,15 @@ fn agreeing(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::bench::depth_set::{synthetic, SetScene};
-    use crate::depth::{plan, DepthOptions, ViewSet};
-
-    fn scene(name: &str) -> (SetScene, SweepPlan) {
-        let scene = synthetic(5, 64, Some(&[name.to_string()]))
-            .unwrap()
-            .remove(0);
-        let options = DepthOptions {
-            views: ViewSet::All,
-            ..DepthOptions::default()
-        };
-        let plan = plan(&scene.light_field, &options).unwrap();
-        (scene, plan)
-    }
-
-    fn images<'a>(scene: &'a SetScene, plan: &SweepPlan) -> Vec<&'a RgbaImage> {
-        let lf = &scene.light_field;
-        std::iter::once(&lf.views[plan.reference].image)
-            .chain(plan.views.iter().map(|v| &lf.views[v.index].image))
-            .collect()
-    }
+    use crate::depth::fixtures::SetScene;
 
     /// The bust's dark, faint wall with a smooth bump of up to 0.3 px in the estimate (what a
     /// highlight does): the wall's plane is found and the bump goes back onto it; the bust,
     /// curved, is left alone; precisely fixed pixels keep their values.
     #[test]
     fn a_bump_on_a_faint_wall_goes_back_onto_its_plane() {
-        let (scene, plan) = scene("bust");
-        let images = images(&scene, &plan);
+        let fixture = SetScene::new("bust");
+        let (scene, plan, images) = (&fixture.scene, &fixture.plan, fixture.images());
         let (w, truth) = (plan.width as usize, &scene.truth);
         let wall = truth.iter().copied().fold(f32::INFINITY, f32::min);
         let bump = |i: usize| {
@@ -462,7 +442,7 @@ mod tests {
             .filter(|&i| (bumped[i] - truth[i]).abs() > 0.07)
             .collect();
         assert!(off.len() > 50, "{} pixels off", off.len());
-        let (filled, planes) = plane_fill(&plan, &images, &bumped, &[], 0.3);
+        let (filled, planes) = plane_fill(plan, &images, &bumped, &[], 0.3);
         assert!(
             planes
                 .iter()
@@ -487,10 +467,10 @@ mod tests {
         );
         // Every pixel fixed precisely keeps its value.
         let precise = vec![1.0f32; truth.len()];
-        assert_eq!(plane_fill(&plan, &images, &bumped, &precise, 0.3).0, bumped);
+        assert_eq!(plane_fill(plan, &images, &bumped, &precise, 0.3).0, bumped);
         // A map of the wrong size comes back unchanged, without planes.
         assert_eq!(
-            plane_fill(&plan, &images, &bumped[1..], &[], 0.3),
+            plane_fill(plan, &images, &bumped[1..], &[], 0.3),
             (bumped[1..].to_vec(), Vec::new())
         );
     }
@@ -502,10 +482,10 @@ mod tests {
     #[test]
     fn an_exact_map_stays_exact() {
         for name in ["sphere", "cylinder"] {
-            let (scene, plan) = scene(name);
-            let images = images(&scene, &plan);
+            let fixture = SetScene::new(name);
+            let (scene, plan, images) = (&fixture.scene, &fixture.plan, fixture.images());
             let truth = &scene.truth;
-            let (filled, _) = plane_fill(&plan, &images, truth, &[], 0.3);
+            let (filled, _) = plane_fill(plan, &images, truth, &[], 0.3);
             let moved = (0..truth.len())
                 .filter(|&i| (filled[i] - truth[i]).abs() > 0.07)
                 .count();
