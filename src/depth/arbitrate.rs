@@ -9,7 +9,7 @@
 //! the views plainly contradict. So wherever the median moved a pixel by more than
 //! [`MOVED_PLANES`] planes, the two values are compared on the views themselves: over a small
 //! window weighted by the reference's colours ([`RADIUS`], [`SIGMA`]), each view's mean
-//! colour difference at the candidate, averaged over the [`AGREEING_SHARE`] of the views that
+//! colour difference at the candidate, averaged over the [`AGREEING_SHARE`](super::edges::AGREEING_SHARE) of the views that
 //! agree best (an occluder hides a pixel from some views). The winner comes back only when it
 //! agrees [`RATIO`] times better and by [`MARGIN`]: on the dark wall the fattened depth agrees
 //! nearly as well as the true one, and there the median must stay in charge.
@@ -26,6 +26,7 @@ use image::RgbaImage;
 use rayon::prelude::*;
 
 use super::cpu::bilinear;
+use super::edges::mean_of_agreeing;
 use super::sweep::SweepPlan;
 
 /// Pixels the median moved by more than this many plane steps are arbitrated (1: 0.1 points
@@ -42,9 +43,6 @@ pub const MARGIN: f64 = 1.0 / 255.0;
 pub const RADIUS: i64 = 2;
 /// A window pixel weighs `exp(−|Δc|²/2σ²)` by its RGB distance (8-bit levels) from the centre.
 pub const SIGMA: f64 = 10.0;
-/// The share of the views, those that agree best, a candidate's cost is averaged over (the
-/// fit's occlusion quantile).
-pub const AGREEING_SHARE: f64 = super::refine::OCCLUSION_QUANTILE;
 
 /// The window of one pixel: position, colour (encoded, in [0, 1]) and weight of each tap.
 struct Window {
@@ -75,7 +73,7 @@ impl Window {
     }
 
     /// Each view's weighted mean colour difference at parameter `p` (over the taps inside its
-    /// image, at least half the weight), averaged over the [`AGREEING_SHARE`] that agree
+    /// image, at least half the weight), averaged over the [`AGREEING_SHARE`](super::edges::AGREEING_SHARE) that agree
     /// best; `None` without any view.
     fn cost(&self, plan: &SweepPlan, images: &[&RgbaImage], p: f64) -> Option<f64> {
         let (wf, hf) = (plan.width as f64 - 0.5, plan.height as f64 - 0.5);
@@ -100,12 +98,7 @@ impl Window {
                 (weights >= 0.5 * total).then(|| sum / weights)
             })
             .collect();
-        if costs.is_empty() {
-            return None;
-        }
-        costs.sort_by(f64::total_cmp);
-        let k = ((AGREEING_SHARE * costs.len() as f64).ceil() as usize).clamp(1, costs.len());
-        Some(costs[..k].iter().sum::<f64>() / k as f64)
+        mean_of_agreeing(&mut costs)
     }
 }
 

@@ -60,6 +60,17 @@ pub const SWITCH_MARGIN: f64 = 2.0 / 255.0;
 /// agrees with many depths (the dark wall in a bust's neck went to the bust).
 pub const MIN_TEXTURE: u8 = 8;
 
+/// The mean of the [`AGREEING_SHARE`] of `costs` that are lowest (the views that agree best;
+/// at least one); `None` when there are none. Reorders `costs`.
+pub(super) fn mean_of_agreeing(costs: &mut [f64]) -> Option<f64> {
+    if costs.is_empty() {
+        return None;
+    }
+    costs.sort_by(f64::total_cmp);
+    let k = ((AGREEING_SHARE * costs.len() as f64).ceil() as usize).clamp(1, costs.len());
+    Some(costs[..k].iter().sum::<f64>() / k as f64)
+}
+
 /// The mean absolute colour difference between the reference's colour `c` at pixel `x` and
 /// the views sampled at parameter `p` (`images[k + 1]` is `plan.views[k]`'s), over the
 /// [`AGREEING_SHARE`] of the views inside their images that agree best; `None` without any.
@@ -79,12 +90,7 @@ fn cost(plan: &SweepPlan, images: &[&RgbaImage], c: [f64; 3], x: DVec2, p: f64) 
             Some(((s[0] - c[0]).abs() + (s[1] - c[1]).abs() + (s[2] - c[2]).abs()) / 3.0)
         })
         .collect();
-    if d.is_empty() {
-        return None;
-    }
-    d.sort_by(f64::total_cmp);
-    let k = ((AGREEING_SHARE * d.len() as f64).ceil() as usize).clamp(1, d.len());
-    Some(d[..k].iter().sum::<f64>() / k as f64)
+    mean_of_agreeing(&mut d)
 }
 
 /// `param` (the sweep parameter of `plan` per reference pixel, row-major; non-finite where

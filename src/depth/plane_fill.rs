@@ -21,7 +21,7 @@
 //!    the plane's value where the views agree there as well as at its own value, up to
 //!    [`MARGIN`]: per view, the colour difference of every pixel at its own value and at the
 //!    plane's, over a colour-weighted 3 × 3 window, averaged over the best
-//!    [`OCCLUSION_QUANTILE`] of the views. Precisely fixed pixels keep their value.
+//!    [`AGREEING_SHARE`](super::edges::AGREEING_SHARE) of the views. Precisely fixed pixels keep their value.
 //!
 //! Measured on the depth set (`tiltfield depth-set`, 96², docs/depth.md): `sculpture` BadPix
 //! 0.07 28.8 → 6.2 %, `shaded-bust` 17.3 → 6.8 %, `plenoptic` 20.6 → 10.5 %, every scene
@@ -35,7 +35,8 @@ use image::RgbaImage;
 use rayon::prelude::*;
 
 use super::arbitrate::SIGMA;
-use super::refine::{Rgb32, OCCLUSION_QUANTILE};
+use super::edges::mean_of_agreeing;
+use super::refine::Rgb32;
 use super::sweep::SweepPlan;
 
 /// At most this many planes are looked for.
@@ -312,7 +313,7 @@ pub fn plane_fill(
 /// The pixels of `tested` whose views agree at `plane`'s value as well as at their own, up to
 /// [`MARGIN`]: per view, each pixel's colour difference at both values, once; then per tested
 /// pixel a colour-weighted 3 × 3 window of them, averaged over the best
-/// [`OCCLUSION_QUANTILE`] of the views.
+/// [`AGREEING_SHARE`](super::edges::AGREEING_SHARE) of the views.
 fn agreeing(
     plan: &SweepPlan,
     rgb: &[Rgb32],
@@ -406,11 +407,7 @@ fn agreeing(
                     }
                 }
             }
-            let [own, on] = costs.map(|mut v| {
-                v.sort_by(f64::total_cmp);
-                let k = ((OCCLUSION_QUANTILE * v.len() as f64).ceil() as usize).min(v.len());
-                (k > 0).then(|| v[..k].iter().sum::<f64>() / k as f64)
-            });
+            let [own, on] = costs.map(|mut v| mean_of_agreeing(&mut v));
             matches!((own, on), (Some(own), Some(on)) if on <= own + MARGIN)
         })
         .collect()
