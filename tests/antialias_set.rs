@@ -28,6 +28,7 @@ fn antialiasing_beats_the_plain_sum_on_every_case_of_the_set() {
         filter: Filter::Hardware,
         supersamples: antialias_set::SUPERSAMPLES,
         antialias: AntialiasSettings::default(),
+        layered_model: true,
     };
     let cases = antialias_set::cases();
     let rows = antialias_set::run(&ctx, &cases, &options, &indicatif::ProgressBar::hidden())
@@ -71,9 +72,9 @@ fn antialiasing_beats_the_plain_sum_on_every_case_of_the_set() {
         let (pf, gf) = (p.focused.unwrap(), g.focused.unwrap());
         assert!(gf >= pf - 1.5, "{}: focused {pf:.1} -> {gf:.1} dB", r.name);
         assert!(r.cost_ratio.is_finite() && r.cost_ratio > 0.0);
-        assert_eq!(r.images.len(), 4);
+        assert_eq!(r.images.len(), 5);
         let fig = antialias_set::figure(r);
-        assert_eq!((fig.width(), fig.height()), (4 * 96, 96));
+        assert_eq!((fig.width(), fig.height()), (5 * 96, 96));
     }
     let mean = |f: &dyn Fn(&antialias_set::CaseResult) -> f64| {
         rows.iter().map(f).sum::<f64>() / rows.len() as f64
@@ -103,6 +104,44 @@ fn antialiasing_beats_the_plain_sum_on_every_case_of_the_set() {
     let plain = mean(&|r| r.plain.overall);
     assert!(mean(&|r| r.given.overall) >= plain + 3.0);
     assert!(mean(&|r| r.estimated.unwrap().overall) >= plain + 2.0);
+    // The f64 model of layered anti-aliasing (boxed layers composited front to back, no
+    // per-sample test) holds the default's accuracy over the set: measured at 96 px, mean
+    // overall / out of focus given depth 33.5 / 37.5 dB against the default's 33.7 / 37.4,
+    // estimated depth 32.6 against 32.9 overall. Every case keeps the lattice away.
+    for r in &rows {
+        let l = r.layered.expect("the layered model scored");
+        assert!(
+            l.out_of_focus.unwrap() >= r.plain.out_of_focus.unwrap() + 2.0,
+            "{}: layered out of focus {:?} against plain {:?}",
+            r.name,
+            l.out_of_focus,
+            r.plain.out_of_focus
+        );
+    }
+    let (lo, go) = (
+        mean(&|r| r.layered.unwrap().overall),
+        mean(&|r| r.given.overall),
+    );
+    assert!(
+        lo >= go - 0.5,
+        "layered {lo:.2} against default {go:.2} dB overall"
+    );
+    let (lf, gf) = (
+        mean(&|r| r.layered.unwrap().out_of_focus.unwrap()),
+        mean(&|r| r.given.out_of_focus.unwrap()),
+    );
+    assert!(
+        lf >= gf - 0.5,
+        "layered {lf:.2} against default {gf:.2} dB out of focus"
+    );
+    let (le, ge) = (
+        mean(&|r| r.layered_estimated.unwrap().overall),
+        mean(&|r| r.estimated.unwrap().overall),
+    );
+    assert!(
+        le >= ge - 1.0,
+        "estimated: layered {le:.2} against default {ge:.2} dB"
+    );
     let log = ctx.validation();
     assert_eq!(log.errors(), 0, "validation errors: {:#?}", log.messages());
 }
@@ -132,6 +171,7 @@ fn catmull_rom_in_focus_sharpens_the_tilted_plane_without_losing_the_blur() {
                 focused_bicubic,
                 ..AntialiasSettings::default()
             },
+            layered_model: false,
         };
         let rows = antialias_set::run(&ctx, &cases, &options, &indicatif::ProgressBar::hidden())
             .unwrap_or_else(|e| panic!("the tilted case failed: {e}"));
@@ -210,6 +250,7 @@ fn defocused_views_beat_the_plain_sum_on_every_case_of_the_set() {
             defocus: true,
             ..AntialiasSettings::default()
         },
+        layered_model: false,
     };
     let cases = antialias_set::cases();
     let rows = antialias_set::run(&ctx, &cases, &options, &indicatif::ProgressBar::hidden())

@@ -221,6 +221,9 @@ pub struct SetOptions {
     pub supersamples: u32,
     /// How the anti-aliased images sample their footprints.
     pub antialias: AntialiasSettings,
+    /// Also score the f64 model of layered anti-aliasing ([`crate::refocus::layered`]) on the
+    /// given depth (and on the estimate when that is scored): the route of a constant-cost pass.
+    pub layered_model: bool,
 }
 
 impl SetOptions {
@@ -280,13 +283,18 @@ pub struct CaseResult {
     pub given: Psnr3,
     /// Anti-aliased on the estimated depth.
     pub estimated: Option<Psnr3>,
+    /// The layered model ([`SetOptions::layered_model`]) on the given depth and on the
+    /// estimate.
+    pub layered: Option<Psnr3>,
+    pub layered_estimated: Option<Psnr3>,
     /// Median GPU time of the anti-aliased sum (given depth) over the plain sum's.
     pub cost_ratio: f64,
     /// Median GPU times, ms, of the plain and the anti-aliased sum (given depth): the ratio's
     /// terms, so that runs of different filters can be set side by side.
     pub plain_ms: f64,
     pub antialiased_ms: f64,
-    /// The images scored (sRGB-encoded, row-major): truth, plain, given, estimated.
+    /// The images scored (sRGB-encoded, row-major): truth, plain, given, estimated, and the
+    /// layered model on the given depth.
     #[serde(skip)]
     pub images: Vec<Vec<[f64; 3]>>,
     #[serde(skip)]
@@ -437,6 +445,14 @@ pub fn run_case(
         scores(&plain_img, &truth, &m),
         scores(&given_img, &truth, &m),
     );
+    let layered = |aa: &crate::refocus::antialias::AntialiasPlan| {
+        let img =
+            crate::refocus::layered::render_layered(&lf, aa, crate::refocus::Averaging::Linear);
+        let img = encoded(&img.pixels);
+        (scores(&img, &truth, &m), img)
+    };
+    let layered_given = options.layered_model.then(|| layered(&aa));
+    let mut layered_estimated = None;
     let estimated = if options.estimate {
         progress.set_message(format!("{}: estimating depth", case.name));
         let mut est = lf.clone();
@@ -450,12 +466,17 @@ pub fn run_case(
         )?;
         let aa_est = plan_for(&est, &plan, aperture, &[], options.antialias)?;
         let img = encoded(&float(h.render_antialiased(&aa_est, &settings)?.0)?.pixels);
+        layered_estimated = options.layered_model.then(|| layered(&aa_est).0);
         Some((scores(&img, &truth, &m), img))
     } else {
         None
     };
     let mut images = vec![truth, plain_img, given_img];
     let estimated = estimated.map(|(s, img)| {
+        images.push(img);
+        s
+    });
+    let layered_given = layered_given.map(|(s, img)| {
         images.push(img);
         s
     });
@@ -470,6 +491,8 @@ pub fn run_case(
         plain,
         given,
         estimated,
+        layered: layered_given,
+        layered_estimated,
         cost_ratio: median(&t_aa) / median(&t_plain),
         plain_ms: median(&t_plain),
         antialiased_ms: median(&t_aa),
@@ -523,14 +546,37 @@ pub fn markdown(rows: &[CaseResult]) -> String {
          | case | what it tests | plain | anti-aliased, given depth | anti-aliased, estimated \
          depth | × plain |\n|---|---|---|---|---|---|\n",
     );
+    let layered = rows.iter().any(|r| r.layered.is_some());
+    if layered {
+        out = String::from(
+            "PSNR in dB against the lens: overall / out of focus / focused.\n\n\
+             | case | what it tests | plain | anti-aliased, given depth | anti-aliased, estimated \
+             depth | layered model, given depth | layered model, estimated depth | × plain |\n\
+             |---|---|---|---|---|---|---|---|\n",
+        );
+    }
+    let extra = |r: &CaseResult| {
+        if layered {
+            format!(
+                " {} | {} |",
+                r.layered.as_ref().map_or_else(|| "–".into(), triple),
+                r.layered_estimated
+                    .as_ref()
+                    .map_or_else(|| "–".into(), triple)
+            )
+        } else {
+            String::new()
+        }
+    };
     for r in rows {
         out.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {:.1} |\n",
+            "| {} | {} | {} | {} | {} |{} {:.1} |\n",
             r.name,
             r.what,
             triple(&r.plain),
             triple(&r.given),
             r.estimated.as_ref().map_or_else(|| "–".into(), triple),
+            extra(r),
             r.cost_ratio
         ));
     }
@@ -545,12 +591,22 @@ pub fn markdown(rows: &[CaseResult]) -> String {
             focused: mean(present.iter().map(|p| p.focused)),
         })
     };
+    let extra_mean = if layered {
+        format!(
+            " {} | {} |",
+            avg(&|r| r.layered),
+            avg(&|r| r.layered_estimated)
+        )
+    } else {
+        String::new()
+    };
     out.push_str(&format!(
-        "| **mean** | {} cases | {} | {} | {} | {:.1} |\n",
+        "| **mean** | {} cases | {} | {} | {} |{} {:.1} |\n",
         rows.len(),
         avg(&|r| Some(r.plain)),
         avg(&|r| Some(r.given)),
         avg(&|r| r.estimated),
+        extra_mean,
         mean(rows.iter().map(|r| Some(r.cost_ratio))).unwrap_or(f64::NAN)
     ));
     out
@@ -616,6 +672,7 @@ mod tests {
             filter: Filter::Hardware,
             supersamples: 3,
             antialias: AntialiasSettings::default(),
+            layered_model: false,
         };
         assert!(o.validate().unwrap_err().to_string().contains("48 to 512"));
         let o = SetOptions {
@@ -656,6 +713,8 @@ mod tests {
                 focused: None,
             },
             estimated: None,
+            layered: None,
+            layered_estimated: None,
             cost_ratio: 10.0,
             plain_ms: 1.0,
             antialiased_ms: 10.0,
@@ -668,6 +727,22 @@ mod tests {
         // The mean skips what a case does not have.
         assert!(
             md.contains("| **mean** | 2 cases | 30.0 / 20.0 / 50.0 | 40.0 / 38.0 / – | – | 10.0 |"),
+            "{md}"
+        );
+        assert!(!md.contains("layered"), "{md}");
+        // With the layered model scored, its two columns stand before the cost.
+        let mut with = row("c", Some(20.0));
+        with.layered = Some(Psnr3 {
+            overall: 41.0,
+            out_of_focus: Some(39.0),
+            focused: Some(50.0),
+        });
+        let md = markdown(&[with]);
+        assert!(
+            md.contains("layered model, given depth | layered model, estimated depth | × plain")
+        );
+        assert!(
+            md.contains("| c | w | 30.0 / 20.0 / 50.0 | 40.0 / 38.0 / – | – | 41.0 / 39.0 / 50.0 | – | 10.0 |"),
             "{md}"
         );
     }

@@ -300,6 +300,10 @@ pub struct AntialiasSetArgs {
     /// Skip anti-aliasing on estimated depth (the depth estimate takes most of the time).
     #[arg(long)]
     pub no_estimate: bool,
+    /// Also score the f64 model of layered anti-aliasing (boxed layers composited front to
+    /// back; docs/antialias.md), beside the default's sub-samples.
+    #[arg(long)]
+    pub layered_model: bool,
     /// How every image samples the views (as for `render`): hardware (bilinear), shader,
     /// bicubic or nearest.
     #[arg(long, value_name = "FILTER", default_value = "hardware")]
@@ -314,7 +318,8 @@ pub struct AntialiasSetArgs {
     #[arg(long, value_name = "FILE.md")]
     pub markdown: Option<PathBuf>,
     /// Write CASE.png per case into DIR: the lens, the plain sum, anti-aliased on the given
-    /// depth and on the estimate, side by side.
+    /// depth and on the estimate (and with --layered-model the model on the given depth), side
+    /// by side.
     #[arg(long, value_name = "DIR")]
     pub images: Option<PathBuf>,
     /// Print the rows as JSON on stdout instead of the table.
@@ -336,6 +341,7 @@ pub fn run_antialias_set(args: &AntialiasSetArgs) -> Result<()> {
         filter: args.filter,
         supersamples: args.supersamples,
         antialias: args.sampling.settings()?,
+        layered_model: args.layered_model,
     };
     // Bad options fail before any folder is made or the GPU starts.
     options.validate()?;

@@ -700,6 +700,33 @@ fn bicubic(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
     c
 }
 
+// The pieces the layered model (super::layered) shares with these models, so both sample,
+// mask, test focus and resolve alike.
+pub(super) fn table_for(averaging: Averaging) -> [f64; 256] {
+    averaging_table(averaging)
+}
+pub(super) fn inside_of(lf: &LightField, q: DVec3) -> Option<DVec2> {
+    inside(lf, q)
+}
+pub(super) fn bilinear_of(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
+    bilinear(img, table, p)
+}
+pub(super) fn bicubic_of(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
+    bicubic(img, table, p)
+}
+pub(super) fn focus_test_of(
+    lf: &LightField,
+    aa: &AntialiasPlan,
+    table: &[f64; 256],
+    px: DVec2,
+    s: f64,
+) -> Option<([f64; 3], f64)> {
+    focus_test(lf, aa, table, px, s)
+}
+pub(super) fn normalised_of(sum: [f64; 3], wsum: f64) -> [f32; 4] {
+    normalised(sum, wsum)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -7,6 +7,7 @@ pub mod antialias;
 pub mod cpu;
 pub mod defocus;
 pub mod focus;
+pub mod layered;
 pub mod options;
 pub mod plan;
 pub mod prefilter;
