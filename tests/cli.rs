@@ -414,3 +414,62 @@ fn bad_light_fields_fail_naming_the_file() {
     // And intact again, it loads.
     assert!(tiltfield(&["info", d]).status.success());
 }
+
+/// `--antialias-layered on` renders a shipped-depth light field with layered footprints and
+/// reports it; asked together with defocused views it is refused, naming both switches; a
+/// focus surface is refused, naming the switch to turn off.
+#[test]
+fn layered_antialiasing_renders_and_refuses_what_it_cannot_do() {
+    let tmp = tempfile::tempdir().unwrap();
+    let png = tmp.path().join("layered.png");
+    let o = tiltfield(&[
+        "render",
+        "builtin:planes",
+        "--disparity",
+        "-0.667",
+        "--antialias",
+        "on",
+        "--antialias-layered",
+        "on",
+        "-o",
+        png.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
+    assert_eq!(report["antialias"]["layered"], true, "{report}");
+    assert_eq!(report["antialias"]["occlusion"], false, "{report}");
+    let img = image::open(&png).unwrap().to_rgba8();
+    assert!(img.pixels().any(|p| p[3] == 255) && img.pixels().all(|p| p[3] == 255));
+    fails_with(
+        &[
+            "render",
+            "builtin:planes",
+            "--disparity",
+            "-0.667",
+            "--antialias",
+            "on",
+            "--antialias-layered",
+            "on",
+            "--antialias-defocus",
+            "on",
+            "-o",
+            tmp.path().join("x.png").to_str().unwrap(),
+        ],
+        &["--antialias-layered", "--antialias-defocus"],
+    );
+    fails_with(
+        &[
+            "render",
+            "builtin:planes",
+            "--all-in-focus",
+            "--antialias",
+            "on",
+            "--antialias-layered",
+            "on",
+            "-o",
+            tmp.path().join("y.png").to_str().unwrap(),
+        ],
+        &["layered", "--antialias-layered off"],
+    );
+}

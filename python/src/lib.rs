@@ -578,6 +578,7 @@ fn render_options(
                 .unwrap_or(aa.focused_bicubic),
             occlusion: switch(antialias_occlusion, "antialias_occlusion")?.unwrap_or(aa.occlusion),
             defocus: switch(antialias_defocus, "antialias_defocus")?.unwrap_or(aa.defocus),
+            layered: aa.layered,
         },
         strategy: choice::<StrategyChoice>(strategy)?.and_then(|c| c.0),
         views_per_draw: int_arg(views_per_draw, "views_per_draw", 0..=u32::MAX as i64)?.unwrap_or(0)

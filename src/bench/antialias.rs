@@ -64,6 +64,7 @@ const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
         focused_bicubic: true,
         occlusion: true,
         defocus: false,
+        layered: false,
     }
 }
 

@@ -215,6 +215,12 @@ pub struct AntialiasSamplingArgs {
     /// off (default: sub-samples of every footprint at every pixel).
     #[arg(long, value_name = "on|off", default_value = "off")]
     pub antialias_defocus: Switch,
+    /// Anti-aliasing: layered footprints: each view's sample binned by the depth its view sees
+    /// into layers, each layer box-filtered once by its footprint, the layers composited front
+    /// to back (constant cost whatever the blur, occlusion without a test per sample): on, or
+    /// off (default: sub-samples).
+    #[arg(long, value_name = "on|off", default_value = "off")]
+    pub antialias_layered: Switch,
 }
 
 impl AntialiasArgs {
@@ -239,6 +245,7 @@ impl AntialiasSamplingArgs {
             focused_bicubic: self.antialias_focused_bicubic == Switch::On,
             occlusion: self.antialias_occlusion == Switch::On,
             defocus: self.antialias_defocus == Switch::On,
+            layered: self.antialias_layered == Switch::On,
         };
         s.validate()?;
         Ok(s)

@@ -83,6 +83,12 @@ pub struct AntialiasSettings {
     /// `occlusion` then do not apply: each cell takes the depth its view sees at its sample.
     /// Off: sub-samples of every footprint at every output pixel.
     pub defocus: bool,
+    /// Layered footprints ([`super::layered`]): each view's plain sample binned by the depth
+    /// its view sees into layers by residual, each layer box-filtered once by its footprint
+    /// (constant cost whatever the blur), the layers composited front to back (occlusion
+    /// without a test per sample). `max_samples`, `prefilter` and `occlusion` then do not
+    /// apply; the focus test and Catmull-Rom in focus do. Off: sub-samples.
+    pub layered: bool,
 }
 
 impl Default for AntialiasSettings {
@@ -94,6 +100,7 @@ impl Default for AntialiasSettings {
             focused_bicubic: true,
             occlusion: true,
             defocus: false,
+            layered: false,
         }
     }
 }
@@ -118,6 +125,7 @@ impl AntialiasSettings {
         focused_bicubic: false,
         occlusion: false,
         defocus: false,
+        layered: false,
     };
 
     /// Checks the settings of a request (the sample cap; the switches take any value).
@@ -127,6 +135,13 @@ impl AntialiasSettings {
                 "anti-aliasing samples per axis must be 1 to {MAX_SAMPLES_LIMIT}, got {}",
                 self.max_samples
             )));
+        }
+        if self.layered && self.defocus {
+            return Err(Error::Invalid(
+                "--antialias-layered and --antialias-defocus are two ways to integrate the \
+                 footprints: turn one of them off"
+                    .into(),
+            ));
         }
         Ok(())
     }
@@ -806,7 +821,7 @@ pub fn plan_antialias_reusing(
     let mut scene = scene;
     // Without the occlusion tests the front stays the pixel's own σ: nothing is nearer, and
     // the shader's and the model's tests never run.
-    if settings.occlusion && !settings.defocus {
+    if settings.occlusion && !settings.defocus && !settings.layered {
         search_fronts(&mut scene, &footprints);
     }
     if views.len() > MAX_VIEWS {
@@ -817,7 +832,7 @@ pub fn plan_antialias_reusing(
         )));
     }
     let map_bytes = views.len() * scene.inverse_depth.len() * 4;
-    if settings.defocus && map_bytes > MAX_VISIBILITY_BYTES {
+    if (settings.defocus || settings.layered) && map_bytes > MAX_VISIBILITY_BYTES {
         return Err(Error::Invalid(format!(
             "defocused views need every view's depth map: {} MiB for {} views, over the {} MiB \
              budget; use a smaller --aperture-radius or --antialias-defocus off",
@@ -828,7 +843,8 @@ pub fn plan_antialias_reusing(
     }
     let visibility = match previous {
         Some(p)
-            if p.settings.defocus == settings.defocus
+            if (p.settings.defocus || p.settings.layered)
+                == (settings.defocus || settings.layered)
                 && p.depth.inverse_depth == scene.inverse_depth
                 && p.plan.views.len() == views.len()
                 && p.plan
@@ -839,7 +855,9 @@ pub fn plan_antialias_reusing(
         {
             p.visibility.clone()
         }
-        _ if settings.defocus => Some(std::sync::Arc::new(ViewVisibility::filled(&scene, &views))),
+        _ if settings.defocus || settings.layered => {
+            Some(std::sync::Arc::new(ViewVisibility::filled(&scene, &views)))
+        }
         _ => (settings.occlusion && map_bytes <= MAX_VISIBILITY_BYTES)
             .then(|| std::sync::Arc::new(ViewVisibility::new(&scene, &views))),
     };
@@ -981,8 +999,9 @@ pub fn antialias_json(
             "prefilter": aa.settings.prefilter,
             "focus_test": aa.settings.focus_test,
             "focused_bicubic": aa.settings.focused_bicubic,
-            "occlusion": aa.settings.occlusion && !aa.settings.defocus,
+            "occlusion": aa.settings.occlusion && !aa.settings.defocus && !aa.settings.layered,
             "defocus": aa.settings.defocus,
+            "layered": aa.settings.layered,
             "views_by_cell": aa.plan.views.len(),
             "depth_source": aa.depth.source,
             "depth_origin": depth_origin,
@@ -996,6 +1015,25 @@ mod tests {
     use super::*;
     use crate::lightfield::{GridSize, ParallelRig, Source, View};
     use crate::refocus::FocusMethod;
+
+    #[test]
+    fn layered_and_defocused_footprints_are_not_asked_for_together() {
+        let both = AntialiasSettings {
+            layered: true,
+            defocus: true,
+            ..AntialiasSettings::default()
+        };
+        let err = both.validate().unwrap_err().to_string();
+        assert!(
+            err.contains("--antialias-layered") && err.contains("--antialias-defocus"),
+            "{err}"
+        );
+        let layered = AntialiasSettings {
+            layered: true,
+            ..AntialiasSettings::default()
+        };
+        assert!(layered.validate().is_ok());
+    }
 
     const RIG: ParallelRig = ParallelRig {
         focal_px: 40.0,

@@ -185,6 +185,8 @@ fn normalised(sum: [f64; 3], wsum: f64) -> [f32; 4] {
 /// sample and weighing `weight / (n_s n_t)`; bilinear, as the GPU's default filter, except
 /// in a pixel whose own surface is in focus, where sub-samples whose footprint is under half a
 /// pixel take the cell's Catmull-Rom value at its centre ([`AntialiasPlan::focused_reach`]).
+/// With [`AntialiasSettings::layered`](super::antialias::AntialiasSettings::layered) at the
+/// views' size: the layered model ([`super::layered::render_layered`]).
 pub fn render_antialiased(
     lf: &LightField,
     aa: &AntialiasPlan,
@@ -192,6 +194,9 @@ pub fn render_antialiased(
     w: u32,
     h: u32,
 ) -> RefocusImage {
+    if aa.settings.layered && (w, h) == (lf.width, lf.height) {
+        return super::layered::render_layered(lf, aa, averaging);
+    }
     let m = aa.plan.m;
     antialiased_with(lf, aa, averaging, (w, h), |px| {
         m.dot(px.extend(1.0)).max(0.0)

@@ -33,7 +33,8 @@
 //! its own sharp colour under the occluder's blur, with no test per sample.
 //!
 //! **What stays as in the default.** The focus test (a pixel whose views agree at the focus
-//! surface is their plain sum), Catmull-Rom for samples whose footprint is under half a pixel,
+//! surface is their plain sum), Catmull-Rom for samples whose footprint is under half a pixel
+//! in a pixel whose own surface is in focus ([`AntialiasPlan::focused_reach`]),
 //! the cells' area weights, and on an estimated depth the guard: a pixel whose own surface is
 //! in focus keeps its own depth for every view that sees something farther there (an
 //! estimate's silhouettes would otherwise blur it).
@@ -115,7 +116,18 @@ pub struct LayerPlan {
     /// Pixels of a full cell's footprint per unit of residual inverse depth (the nodes'
     /// scale).
     pub px_per_residual: f64,
+    /// The first node and the number of nodes: every residual a view can see, from the focus
+    /// surface's range over the image against the scene depth's.
+    pub first: i64,
+    pub nodes: usize,
 }
+
+/// Most cell groups a plan may have (the pass's parameter block holds this many).
+pub const MAX_GROUPS: usize = 8;
+
+/// Most layers (nodes × groups) a plan may have: each takes four floats a pixel three times
+/// on the GPU (sums, rows, boxes).
+pub const MAX_LAYERS: usize = 96;
 
 impl LayerPlan {
     /// The groups and the nodes' spacing of `aa`, with `m` the plane term (the footprints are
@@ -148,11 +160,52 @@ impl LayerPlan {
                 sum / n
             })
             .collect();
+        let scale = full.x.max(full.y);
+        // s = max(m·x, 0) is linear in x before the clamp: its extremes lie at the corners.
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (x, y) in [(0.0, 0.0), (w as f64 - 1.0, 0.0), (0.0, h as f64 - 1.0)] {
+            let s = aa.plan.m.dot(glam::DVec3::new(x, y, 1.0)).max(0.0);
+            lo = lo.min(s);
+            hi = hi.max(s);
+        }
+        let s = aa
+            .plan
+            .m
+            .dot(glam::DVec3::new(w as f64 - 1.0, h as f64 - 1.0, 1.0))
+            .max(0.0);
+        let (lo, hi) = (lo.min(s), hi.max(s));
+        let valid = aa.depth.inverse_depth.iter().filter(|v| **v >= 0.0);
+        let (slo, shi) = valid.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v as f64), b.max(v as f64))
+        });
+        let (dlo, dhi) = if slo <= shi {
+            (lo - shi, hi - slo)
+        } else {
+            (0.0, 0.0)
+        };
+        let first = node_of(dlo.min(0.0) * scale).0;
+        let nodes = (node_of(dhi.max(0.0) * scale).0 + 2 - first) as usize;
         LayerPlan {
             groups,
             group_of,
-            px_per_residual: full.x.max(full.y),
+            px_per_residual: scale,
+            first,
+            nodes,
         }
+    }
+
+    /// Checks what the pass can hold: [`MAX_GROUPS`] and [`MAX_LAYERS`].
+    pub fn check(&self) -> crate::error::Result<()> {
+        let layers = self.nodes * self.groups.len();
+        if self.groups.len() > MAX_GROUPS || layers > MAX_LAYERS {
+            return Err(crate::error::Error::Invalid(format!(
+                "layered anti-aliasing holds at most {MAX_GROUPS} cell shapes and {MAX_LAYERS} \
+                 layers; this plan needs {} shapes and {layers} layers (its depth range is too \
+                 deep for the aperture): use --antialias-layered off",
+                self.groups.len()
+            )));
+        }
+        Ok(())
     }
 }
 
@@ -172,10 +225,15 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
     let s_of = |px: DVec2| m.dot(px.extend(1.0)).max(0.0);
     let table = cpu::table_for(averaging);
     let layers = LayerPlan::new(aa, (lf.width, lf.height));
-    let vis = ViewVisibility::filled(&aa.depth, &aa.plan.views);
+    // The plan's own maps are the filled ones when it is layered; any other plan (scored
+    // beside the sub-samples) gets them here.
+    let vis = match &aa.visibility {
+        Some(v) if aa.settings.layered => std::sync::Arc::clone(v),
+        _ => std::sync::Arc::new(ViewVisibility::filled(&aa.depth, &aa.plan.views)),
+    };
     let guard = aa.guard_px;
     let longest = layers.px_per_residual;
-    let bicubic = aa.settings.focused_bicubic;
+    let focused_reach = aa.focused_reach();
     let pixel = |i: usize| DVec2::new((i % w) as f64, (i / w) as f64);
     let samples = |px: DVec2| -> Vec<Binned> {
         let s = s_of(px);
@@ -183,6 +241,12 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
             .depth
             .at(px)
             .filter(|sg| guard > 0.0 && ((s - sg) * longest).abs() < guard);
+        // Catmull-Rom for footprints under half a pixel in a pixel whose own surface is in
+        // focus, as the sub-samples do (the GPU runs such pixels in a loop of their own).
+        let focused = aa
+            .depth
+            .at(px)
+            .is_some_and(|sg| (s - sg).abs() < focused_reach);
         let mut out = Vec::with_capacity(aa.plan.views.len());
         for (k, (v, fp)) in aa.plan.views.iter().zip(&aa.footprints).enumerate() {
             let y0 = v.warp.a * px.extend(1.0) + v.warp.b * s;
@@ -205,7 +269,7 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
             };
             let img = &lf.views[v.index].image;
             let ext = footprint_extent(fp, y0, d);
-            let colour = if bicubic && ext.x.max(ext.y) < FOCUSED_BLUR_PX {
+            let colour = if focused && ext.x.max(ext.y) < FOCUSED_BLUR_PX {
                 cpu::bicubic_of(img, &table, p)
             } else {
                 cpu::bilinear_of(img, &table, p)
@@ -219,27 +283,8 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
         }
         out
     };
-    // The nodes span every residual a view can see: the focus surface's range against the
-    // maps' (the same bounds for every pixel, so every layer is one image).
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for i in 0..w * h {
-        let s = s_of(pixel(i));
-        lo = lo.min(s);
-        hi = hi.max(s);
-    }
-    let (mut slo, mut shi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for &v in vis.sigma.iter().filter(|v| **v >= 0.0) {
-        slo = slo.min(v as f64);
-        shi = shi.max(v as f64);
-    }
-    let (dlo, dhi) = if slo <= shi {
-        (lo - shi, hi - slo)
-    } else {
-        (0.0, 0.0)
-    };
     let scale = layers.px_per_residual;
-    let first = node_of(dlo.min(0.0) * scale).0;
-    let nodes = (node_of(dhi.max(0.0) * scale).0 + 1 - first + 1) as usize;
+    let (first, nodes) = (layers.first, layers.nodes);
     let ng = layers.groups.len();
     let per_px = nodes * ng;
     // Per pixel: every layer's (colour·weight, weight), and the weight of the views used.

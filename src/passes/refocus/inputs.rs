@@ -173,6 +173,8 @@ pub(super) struct AntialiasInputs {
     pub occlusion: bool,
     /// The uploaded plan's `AntialiasSettings::defocus`.
     pub defocus: bool,
+    /// The uploaded plan's `AntialiasSettings::layered`.
+    pub layered: bool,
     /// The uploaded plan's [`AntialiasPlan::focused_reach`], pushed with every draw.
     pub focused_reach: f32,
 }
@@ -208,6 +210,7 @@ impl AntialiasInputs {
             prefilter: false,
             occlusion: false,
             defocus: false,
+            layered: false,
             focused_reach: 0.0,
         })
     }
@@ -239,6 +242,7 @@ impl AntialiasInputs {
         self.prefilter = aa.settings.prefilter;
         self.occlusion = aa.settings.occlusion;
         self.defocus = aa.settings.defocus;
+        self.layered = aa.settings.layered;
         self.focused_reach = aa.focused_reach() as f32;
     }
 
@@ -271,6 +275,7 @@ impl AntialiasInputs {
             || aa.settings.prefilter != self.prefilter
             || aa.settings.occlusion != self.occlusion
             || aa.settings.defocus != self.defocus
+            || aa.settings.layered != self.layered
             || aa.focused_reach() as f32 != self.focused_reach
     }
 }

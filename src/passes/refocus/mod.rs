@@ -45,6 +45,7 @@ mod defocus;
 mod descriptors;
 mod inputs;
 mod interface;
+mod layered;
 mod layouts;
 mod pipelines;
 mod target;
@@ -57,6 +58,7 @@ use crate::gpu::pod::as_bytes;
 use defocus::{DefocusKey, DefocusStage};
 use inputs::{AntialiasInputs, SceneDepthInput, SurfaceInputs, ViewInputs};
 pub use interface::{GpuFootprint, GpuSurface, GpuViewWarp, RefocusPush};
+use layered::{GpuLayerParams, LayeredKey, LayeredStage};
 use layouts::PassLayouts;
 use pipelines::{AccumKey, Pipelines, ResolveKey};
 pub use target::RefocusTarget;
@@ -232,6 +234,8 @@ pub struct RefocusPass {
     surface: SurfaceInputs,
     /// Box-filters the views before an accumulation with defocused views.
     defocus: DefocusStage,
+    /// Bins, boxes and composites an accumulation with layered footprints.
+    layered: LayeredStage,
     /// How the compute strategy's invocations cover the output (see [`ComputeShape`]).
     compute_shape: ComputeShape,
 }
@@ -277,6 +281,7 @@ impl RefocusPass {
         let surface = SurfaceInputs::new(ctx)?;
         // Binding 9 needs an image from the start: the stage's one-view placeholder.
         let defocus = DefocusStage::new(ctx, *layouts.input_set, (w, h))?;
+        let layered = LayeredStage::new(ctx, *layouts.input_set, *layouts.storage_set)?;
         let inputs = descriptors::Inputs {
             views: &texture.image.views,
             linear: *layouts.linear,
@@ -299,6 +304,7 @@ impl RefocusPass {
             antialias,
             surface,
             defocus,
+            layered,
             compute_shape: ComputeShape::from_env(),
         })
     }
@@ -434,6 +440,9 @@ impl RefocusPass {
         if self.antialias.set_visibility(ctx, aa)? {
             descriptors::write_visibility(ctx, &self.input_sets, &self.antialias.visibility);
         }
+        if aa.settings.layered {
+            self.layered.set(ctx, self.layer_params(aa)?)?;
+        }
         if aa.settings.defocus && self.defocus.reserve(ctx, aa.plan.views.len() as u32)? {
             let info = self.defocus.sampled_info(*self.layouts.linear);
             descriptors::write_defocused(ctx, &self.input_sets, info);
@@ -460,7 +469,22 @@ impl RefocusPass {
     /// Whether [`RefocusPass::set_antialias`] would rewrite anything for `aa`: a caller with
     /// frames in flight waits for them first.
     pub fn antialias_differs(&self, aa: &AntialiasPlan) -> bool {
-        self.views_differ(&aa.plan) || self.antialias.differ(aa) || self.depth.differs(&aa.depth)
+        self.views_differ(&aa.plan)
+            || self.antialias.differ(aa)
+            || self.depth.differs(&aa.depth)
+            || (aa.settings.layered
+                && self
+                    .layer_params(aa)
+                    .map_or(true, |p| self.layered.differs(&p)))
+    }
+
+    /// The layer plan of `aa` at the views' size ([`crate::refocus::layered::LayerPlan`]),
+    /// checked against what the stage holds.
+    fn layer_params(&self, aa: &AntialiasPlan) -> Result<GpuLayerParams> {
+        let (w, h) = (self.view_size[0] as u32, self.view_size[1] as u32);
+        let layers = crate::refocus::layered::LayerPlan::new(aa, (w, h));
+        layers.check()?;
+        Ok(GpuLayerParams::new(&layers, w * h, aa.guard_px))
     }
 
     /// Whether [`RefocusPass::set_views`] would rewrite the warps for `plan`: a caller with
@@ -483,8 +507,11 @@ impl RefocusPass {
         a: &Accumulate,
     ) -> Result<()> {
         let (key, set_index, push) = self.specialise(ctx, target, a)?;
-        let pipeline = self.pipelines.accum(ctx, &self.layouts, key)?;
         let input_set = self.input_sets[set_index];
+        if key.antialias > 0 && self.antialias.layered {
+            return self.record_layered(ctx, cmd, target, (input_set, key), push, a);
+        }
+        let pipeline = self.pipelines.accum(ctx, &self.layouts, key)?;
         if key.defocus {
             self.record_defocus(ctx, cmd, input_set, key, push, a)?;
         }
@@ -578,6 +605,51 @@ impl RefocusPass {
             },
         };
         Ok((key, set_index, push))
+    }
+
+    /// Records an accumulation with layered footprints: the layered stage, on the compute
+    /// queue whatever the strategy (it writes the accumulation image as a storage image).
+    fn record_layered(
+        &mut self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        target: &mut RefocusTarget,
+        (input_set, key): (vk::DescriptorSet, AccumKey),
+        push: RefocusPush,
+        a: &Accumulate,
+    ) -> Result<()> {
+        if key.surface != 0 {
+            return Err(Error::Invalid(
+                "layered anti-aliasing focuses on one plane; a focus surface needs \
+                 --antialias-layered off"
+                    .into(),
+            ));
+        }
+        if target.storage_set == vk::DescriptorSet::null() {
+            return Err(Error::DeviceLimit(format!(
+                "{} cannot store to an {} image, which layered anti-aliasing writes: use \
+                 --antialias-layered off",
+                ctx.info.name,
+                accumulation_of_format(target.accum_format).map_or("accumulation", |a| a.name())
+            )));
+        }
+        let layered_key = LayeredKey {
+            filter: key.filter,
+            texel: key.texel,
+            uniform_warps: key.uniform_warps,
+            half: target.accum_format == accumulation_format(Accumulation::Rgba16f),
+        };
+        let clear = begin_accumulation(&ctx.device, cmd, target, a.clear);
+        self.layered.record(
+            ctx,
+            cmd,
+            (input_set, target.storage_set),
+            layered_key,
+            push,
+            a.views.clone(),
+            clear,
+            (target.width, target.height),
+        )
     }
 
     /// Records the defocus stage for `a.views` (accumulations with defocused views).

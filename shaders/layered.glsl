@@ -1,0 +1,333 @@
+// Layered anti-aliasing (refocus::layered, docs/antialias.md "Layered footprints"): the f64
+// model's four stages, one dispatch each. The including file defines ACCUM_FORMAT (the
+// accumulation image's format: layered.comp rgba32f, layered_half.comp rgba16f).
+//   STAGE 0 (bin): one invocation per output pixel walks the views [first_view, +view_count):
+//            the view's plain sample feeds the focus test's sums; the depth that view sees
+//            there (its filled visibility map) gives the residual d; the view is read at its
+//            cell's centroid for d (Catmull-Rom where the footprint is under half a pixel) and
+//            added to the two nodes around d * scale of its cell's group, weighted by the cell's
+//            area and the node's share. accumulate 0 starts the pixel's sums from zero.
+//   STAGE 1 (rows): one invocation per (row, layer) runs the layer's box along the row: the
+//            mean of the row's linear interpolation over the node's footprint (narrowed by the
+//            interpolation's own variance), from running sums of trapezoids.
+//   STAGE 2 (columns): the same down the columns of the row-boxed layers.
+//   STAGE 3 (composite): one invocation per pixel: where the views' plain samples agree, their
+//            mean; else the boxed layers front to back, each covering its share of what the
+//            nearer ones left; written to the accumulation image as (colour, 1), which the
+//            resolve divides as it divides a sum.
+#include "refocus_accumulate.glsl"
+
+layout(constant_id = 8) const uint STAGE = 0u;
+layout(local_size_x_id = 9, local_size_y_id = 10) in;
+
+layout(set = 1, binding = 0, ACCUM_FORMAT) uniform image2D accum_image;
+
+const uint MAX_GROUPS = 8u; // refocus::layered::MAX_GROUPS
+// refocus::layered::{NODE_STEP_PX, NODE_LINEAR_PX, NODE_RATIO} (a test compares them).
+const float NODE_STEP_PX = 1.0;
+const float NODE_LINEAR_PX = 3.0;
+const float NODE_RATIO = 1.4;
+
+// Mirrored by `GpuLayerParams` (src/passes/refocus/layered.rs).
+layout(std140, set = 2, binding = 0) uniform LayerParams {
+    ivec4 header;        // first node, node count, group count, pixels per layer
+    vec4 scale;          // x: full-cell footprint px per unit residual; y: guard px (0: a
+                         // given depth). Catmull-Rom at footprints under half a pixel where
+                         // pc.focused_reach > 0 (the bilinear filters with it on).
+    vec4 units[MAX_GROUPS]; // xy: group g's footprint px per unit residual along x and y
+    uvec4 group_of4[UBO_WARPS / 4u]; // view k's group at [k / 4][k % 4]
+} lp;
+// Per layer (node * groups + group) and pixel: (colour * weight, weight).
+layout(std430, set = 2, binding = 1) buffer Bins { vec4 bins[]; };
+// Per pixel: (plain sum, plain weight), (clamped plain sum, binned weight), (root sum, 0): the
+// focus test's sums over the plain samples (views_agree) and the weight of the binned views.
+layout(std430, set = 2, binding = 2) buffer Stats { vec4 stats[]; };
+layout(std430, set = 2, binding = 3) buffer Rows { vec4 rows[]; };
+layout(std430, set = 2, binding = 4) buffer Boxed { vec4 boxed[]; };
+
+// Node j's footprint in pixels, signed (refocus::layered::node_px).
+float node_px(int j) {
+    float k = float(abs(j));
+    float linear = NODE_LINEAR_PX / NODE_STEP_PX;
+    float g = k <= linear ? k * NODE_STEP_PX : NODE_LINEAR_PX * pow(NODE_RATIO, k - linear);
+    return j < 0 ? -g : g;
+}
+
+// The node below footprint px and the share of the one above (refocus::layered::node_of).
+int node_of(float px, out float f) {
+    float k = abs(px);
+    float linear = NODE_LINEAR_PX / NODE_STEP_PX;
+    float t = k <= NODE_LINEAR_PX ? k / NODE_STEP_PX
+                                  : linear + log(k / NODE_LINEAR_PX) / log(NODE_RATIO);
+    int j = int(floor(px < 0.0 ? -t : t));
+    float a = node_px(j);
+    float b = node_px(j + 1);
+    f = b > a ? clamp((px - a) / (b - a), 0.0, 1.0) : 0.0;
+    return j;
+}
+
+uint group_of(uint k) {
+    return lp.group_of4[k >> 2u][k & 3u];
+}
+
+// View k's sample of output pixel pix (x, focus s, the pixel's own depth where the guard keeps
+// it): the focus test's sums and the layer sums. `cr`: Catmull-Rom for footprints under half a
+// pixel (a pixel whose own surface is in focus).
+void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uint n, uint pix, inout vec4 st0, inout vec4 st1, inout vec4 st2) {
+    int first = lp.header.x;
+    int nodes = lp.header.y;
+    uint groups = uint(lp.header.z);
+    float scale = lp.scale.x;
+    ViewWarp w = warp_of(k);
+    vec3 y0 = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz) * x + w.b_weight.xyz * s;
+    if (!(y0.z > 0.0)) {
+        return;
+    }
+    float wk = w.b_weight.w;
+    vec2 p0 = y0.xy / y0.z;
+    bool in0 = all(greaterThanEqual(p0, lo)) && all(lessThanEqual(p0, hi));
+    vec3 c0 = vec3(0.0);
+    if (in0) {
+        c0 = fetch(p0, w.a0.w);
+        vec3 cp = max(c0, vec3(0.0));
+        st0 += vec4(wk * c0, wk);
+        st1.rgb += wk * cp;
+        st2.rgb += wk * sqrt(cp);
+    }
+    float seen = visible_sigma(uint(footprints[k].vis.y), p0);
+    float sigma = own >= 0.0 ? (seen > own ? seen : own) : seen;
+    float d = sigma >= 0.0 ? s - sigma : 0.0;
+    vec3 origin = footprints[k].origin.xyz;
+    vec3 span_s = footprints[k].span_s.xyz;
+    vec3 span_t = footprints[k].span_t.xyz;
+    vec3 q = y0 + (origin + 0.5 * (span_s + span_t)) * d;
+    if (!(q.z > 0.0)) {
+        return;
+    }
+    vec2 p = q.xy / q.z;
+    if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
+        return;
+    }
+    // The footprint's extent: the bounding box of the cell's four corners
+    // (refocus::defocus::footprint_extent).
+    vec2 elo = vec2(1e30);
+    vec2 ehi = vec2(-1e30);
+    for (int c = 0; c < 4; ++c) {
+        vec2 uv = vec2(float(c & 1), float(c >> 1));
+        vec3 r = y0 + (origin + uv.x * span_s + uv.y * span_t) * d;
+        vec2 pr = r.z > 0.0 ? r.xy / r.z : p0;
+        elo = min(elo, pr);
+        ehi = max(ehi, pr);
+    }
+    vec2 ext = ehi - elo;
+    vec3 col;
+    if (cr && max(ext.x, ext.y) < FOCUSED_BLUR_PX) {
+        col = bicubic(p, int(w.a0.w));
+    } else if (in0 && p == p0) {
+        col = c0;
+    } else {
+        col = fetch(p, w.a0.w);
+    }
+    float f;
+    int j = clamp(node_of(d * scale, f) - first, 0, nodes - 1);
+    uint g = group_of(k);
+    uint l0 = uint(j) * groups + g;
+    bins[l0 * n + pix] += vec4(wk * (1.0 - f) * col, wk * (1.0 - f));
+    if (f > 0.0 && j + 1 < nodes) {
+        uint l1 = l0 + groups;
+        bins[l1 * n + pix] += vec4(wk * f * col, wk * f);
+    }
+    st1.w += wk;
+}
+
+void bin_pixel(ivec2 px) {
+    uint n = uint(lp.header.w);
+    uint pix = uint(px.y) * uint(pc.view_size.x) + uint(px.x);
+    int first = lp.header.x;
+    int nodes = lp.header.y;
+    uint groups = uint(lp.header.z);
+    uint layers = uint(nodes) * groups;
+    vec4 st0 = vec4(0.0);
+    vec4 st1 = vec4(0.0);
+    vec4 st2 = vec4(0.0);
+    if (pc.accumulate == 0u) {
+        for (uint l = 0u; l < layers; ++l) {
+            bins[l * n + pix] = vec4(0.0);
+        }
+    } else {
+        st0 = stats[3u * pix];
+        st1 = stats[3u * pix + 1u];
+        st2 = stats[3u * pix + 2u];
+    }
+    vec3 x = vec3((vec2(px) + 0.5) * pc.out_scale - 0.5, 1.0);
+    float s = max(dot(pc.plane.xyz, x), 0.0);
+    vec2 lo = vec2(-0.5);
+    vec2 hi = pc.view_size - 0.5;
+    float scale = lp.scale.x;
+    // On an estimate, a pixel whose own surface is in focus keeps its own depth in every view
+    // that sees something farther there (the estimate's silhouettes).
+    float own = -1.0;
+    if (lp.scale.y > 0.0) {
+        float sg = scene_sigma[2 * depth_index(x.xy)];
+        if (sg >= 0.0 && abs((s - sg) * scale) < lp.scale.y) {
+            own = sg;
+        }
+    }
+    // Pixels whose own surface is in focus read footprints under half a pixel with
+    // Catmull-Rom; they take a loop of their own, so a SIMD group without them never runs its
+    // code (llvmpipe runs both sides of a per-lane branch).
+    float sigma_x = scene_sigma[2 * depth_index(x.xy)];
+    bool focused = pc.focused_reach > 0.0 && sigma_x >= 0.0 && abs(s - sigma_x) < pc.focused_reach;
+    uint k_end = pc.first_view + pc.view_count;
+    for (uint k = pc.first_view; k < (focused ? k_end : pc.first_view); ++k) {
+        bin_view(k, x, s, own, lo, hi, true, n, pix, st0, st1, st2);
+    }
+    for (uint k = pc.first_view; k < (focused ? pc.first_view : k_end); ++k) {
+        bin_view(k, x, s, own, lo, hi, false, n, pix, st0, st1, st2);
+    }
+    stats[3u * pix] = st0;
+    stats[3u * pix + 1u] = st1;
+    stats[3u * pix + 2u] = st2;
+}
+
+// The layer's box width along one axis: the node's footprint narrowed by the linear
+// interpolation's variance (refocus::layered, `narrow`).
+float box_of(uint l, uint axis) {
+    uint groups = uint(lp.header.z);
+    int node = int(l / groups);
+    uint g = l % groups;
+    float d = node_px(lp.header.x + node) / max(lp.scale.x, 1e-12);
+    float e = abs(d) * (axis == 0u ? lp.units[g].x : lp.units[g].y);
+    return sqrt(max(e * e - 2.0, 0.0));
+}
+
+// Running box along a line of `count` samples at `base + i * stride` (refocus::layered::
+// tent_box_1d): STAGE 1 reads bins and writes rows, STAGE 2 reads rows and writes boxed.
+vec4 line_value(uint i) {
+    return STAGE == 1u ? bins[i] : rows[i];
+}
+
+void store_line(uint i, vec4 v) {
+    if (STAGE == 1u) {
+        rows[i] = v;
+    } else {
+        boxed[i] = v;
+    }
+}
+
+// A cursor over the line's integral: k the sample below, t_k the integral over [0, k].
+struct Cursor {
+    int k;
+    vec4 t;
+};
+
+// The integral over [0, t] (t within [0, count - 1], non-decreasing between calls).
+vec4 integral(inout Cursor c, float t, uint base, uint stride, int count) {
+    int k = min(int(floor(t)), count - 2);
+    while (c.k < k) {
+        c.t += 0.5 * (line_value(base + uint(c.k) * stride) + line_value(base + uint(c.k + 1) * stride));
+        c.k += 1;
+    }
+    float f = t - float(c.k);
+    vec4 a = line_value(base + uint(c.k) * stride);
+    vec4 b = line_value(base + uint(c.k + 1) * stride);
+    return c.t + f * a + 0.5 * f * f * (b - a);
+}
+
+void box_line(uint base, uint stride, int count, float width) {
+    if (count < 2 || !(width > 0.0)) {
+        for (int i = 0; i < count; ++i) {
+            store_line(base + uint(i) * stride, line_value(base + uint(i) * stride));
+        }
+        return;
+    }
+    float last = float(count - 1);
+    Cursor lower = Cursor(0, vec4(0.0));
+    Cursor upper = Cursor(0, vec4(0.0));
+    for (int i = 0; i < count; ++i) {
+        float a = max(float(i) - 0.5 * width, 0.0);
+        float b = min(float(i) + 0.5 * width, last);
+        vec4 ib = integral(upper, b, base, stride, count);
+        vec4 ia = integral(lower, a, base, stride, count);
+        store_line(base + uint(i) * stride, (ib - ia) / (b - a));
+    }
+}
+
+void composite_pixel(ivec2 px) {
+    uint n = uint(lp.header.w);
+    uint pix = uint(px.y) * uint(pc.view_size.x) + uint(px.x);
+    vec4 st0 = stats[3u * pix];
+    vec4 st1 = stats[3u * pix + 1u];
+    vec4 st2 = stats[3u * pix + 2u];
+    vec3 x = vec3((vec2(px) + 0.5) * pc.out_scale - 0.5, 1.0);
+    float threshold = footprints[0].vis.w;
+    if (threshold > 0.0 && st0.w > 0.0 && scene_sigma[2 * depth_index(x.xy)] >= 0.0) {
+        vec3 mean = st2.rgb / st0.w;
+        vec3 spread = max(st1.rgb / st0.w - mean * mean, vec3(0.0));
+        if (max(spread.r, max(spread.g, spread.b)) <= threshold * threshold) {
+            imageStore(accum_image, px, st0);
+            return;
+        }
+    }
+    float total = st1.w;
+    vec4 result = vec4(0.0);
+    if (total > 0.0) {
+        uint groups = uint(lp.header.z);
+        vec3 acc = vec3(0.0);
+        float uncovered = 1.0;
+        for (int node = 0; node < lp.header.y; ++node) {
+            vec4 cw = vec4(0.0);
+            for (uint g = 0u; g < groups; ++g) {
+                cw += boxed[(uint(node) * groups + g) * n + pix];
+            }
+            if (cw.w <= 1e-12) {
+                continue;
+            }
+            float a = min(cw.w / (uncovered * total), 1.0);
+            acc += uncovered * a * cw.rgb / cw.w;
+            uncovered *= 1.0 - a;
+            if (uncovered <= 1e-12) {
+                break;
+            }
+        }
+        float covered = 1.0 - uncovered;
+        if (covered > 0.0) {
+            result = vec4(acc / covered, 1.0);
+        }
+    }
+    imageStore(accum_image, px, result);
+}
+
+void main() {
+    ivec2 size = ivec2(pc.view_size);
+    uvec3 id = gl_GlobalInvocationID;
+    uint layers = uint(lp.header.y) * uint(lp.header.z);
+    uint n = uint(lp.header.w);
+    if (STAGE == 0u || STAGE == 3u) {
+        ivec2 px = ivec2(id.xy);
+        if (any(greaterThanEqual(px, size))) {
+            return;
+        }
+        if (STAGE == 0u) {
+            bin_pixel(px);
+        } else {
+            composite_pixel(px);
+        }
+        return;
+    }
+    uint l = id.y;
+    if (l >= layers) {
+        return;
+    }
+    if (STAGE == 1u) {
+        if (id.x >= uint(size.y)) {
+            return;
+        }
+        box_line(l * n + id.x * uint(size.x), 1u, size.x, box_of(l, 0u));
+    } else {
+        if (id.x >= uint(size.x)) {
+            return;
+        }
+        box_line(l * n + id.x, uint(size.x), size.y, box_of(l, 1u));
+    }
+}

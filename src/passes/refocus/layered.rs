@@ -1,0 +1,395 @@
+//! The layered stage of the refocus pass (`shaders/layered.glsl`; the method and its f64
+//! model are [`crate::refocus::layered`]): an anti-aliased accumulation with layered
+//! footprints bins the views' samples into layers, box-filters each layer along its rows and
+//! then its columns, and composites the layers into the accumulation image, four compute
+//! dispatches in all.
+//!
+//! The sums (`bins`, per layer and pixel) and the focus test's sums (`stats`) persist between
+//! accumulations into the same target, so views can be added batch by batch (the viewer's
+//! progressive refinement); every accumulation boxes and composites what has been binned so
+//! far, so the accumulation image always holds the composite of the views added.
+
+use std::ops::Range;
+
+use ash::vk;
+
+use super::interface::RefocusPush;
+use crate::error::{Error, Result};
+use crate::gpu::commands::memory_barrier;
+use crate::gpu::pipeline::{self, compute_pipeline};
+use crate::gpu::pod::{as_bytes, Pod};
+use crate::gpu::resources::Buffer;
+use crate::gpu::{shaders, GpuContext, Owned};
+use crate::refocus::layered::{LayerPlan, MAX_GROUPS};
+use crate::refocus::settings::UBO_WARPS;
+
+const TILE: u32 = 8;
+const LINE_GROUP: u32 = 64;
+
+/// The layer plan as the shader reads it (`LayerParams` in layered.glsl, std140).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GpuLayerParams {
+    /// First node, node count, group count, pixels per layer.
+    pub header: [i32; 4],
+    /// Footprint px per unit residual and the guard (px); zw unused.
+    pub scale: [f32; 4],
+    /// Per group: its footprint px per unit residual along x and y.
+    pub units: [[f32; 4]; MAX_GROUPS],
+    /// View k's group at `[k / 4][k % 4]`.
+    pub group_of: [[u32; 4]; UBO_WARPS / 4],
+}
+
+// SAFETY: repr(C), only 4-byte scalars in arrays of four: no padding.
+unsafe impl Pod for GpuLayerParams {}
+
+impl GpuLayerParams {
+    /// The record of `layers` for `pixels` output pixels, with the plan's guard.
+    pub fn new(layers: &LayerPlan, pixels: u32, guard_px: f64) -> Self {
+        let mut units = [[0f32; 4]; MAX_GROUPS];
+        for (u, g) in units.iter_mut().zip(&layers.groups) {
+            *u = [g.x as f32, g.y as f32, 0.0, 0.0];
+        }
+        let mut group_of = [[0u32; 4]; UBO_WARPS / 4];
+        for (k, &g) in layers.group_of.iter().enumerate().take(UBO_WARPS) {
+            group_of[k / 4][k % 4] = g as u32;
+        }
+        GpuLayerParams {
+            header: [
+                layers.first as i32,
+                layers.nodes as i32,
+                layers.groups.len() as i32,
+                pixels as i32,
+            ],
+            scale: [layers.px_per_residual as f32, guard_px as f32, 0.0, 0.0],
+            units,
+            group_of,
+        }
+    }
+
+    fn layers(&self) -> u32 {
+        (self.header[1] * self.header[2]) as u32
+    }
+}
+
+/// Which shader variant: the accumulation's sampling constants the stage shares, and the
+/// accumulation image's format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct LayeredKey {
+    pub filter: u32,
+    pub texel: u32,
+    pub uniform_warps: bool,
+    pub half: bool,
+}
+
+/// The buffers, descriptors and pipelines of the layered stage.
+pub struct LayeredStage {
+    pipelines: Vec<((LayeredKey, u32), Owned<vk::Pipeline>)>,
+    layout: Owned<vk::PipelineLayout>,
+    _pool: Owned<vk::DescriptorPool>,
+    _set_layout: Owned<vk::DescriptorSetLayout>,
+    set: vk::DescriptorSet,
+    params: Buffer,
+    /// Sums, rows, boxes (layers × pixels vec4 each) and the focus test's sums (3 per pixel).
+    bins: Option<[Buffer; 4]>,
+    /// Layers × pixels the buffers hold.
+    capacity: (u32, u32),
+    uploaded: Option<GpuLayerParams>,
+    /// The accumulation image whose views the sums hold (its storage set; null after the
+    /// buffers were made or the plan changed: the next accumulation starts from zero).
+    binned_for: vk::DescriptorSet,
+}
+
+impl LayeredStage {
+    /// The stage, its pipelines laid out after the accumulation's input set (`input_layout`,
+    /// set 0) and its storage image (`storage_layout`, set 1).
+    pub fn new(
+        ctx: &GpuContext,
+        input_layout: vk::DescriptorSetLayout,
+        storage_layout: vk::DescriptorSetLayout,
+    ) -> Result<Self> {
+        use vk::DescriptorType as T;
+        let binding = |i: u32, ty| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(i)
+                .descriptor_type(ty)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        };
+        let bindings = [
+            binding(0, T::UNIFORM_BUFFER),
+            binding(1, T::STORAGE_BUFFER),
+            binding(2, T::STORAGE_BUFFER),
+            binding(3, T::STORAGE_BUFFER),
+            binding(4, T::STORAGE_BUFFER),
+        ];
+        let set_layout = pipeline::set_layout(ctx, &bindings, "layered set layout")?;
+        let sizes = [
+            vk::DescriptorPoolSize {
+                ty: T::UNIFORM_BUFFER,
+                descriptor_count: 1,
+            },
+            vk::DescriptorPoolSize {
+                ty: T::STORAGE_BUFFER,
+                descriptor_count: 4,
+            },
+        ];
+        let pool = pipeline::descriptor_pool(ctx, 1, &sizes, "layered descriptors")?;
+        let set = pipeline::allocate_sets(ctx, *pool, &[*set_layout])?[0];
+        let push = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .offset(0)
+            .size(std::mem::size_of::<RefocusPush>() as u32)];
+        let layout = pipeline::pipeline_layout(
+            ctx,
+            &[input_layout, storage_layout, *set_layout],
+            &push,
+            "layered layout",
+        )?;
+        let params = Buffer::new(
+            ctx,
+            std::mem::size_of::<GpuLayerParams>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            true,
+            "layered parameters",
+        )?;
+        Ok(LayeredStage {
+            pipelines: Vec::new(),
+            layout,
+            _pool: pool,
+            _set_layout: set_layout,
+            set,
+            params,
+            bins: None,
+            capacity: (0, 0),
+            uploaded: None,
+            binned_for: vk::DescriptorSet::null(),
+        })
+    }
+
+    /// Uploads `params`, growing the buffers when they hold fewer layers or pixels (their sums
+    /// are then lost: the next accumulation must clear). The GPU must not be using them.
+    pub fn set(&mut self, ctx: &GpuContext, params: GpuLayerParams) -> Result<()> {
+        let (layers, pixels) = (params.layers(), params.header[3] as u32);
+        if self.bins.is_none() || layers > self.capacity.0 || pixels > self.capacity.1 {
+            let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+            let big = 16 * layers.max(1) as u64 * pixels.max(1) as u64;
+            let make = |name: &str, size: u64| Buffer::new(ctx, size, storage, false, name);
+            let bins = [
+                make("layered sums", big)?,
+                make("layered focus sums", 48 * pixels.max(1) as u64)?,
+                make("layered rows", big)?,
+                make("layered boxes", big)?,
+            ];
+            let info = |b: &Buffer| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(b.buffer)
+                    .range(vk::WHOLE_SIZE)]
+            };
+            let uniform = [vk::DescriptorBufferInfo::default()
+                .buffer(self.params.buffer)
+                .range(vk::WHOLE_SIZE)];
+            let infos = [
+                info(&bins[0]),
+                info(&bins[1]),
+                info(&bins[2]),
+                info(&bins[3]),
+            ];
+            let mut writes = vec![vk::WriteDescriptorSet::default()
+                .dst_set(self.set)
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+                .buffer_info(&uniform)];
+            for (i, inf) in infos.iter().enumerate() {
+                writes.push(
+                    vk::WriteDescriptorSet::default()
+                        .dst_set(self.set)
+                        .dst_binding(i as u32 + 1)
+                        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                        .buffer_info(inf),
+                );
+            }
+            // SAFETY: the caller guarantees the GPU is not using the set; the infos reference
+            // live buffers.
+            unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+            self.bins = Some(bins);
+            self.capacity = (layers, pixels);
+            self.uploaded = None;
+        }
+        if self.uploaded != Some(params) {
+            self.binned_for = vk::DescriptorSet::null();
+            self.params.bytes_mut()[..std::mem::size_of::<GpuLayerParams>()]
+                .copy_from_slice(as_bytes(&[params]));
+            self.uploaded = Some(params);
+        }
+        Ok(())
+    }
+
+    /// Whether [`LayeredStage::set`] would write anything for `params`.
+    pub fn differs(&self, params: &GpuLayerParams) -> bool {
+        self.uploaded.as_ref() != Some(params)
+    }
+
+    fn pipeline(&mut self, ctx: &GpuContext, key: LayeredKey, stage: u32) -> Result<vk::Pipeline> {
+        if let Some((_, p)) = self.pipelines.iter().find(|(k, _)| *k == (key, stage)) {
+            return Ok(**p);
+        }
+        let (tx, ty) = if stage == 1 || stage == 2 {
+            (LINE_GROUP, 1)
+        } else {
+            (TILE, TILE)
+        };
+        // The accumulation's constant ids 0-7 (refocus_accumulate.glsl: anti-aliasing on, the
+        // plane alone, no pyramid, no occlusion tests, no defocused views), then STAGE and the
+        // workgroup's shape.
+        let constants = [
+            key.filter,
+            key.texel,
+            u32::from(key.uniform_warps),
+            1,
+            0,
+            0,
+            0,
+            0,
+            stage,
+            tx,
+            ty,
+        ];
+        let (code, file) = if key.half {
+            (shaders::LAYERED_HALF_COMP, "layered_half.comp")
+        } else {
+            (shaders::LAYERED_COMP, "layered.comp")
+        };
+        let module = shaders::module(ctx, code, file)?;
+        let what = ["bin", "rows", "columns", "composite"][stage as usize];
+        let name = format!("layered {what} pipeline ({key:?})");
+        let p = compute_pipeline(ctx, *self.layout, *module, &constants, &name)?;
+        let raw = *p;
+        self.pipelines.push(((key, stage), p));
+        Ok(raw)
+    }
+
+    /// Records the four stages for the uploaded views `views` into the accumulation image of
+    /// `storage_set` (`size`: the views' and the output's pixels), adding to what was binned
+    /// before unless `clear` (or the sums hold another target's views, or another plan's).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &mut self,
+        ctx: &GpuContext,
+        cmd: vk::CommandBuffer,
+        (input_set, storage_set): (vk::DescriptorSet, vk::DescriptorSet),
+        key: LayeredKey,
+        push: RefocusPush,
+        views: Range<usize>,
+        clear: bool,
+        size: (u32, u32),
+    ) -> Result<()> {
+        let Some(params) = self.uploaded else {
+            return Err(Error::Invalid(
+                "layered accumulation without its layer plan (RefocusPass::set_antialias)".into(),
+            ));
+        };
+        if params.header[3] as u64 != size.0 as u64 * size.1 as u64 {
+            return Err(Error::Invalid(format!(
+                "layered anti-aliasing renders at the views' size ({} pixels), not {}×{}",
+                params.header[3], size.0, size.1
+            )));
+        }
+        let pipelines = [
+            self.pipeline(ctx, key, 0)?,
+            self.pipeline(ctx, key, 1)?,
+            self.pipeline(ctx, key, 2)?,
+            self.pipeline(ctx, key, 3)?,
+        ];
+        let d = &ctx.device;
+        // The sums are the stage's, not the target's: views add to them only where they hold
+        // this target's views of this plan.
+        let clear = clear || self.binned_for != storage_set;
+        self.binned_for = storage_set;
+        let push = RefocusPush {
+            first_view: views.start as u32,
+            view_count: views.len() as u32,
+            accumulate: u32::from(!clear),
+            ..push
+        };
+        let (w, h) = size;
+        let layers = params.layers();
+        let groups = [
+            (w.div_ceil(TILE), h.div_ceil(TILE), 1),
+            (h.div_ceil(LINE_GROUP), layers, 1),
+            (w.div_ceil(LINE_GROUP), layers, 1),
+            (w.div_ceil(TILE), h.div_ceil(TILE), 1),
+        ];
+        use vk::AccessFlags2 as A;
+        use vk::PipelineStageFlags2 as S;
+        let any = A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE | A::SHADER_SAMPLED_READ;
+        let shaders = S::COMPUTE_SHADER | S::FRAGMENT_SHADER;
+        // The previous accumulation's reads and writes before these.
+        memory_barrier(d, cmd, (shaders, any), (S::COMPUTE_SHADER, any));
+        // SAFETY: recording outside a rendering instance; the sets match the layout.
+        unsafe {
+            d.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                *self.layout,
+                0,
+                &[input_set, storage_set, self.set],
+                &[],
+            );
+            d.cmd_push_constants(
+                cmd,
+                *self.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                as_bytes(&[push]),
+            );
+        }
+        for (i, (&p, &(gx, gy, gz))) in pipelines.iter().zip(&groups).enumerate() {
+            if i > 0 {
+                memory_barrier(
+                    d,
+                    cmd,
+                    (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE),
+                    (
+                        S::COMPUTE_SHADER,
+                        A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+                    ),
+                );
+            }
+            // SAFETY: as above.
+            unsafe {
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, p);
+                d.cmd_dispatch(cmd, gx, gy.max(1), gz);
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::refocus::layered::{NODE_LINEAR_PX, NODE_RATIO, NODE_STEP_PX};
+
+    /// The shader's copies of the node layout and the group limit are the model's.
+    #[test]
+    fn the_shader_lays_out_the_nodes_as_the_model() {
+        let glsl = include_str!("../../../shaders/layered.glsl");
+        for (name, value) in [
+            ("NODE_STEP_PX", NODE_STEP_PX),
+            ("NODE_LINEAR_PX", NODE_LINEAR_PX),
+            ("NODE_RATIO", NODE_RATIO),
+        ] {
+            assert!(
+                glsl.contains(&format!("const float {name} = {value:?};")),
+                "{name} = {value:?}"
+            );
+        }
+        assert!(glsl.contains(&format!("const uint MAX_GROUPS = {MAX_GROUPS}u;")));
+        // std140: vec4s and uvec4s only, so the C layout is the block's.
+        assert_eq!(
+            std::mem::size_of::<GpuLayerParams>(),
+            16 * (2 + MAX_GROUPS + UBO_WARPS / 4)
+        );
+    }
+}
