@@ -541,16 +541,7 @@ fn defocused_views_match_the_f64_model() {
     let (_, aa) = plain_and_aa(&lf, tilted, None, settings);
     gpu_matches_model(&lf, &aa, "defocused, tilted plane");
     // The defocused views are not the sub-sampled footprints: the two models differ.
-    let (_, sub) = plain_and_aa(&lf, front, None, AntialiasSettings::default());
-    let (_, def) = plain_and_aa(&lf, front, None, settings);
-    let model = |aa: &AntialiasPlan| {
-        cpu::render_antialiased(&lf, aa, Averaging::Linear, lf.width, lf.height).pixels
-    };
-    let changed = model(&sub)
-        .iter()
-        .zip(&model(&def))
-        .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 1e-3))
-        .count();
+    let changed = models_differ(&lf, front, settings);
     assert!(changed > 500, "defocused views changed {changed} pixels");
     let rig = layers_rig(size, RigKind::Converging { distance: 2.0 });
     let lf = render_light_field(&mut r, &rig, 2, false)
@@ -559,6 +550,21 @@ fn defocused_views_match_the_f64_model() {
     let (_, aa) = plain_and_aa(&lf, front, None, settings);
     gpu_matches_model(&lf, &aa, "defocused, converging rig");
     assert_raster_clean(&r);
+}
+
+/// Pixels where the f64 model with `settings` differs (by over 1e-3) from the default's
+/// sub-samples, focused on `plane`.
+fn models_differ(lf: &LightField, plane: Plane, settings: AntialiasSettings) -> usize {
+    let (_, sub) = plain_and_aa(lf, plane, None, AntialiasSettings::default());
+    let (_, other) = plain_and_aa(lf, plane, None, settings);
+    let model = |aa: &AntialiasPlan| {
+        cpu::render_antialiased(lf, aa, Averaging::Linear, lf.width, lf.height).pixels
+    };
+    model(&sub)
+        .iter()
+        .zip(&model(&other))
+        .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 1e-3))
+        .count()
 }
 
 /// Layered footprints (`AntialiasSettings::layered`, `refocus::layered`) on the GPU equal their
@@ -610,16 +616,7 @@ fn layered_footprints_match_the_f64_model() {
     guarded.guard_px = tiltfield::refocus::antialias::ESTIMATED_DEPTH_GUARD_PX;
     check(&lf, &guarded, "layered, an estimated depth's guard");
     // The layers are not the sub-sampled footprints: the two models differ.
-    let (_, sub) = plain_and_aa(&lf, front, None, AntialiasSettings::default());
-    let (_, lay) = plain_and_aa(&lf, front, None, settings);
-    let model = |aa: &AntialiasPlan| {
-        cpu::render_antialiased(&lf, aa, Averaging::Linear, lf.width, lf.height).pixels
-    };
-    let changed = model(&sub)
-        .iter()
-        .zip(&model(&lay))
-        .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 1e-3))
-        .count();
+    let changed = models_differ(&lf, front, settings);
     assert!(changed > 500, "layered footprints changed {changed} pixels");
     let rig = layers_rig(size, RigKind::Converging { distance: 2.0 });
     let lf = render_light_field(&mut r, &rig, 2, false)

@@ -1189,22 +1189,16 @@ fn p_says_where_the_screenshot_went_and_collinear_clicks_are_explained() {
     );
 }
 
-/// With defocused views (`--antialias-defocus on`) the viewer's refinement, batch by batch,
-/// converges to exactly what `render --antialias-defocus on` writes.
-#[test]
-fn defocused_views_converge_to_render() {
+/// The viewer's refinement with `switch on` (`key` in its screenshot's `antialias` report),
+/// batch by batch, converges to exactly what `render switch on` writes.
+fn refinement_converges_to_render(switch: &str, key: &str) {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let lf = "builtin:tilted";
     let script = format!("wait-converged\nscreenshot {d}/a\nquit\n", d = d.display());
-    run_script(
-        d,
-        "defocus.txt",
-        &script,
-        &[lf, "--antialias-defocus", "on"],
-    );
+    run_script(d, "refine.txt", &script, &[lf, switch, "on"]);
     let a = json_file(&d.join("a.json"));
-    assert_eq!(a["antialias"]["defocus"], true, "{a}");
+    assert_eq!(a["antialias"][key], true, "{a}");
     let out = d.join("render.png");
     let o = tiltfield(&[
         "render",
@@ -1212,15 +1206,30 @@ fn defocused_views_converge_to_render() {
         "-o",
         out.to_str().unwrap(),
         "--disparity=0",
-        "--antialias-defocus",
+        switch,
         "on",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(
         std::fs::read(d.join("a_refocus.png")).unwrap(),
         std::fs::read(&out).unwrap(),
-        "viewer ≠ render"
+        "viewer ≠ render with {switch} on"
     );
+}
+
+/// With defocused views (`--antialias-defocus on`) the viewer's refinement, batch by batch,
+/// converges to exactly what `render --antialias-defocus on` writes.
+#[test]
+fn defocused_views_converge_to_render() {
+    refinement_converges_to_render("--antialias-defocus", "defocus");
+}
+
+/// With layered footprints (`--antialias-layered on`) the viewer's refinement, batch by batch
+/// (each batch adds its views to the layers and composites them again), converges to exactly
+/// what `render --antialias-layered on` writes.
+#[test]
+fn layered_footprints_converge_to_render() {
+    refinement_converges_to_render("--antialias-layered", "layered");
 }
 
 /// O after a click tints what is in focus: a share of the refocus panel between 2 % and 60 %

@@ -190,6 +190,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 "used": state.antialias() && depth_origin.is_some(),
                 "max_samples": antialias.max_samples,
                 "defocus": antialias.defocus,
+                "layered": antialias.layered,
                 "depth_origin": depth_origin.map(crate::depth::DepthOrigin::json),
             },
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},

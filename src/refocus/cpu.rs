@@ -129,7 +129,7 @@ fn per_pixel(
 }
 
 /// The value each 8-bit level is averaged as: linear light, or the encoded level itself.
-fn averaging_table(averaging: Averaging) -> [f64; 256] {
+pub(super) fn averaging_table(averaging: Averaging) -> [f64; 256] {
     match averaging {
         Averaging::Linear => color::decode_table(),
         Averaging::Encoded => std::array::from_fn(|i| i as f64 / 255.0),
@@ -154,7 +154,7 @@ fn view_pyramid(img: &image::RgbaImage, table: &[f64; 256]) -> Pyramid {
 
 /// The sample position of the homogeneous point `q` in a view of `lf`, or `None` where the
 /// mask drops it: behind the camera (or NaN), or outside the image's pixel footprints.
-fn inside(lf: &LightField, q: DVec3) -> Option<DVec2> {
+pub(super) fn inside(lf: &LightField, q: DVec3) -> Option<DVec2> {
     if q.z.is_nan() || q.z <= 0.0 {
         return None;
     }
@@ -165,7 +165,7 @@ fn inside(lf: &LightField, q: DVec3) -> Option<DVec2> {
 
 /// A pixel's weighted colour sum divided by the weights used (opaque), or transparent black
 /// where no view contributed: the resolve every model here ends with, as the GPU's does.
-fn normalised(sum: [f64; 3], wsum: f64) -> [f32; 4] {
+pub(super) fn normalised(sum: [f64; 3], wsum: f64) -> [f32; 4] {
     if wsum > 0.0 {
         [
             (sum[0] / wsum) as f32,
@@ -391,7 +391,7 @@ fn defocused_with(
 /// the pixel has depth and the views' plain samples agree ([`focus_spread`] at most the plan's
 /// threshold), they see the surface in focus and the pixel is their plain sum with the cells'
 /// weights (sum, weight); `None` where the test is off or fails.
-fn focus_test(
+pub(super) fn focus_test(
     lf: &LightField,
     aa: &AntialiasPlan,
     table: &[f64; 256],
@@ -584,7 +584,7 @@ pub fn ambiguous_antialiased(
 /// Exact bilinear interpolation at pixel position `p` (pixel centres at integers) with
 /// clamp-to-edge, of texels mapped through `table` (decoding before filtering, as sRGB
 /// textures do).
-fn bilinear(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
+pub(super) fn bilinear(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
     let (w, h) = (img.width() as i64, img.height() as i64);
     let x0 = p.x.floor();
     let y0 = p.y.floor();
@@ -688,7 +688,7 @@ pub fn catmull_rom(t: f64) -> [f64; 4] {
 
 /// Catmull-Rom bicubic interpolation at `p` with clamp-to-edge (no clamping of the result:
 /// it may overshoot near edges, as on the GPU).
-fn bicubic(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
+pub(super) fn bicubic(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
     let (x0, y0) = (p.x.floor(), p.y.floor());
     let wx = catmull_rom(p.x - x0);
     let wy = catmull_rom(p.y - y0);
@@ -703,33 +703,6 @@ fn bicubic(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
         }
     }
     c
-}
-
-// The pieces the layered model (super::layered) shares with these models, so both sample,
-// mask, test focus and resolve alike.
-pub(super) fn table_for(averaging: Averaging) -> [f64; 256] {
-    averaging_table(averaging)
-}
-pub(super) fn inside_of(lf: &LightField, q: DVec3) -> Option<DVec2> {
-    inside(lf, q)
-}
-pub(super) fn bilinear_of(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
-    bilinear(img, table, p)
-}
-pub(super) fn bicubic_of(img: &image::RgbaImage, table: &[f64; 256], p: DVec2) -> [f64; 3] {
-    bicubic(img, table, p)
-}
-pub(super) fn focus_test_of(
-    lf: &LightField,
-    aa: &AntialiasPlan,
-    table: &[f64; 256],
-    px: DVec2,
-    s: f64,
-) -> Option<([f64; 3], f64)> {
-    focus_test(lf, aa, table, px, s)
-}
-pub(super) fn normalised_of(sum: [f64; 3], wsum: f64) -> [f32; 4] {
-    normalised(sum, wsum)
 }
 
 #[cfg(test)]

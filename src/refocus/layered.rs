@@ -223,7 +223,7 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
     let (w, h) = (lf.width as usize, lf.height as usize);
     let m = aa.plan.m;
     let s_of = |px: DVec2| m.dot(px.extend(1.0)).max(0.0);
-    let table = cpu::table_for(averaging);
+    let table = cpu::averaging_table(averaging);
     let layers = LayerPlan::new(aa, (lf.width, lf.height));
     // The plan's own maps are the filled ones when it is layered; any other plan (scored
     // beside the sub-samples) gets them here.
@@ -264,15 +264,15 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
                 (None, v) => v.map_or(0.0, |sg| s - sg),
             };
             // The cell's centroid: a rim cell's part inside the aperture is off its centre.
-            let Some(p) = cpu::inside_of(lf, y0 + fp.offset(0.5, 0.5, d)) else {
+            let Some(p) = cpu::inside(lf, y0 + fp.offset(0.5, 0.5, d)) else {
                 continue;
             };
             let img = &lf.views[v.index].image;
             let ext = footprint_extent(fp, y0, d);
             let colour = if focused && ext.x.max(ext.y) < FOCUSED_BLUR_PX {
-                cpu::bicubic_of(img, &table, p)
+                cpu::bicubic(img, &table, p)
             } else {
-                cpu::bilinear_of(img, &table, p)
+                cpu::bilinear(img, &table, p)
             };
             out.push(Binned {
                 group: layers.group_of[k],
@@ -337,8 +337,8 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
     let mut pixels = vec![[0f32; 4]; w * h];
     pixels.par_iter_mut().enumerate().for_each(|(i, out)| {
         let px = pixel(i);
-        if let Some((sum, wsum)) = cpu::focus_test_of(lf, aa, &table, px, s_of(px)) {
-            *out = cpu::normalised_of(sum, wsum);
+        if let Some((sum, wsum)) = cpu::focus_test(lf, aa, &table, px, s_of(px)) {
+            *out = cpu::normalised(sum, wsum);
             return;
         }
         let layer = |node: usize| -> [f64; 4] {
