@@ -23,6 +23,8 @@ layout(local_size_x_id = 9, local_size_y_id = 10) in;
 layout(set = 1, binding = 0, ACCUM_FORMAT) uniform image2D accum_image;
 
 const uint MAX_GROUPS = 8u; // refocus::layered::MAX_GROUPS
+const uint MAX_NODES = 128u; // refocus::layered::MAX_NODES
+const uint MAX_LAYERS = 96u; // refocus::layered::MAX_LAYERS
 // refocus::layered::{NODE_STEP_PX, NODE_LINEAR_PX, NODE_RATIO} (a test compares them).
 const float NODE_STEP_PX = 1.0;
 const float NODE_LINEAR_PX = 3.0;
@@ -30,10 +32,14 @@ const float NODE_RATIO = 1.4;
 
 // Mirrored by `GpuLayerParams` (src/passes/refocus/layered.rs).
 layout(std140, set = 2, binding = 0) uniform LayerParams {
-    ivec4 header;        // first node, node count, group count, pixels per layer
+    ivec4 header;        // first node, node count (the residual's range), group count,
+                         // pixels per layer
     vec4 scale;          // x: full-cell footprint px per unit residual; y: guard px (0: a
                          // given depth). Catmull-Rom at footprints under half a pixel where
                          // pc.focused_reach > 0 (the bilinear filters with it on).
+    ivec4 slots;         // x: the reachable nodes' count (each a layer per group)
+    ivec4 slot_of4[MAX_NODES / 4u]; // node j - first's slot, -1 where no sample reaches it
+    vec4 slot_px4[MAX_LAYERS / 4u]; // slot k's node footprint in pixels, signed
     vec4 units[MAX_GROUPS]; // xy: group g's footprint px per unit residual along x and y
     uvec4 group_of4[UBO_WARPS / 4u]; // view k's group at [k / 4][k % 4]
 } lp;
@@ -68,6 +74,14 @@ int node_of(float px, out float f) {
 
 uint group_of(uint k) {
     return lp.group_of4[k >> 2u][k & 3u];
+}
+
+int slot_of(int j) {
+    return lp.slot_of4[j >> 2][j & 3];
+}
+
+float slot_px(uint k) {
+    return lp.slot_px4[k >> 2u][k & 3u];
 }
 
 // View k's sample of output pixel pix (x, focus s, the pixel's own depth where the guard keeps
@@ -108,20 +122,11 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uin
     if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
         return;
     }
-    // The footprint's extent: the bounding box of the cell's four corners
-    // (refocus::defocus::footprint_extent).
-    vec2 elo = vec2(1e30);
-    vec2 ehi = vec2(-1e30);
-    for (int c = 0; c < 4; ++c) {
-        vec2 uv = vec2(float(c & 1), float(c >> 1));
-        vec3 r = y0 + (origin + uv.x * span_s + uv.y * span_t) * d;
-        vec2 pr = r.z > 0.0 ? r.xy / r.z : p0;
-        elo = min(elo, pr);
-        ehi = max(ehi, pr);
-    }
-    vec2 ext = ehi - elo;
+    uint g = group_of(k);
+    // The footprint's longer side from its group's extent per unit residual.
+    float blur = abs(d) * max(lp.units[g].x, lp.units[g].y);
     vec3 col;
-    if (cr && max(ext.x, ext.y) < FOCUSED_BLUR_PX) {
+    if (cr && blur < FOCUSED_BLUR_PX) {
         col = bicubic(p, int(w.a0.w));
     } else if (in0 && p == p0) {
         col = c0;
@@ -130,11 +135,15 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uin
     }
     float f;
     int j = clamp(node_of(d * scale, f) - first, 0, nodes - 1);
-    uint g = group_of(k);
-    uint l0 = uint(j) * groups + g;
-    bins[l0 * n + pix] += vec4(wk * (1.0 - f) * col, wk * (1.0 - f));
-    if (f > 0.0 && j + 1 < nodes) {
-        uint l1 = l0 + groups;
+    // Reachable by construction (refocus::layered::LayerPlan::slots).
+    int s0 = slot_of(j);
+    if (f < 1.0 && s0 >= 0) {
+        uint l0 = uint(s0) * groups + g;
+        bins[l0 * n + pix] += vec4(wk * (1.0 - f) * col, wk * (1.0 - f));
+    }
+    int s1 = j + 1 < nodes ? slot_of(j + 1) : -1;
+    if (f > 0.0 && s1 >= 0) {
+        uint l1 = uint(s1) * groups + g;
         bins[l1 * n + pix] += vec4(wk * f * col, wk * f);
     }
     st1.w += wk;
@@ -146,7 +155,7 @@ void bin_pixel(ivec2 px) {
     int first = lp.header.x;
     int nodes = lp.header.y;
     uint groups = uint(lp.header.z);
-    uint layers = uint(nodes) * groups;
+    uint layers = uint(lp.slots.x) * groups;
     vec4 st0 = vec4(0.0);
     vec4 st1 = vec4(0.0);
     vec4 st2 = vec4(0.0);
@@ -194,9 +203,8 @@ void bin_pixel(ivec2 px) {
 // interpolation's variance (refocus::layered, `narrow`).
 float box_of(uint l, uint axis) {
     uint groups = uint(lp.header.z);
-    int node = int(l / groups);
     uint g = l % groups;
-    float d = node_px(lp.header.x + node) / max(lp.scale.x, 1e-12);
+    float d = slot_px(l / groups) / max(lp.scale.x, 1e-12);
     float e = abs(d) * (axis == 0u ? lp.units[g].x : lp.units[g].y);
     return sqrt(max(e * e - 2.0, 0.0));
 }
@@ -215,23 +223,26 @@ void store_line(uint i, vec4 v) {
     }
 }
 
-// A cursor over the line's integral: k the sample below, t_k the integral over [0, k].
+// A cursor over the line's integral: k the sample below, t the integral over [0, k], a and b
+// the samples k and k + 1 (kept, so each sample is read once per cursor).
 struct Cursor {
     int k;
     vec4 t;
+    vec4 a;
+    vec4 b;
 };
 
 // The integral over [0, t] (t within [0, count - 1], non-decreasing between calls).
 vec4 integral(inout Cursor c, float t, uint base, uint stride, int count) {
     int k = min(int(floor(t)), count - 2);
     while (c.k < k) {
-        c.t += 0.5 * (line_value(base + uint(c.k) * stride) + line_value(base + uint(c.k + 1) * stride));
+        c.t += 0.5 * (c.a + c.b);
         c.k += 1;
+        c.a = c.b;
+        c.b = line_value(base + uint(c.k + 1) * stride);
     }
     float f = t - float(c.k);
-    vec4 a = line_value(base + uint(c.k) * stride);
-    vec4 b = line_value(base + uint(c.k + 1) * stride);
-    return c.t + f * a + 0.5 * f * f * (b - a);
+    return c.t + f * c.a + 0.5 * f * f * (c.b - c.a);
 }
 
 void box_line(uint base, uint stride, int count, float width) {
@@ -242,8 +253,10 @@ void box_line(uint base, uint stride, int count, float width) {
         return;
     }
     float last = float(count - 1);
-    Cursor lower = Cursor(0, vec4(0.0));
-    Cursor upper = Cursor(0, vec4(0.0));
+    vec4 v0 = line_value(base);
+    vec4 v1 = line_value(base + stride);
+    Cursor lower = Cursor(0, vec4(0.0), v0, v1);
+    Cursor upper = Cursor(0, vec4(0.0), v0, v1);
     for (int i = 0; i < count; ++i) {
         float a = max(float(i) - 0.5 * width, 0.0);
         float b = min(float(i) + 0.5 * width, last);
@@ -275,10 +288,10 @@ void composite_pixel(ivec2 px) {
         uint groups = uint(lp.header.z);
         vec3 acc = vec3(0.0);
         float uncovered = 1.0;
-        for (int node = 0; node < lp.header.y; ++node) {
+        for (int slot = 0; slot < lp.slots.x; ++slot) {
             vec4 cw = vec4(0.0);
             for (uint g = 0u; g < groups; ++g) {
-                cw += boxed[(uint(node) * groups + g) * n + pix];
+                cw += boxed[(uint(slot) * groups + g) * n + pix];
             }
             if (cw.w <= 1e-12) {
                 continue;
@@ -301,7 +314,7 @@ void composite_pixel(ivec2 px) {
 void main() {
     ivec2 size = ivec2(pc.view_size);
     uvec3 id = gl_GlobalInvocationID;
-    uint layers = uint(lp.header.y) * uint(lp.header.z);
+    uint layers = uint(lp.slots.x) * uint(lp.header.z);
     uint n = uint(lp.header.w);
     if (STAGE == 0u || STAGE == 3u) {
         ivec2 px = ivec2(id.xy);

@@ -11,16 +11,20 @@
 //! the integral of view i over that footprint is the mean of its *plain* samples over the box
 //! `x + d·R_i` of output pixels. So views whose cells have the same rectangle and whose samples
 //! have the same residual share one box: the box of their plain sum. A box over any rectangle
-//! is four reads of a summed-area table ([`SummedArea`]), whatever its size.
+//! costs the same whatever its size (running sums along the rows, then the columns).
 //!
 //! **Layers.** The residual is not constant, so each view's plain sample is binned by the
 //! residual of what *that view* sees at it (its visibility map with the holes filled,
-//! [`ViewVisibility::filled`]) into layers at nodes `d_j = j·Δ` (soft: the two nearest nodes,
-//! linear weights; node 0 is the focus, so an in-focus sample stays unfiltered), and by the
+//! [`ViewVisibility::filled`]) into layers at nodes of footprint ([`node_px`]: a pixel apart
+//! up to 3 px, then geometric; soft: the two nearest nodes, linear weights; node 0 is the
+//! focus, so an in-focus sample stays unfiltered; only nodes a sample can reach are kept,
+//! [`LayerPlan::slots`]), and by the
 //! shape of its cell ([`LayerPlan::groups`]: full cells, and the rim cells of a disk by the
 //! size of their part inside it, rounded to [`SHAPE_STEP`]). Every layer image, colour and
-//! weight, is box-filtered by its node's footprint (the box's width matched to the
-//! footprint's variance as for defocused views, [`box_width`]).
+//! weight, is box-filtered by its node's footprint: along its rows, then its columns, the
+//! mean of its linear interpolation over the footprint narrowed by that interpolation's own
+//! variance (1/6 px²), from running sums ([`box_filter`]: f32-safe on the GPU, whatever the
+//! width).
 //!
 //! **Occlusion by compositing.** The layers are composited front to back (ascending d is
 //! nearer first): each takes the share `a = W_j / (T·W)` of what is still uncovered `T`, its
@@ -120,13 +124,21 @@ pub struct LayerPlan {
     /// surface's range over the image against the scene depth's.
     pub first: i64,
     pub nodes: usize,
+    /// The nodes some sample can reach (ascending, so front to back), each a layer per group;
+    /// the others stay empty and are never stored, boxed or composited.
+    pub slots: Vec<i64>,
+    /// Per node of the range (`node − first`): its place in `slots`, −1 where unreachable.
+    pub slot_of: Vec<i32>,
 }
 
 /// Most cell groups a plan may have (the pass's parameter block holds this many).
 pub const MAX_GROUPS: usize = 8;
 
-/// Most layers (nodes × groups) a plan may have: each takes four floats a pixel three times
-/// on the GPU (sums, rows, boxes).
+/// Most nodes the residual range may span (the pass's node table holds this many).
+pub const MAX_NODES: usize = 128;
+
+/// Most layers (reachable nodes × groups) a plan may have: each takes four floats a pixel
+/// three times on the GPU (sums, rows, boxes).
 pub const MAX_LAYERS: usize = 96;
 
 impl LayerPlan {
@@ -185,19 +197,57 @@ impl LayerPlan {
         };
         let first = node_of(dlo.min(0.0) * scale).0;
         let nodes = (node_of(dhi.max(0.0) * scale).0 + 2 - first) as usize;
+        // A sample's residual is s − σ for some σ of the depth (every view's map holds the
+        // reference's values) or 0: mark the nodes each σ reaches over the focus's range, and
+        // their upper neighbours (a sample's second share).
+        let mut sigmas: Vec<f32> = aa
+            .depth
+            .inverse_depth
+            .iter()
+            .copied()
+            .filter(|v| *v >= 0.0)
+            .collect();
+        sigmas.sort_by(f32::total_cmp);
+        sigmas.dedup();
+        let mut reached = vec![false; nodes];
+        let mut mark = |a: i64, b: i64| {
+            for j in a.max(first)..=(b + 1).min(first + nodes as i64 - 1) {
+                reached[(j - first) as usize] = true;
+            }
+        };
+        mark(0, 0);
+        for &v in &sigmas {
+            let v = v as f64;
+            mark(node_of((lo - v) * scale).0, node_of((hi - v) * scale).0);
+        }
+        let slots: Vec<i64> = (0..nodes)
+            .filter(|&j| reached[j])
+            .map(|j| first + j as i64)
+            .collect();
+        let mut slot_of = vec![-1i32; nodes];
+        for (k, &j) in slots.iter().enumerate() {
+            slot_of[(j - first) as usize] = k as i32;
+        }
         LayerPlan {
             groups,
             group_of,
             px_per_residual: scale,
             first,
             nodes,
+            slots,
+            slot_of,
         }
     }
 
-    /// Checks what the pass can hold: [`MAX_GROUPS`] and [`MAX_LAYERS`].
+    /// The layers: reachable nodes × groups.
+    pub fn layers(&self) -> usize {
+        self.slots.len() * self.groups.len()
+    }
+
+    /// Checks what the pass can hold: [`MAX_GROUPS`], [`MAX_LAYERS`] and [`MAX_NODES`].
     pub fn check(&self) -> crate::error::Result<()> {
-        let layers = self.nodes * self.groups.len();
-        if self.groups.len() > MAX_GROUPS || layers > MAX_LAYERS {
+        let layers = self.layers();
+        if self.groups.len() > MAX_GROUPS || layers > MAX_LAYERS || self.nodes > MAX_NODES {
             return Err(crate::error::Error::Invalid(format!(
                 "layered anti-aliasing holds at most {MAX_GROUPS} cell shapes and {MAX_LAYERS} \
                  layers; this plan needs {} shapes and {layers} layers (its depth range is too \
@@ -268,8 +318,9 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
                 continue;
             };
             let img = &lf.views[v.index].image;
-            let ext = footprint_extent(fp, y0, d);
-            let colour = if focused && ext.x.max(ext.y) < FOCUSED_BLUR_PX {
+            // The footprint's longer side from its group's extent per unit residual.
+            let unit = layers.groups[layers.group_of[k]];
+            let colour = if focused && d.abs() * unit.x.max(unit.y) < FOCUSED_BLUR_PX {
                 cpu::bicubic(img, &table, p)
             } else {
                 cpu::bilinear(img, &table, p)
@@ -286,7 +337,7 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
     let scale = layers.px_per_residual;
     let (first, nodes) = (layers.first, layers.nodes);
     let ng = layers.groups.len();
-    let per_px = nodes * ng;
+    let per_px = layers.layers();
     // Per pixel: every layer's (colour·weight, weight), and the weight of the views used.
     let mut layer_px = vec![[0f64; 4]; w * h * per_px];
     let mut total = vec![0f64; w * h];
@@ -303,7 +354,11 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
                     if share <= 0.0 || node >= nodes {
                         continue;
                     }
-                    let cell = &mut cells[node * ng + b.group];
+                    // Reachable by construction (LayerPlan::slots).
+                    let Ok(slot) = usize::try_from(layers.slot_of[node]) else {
+                        continue;
+                    };
+                    let cell = &mut cells[slot * ng + b.group];
                     let wt = b.weight * share;
                     for (c, v) in cell.iter_mut().zip(b.colour) {
                         *c += wt * v;
@@ -321,8 +376,8 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
             if !img.iter().any(|v| v[3] > 0.0) {
                 return None;
             }
-            let (node, g) = (l / ng, l % ng);
-            let d = node_px(first + node as i64) / scale.max(1e-12);
+            let (slot, g) = (l / ng, l % ng);
+            let d = node_px(layers.slots[slot]) / scale.max(1e-12);
             let e = layers.groups[g] * d.abs();
             // The views are read bilinearly and the layer between its pixels linearly: the
             // box is narrowed by the tent's variance (1/6 px²), so the blur is the footprint's.
@@ -350,7 +405,7 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
             }
             cw
         };
-        *out = composite((0..nodes).map(layer), total[i]);
+        *out = composite((0..layers.slots.len()).map(layer), total[i]);
     });
     RefocusImage {
         width: w as u32,

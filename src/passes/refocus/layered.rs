@@ -20,7 +20,7 @@ use crate::gpu::pipeline::{self, compute_pipeline};
 use crate::gpu::pod::{as_bytes, Pod};
 use crate::gpu::resources::Buffer;
 use crate::gpu::{shaders, GpuContext, Owned};
-use crate::refocus::layered::{LayerPlan, MAX_GROUPS};
+use crate::refocus::layered::{node_px, LayerPlan, MAX_GROUPS, MAX_LAYERS, MAX_NODES};
 use crate::refocus::settings::UBO_WARPS;
 
 const TILE: u32 = 8;
@@ -30,10 +30,16 @@ const LINE_GROUP: u32 = 64;
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GpuLayerParams {
-    /// First node, node count, group count, pixels per layer.
+    /// First node, node count (the residual's range), group count, pixels per layer.
     pub header: [i32; 4],
     /// Footprint px per unit residual and the guard (px); zw unused.
     pub scale: [f32; 4],
+    /// The reachable nodes' count (slots); yzw unused.
+    pub slots: [i32; 4],
+    /// Per node of the range: its slot, −1 where unreachable (`[j / 4][j % 4]`).
+    pub slot_of: [[i32; 4]; MAX_NODES / 4],
+    /// Per slot: its node's footprint in pixels, signed.
+    pub slot_px: [[f32; 4]; MAX_LAYERS / 4],
     /// Per group: its footprint px per unit residual along x and y.
     pub units: [[f32; 4]; MAX_GROUPS],
     /// View k's group at `[k / 4][k % 4]`.
@@ -50,6 +56,14 @@ impl GpuLayerParams {
         for (u, g) in units.iter_mut().zip(&layers.groups) {
             *u = [g.x as f32, g.y as f32, 0.0, 0.0];
         }
+        let mut slot_of = [[-1i32; 4]; MAX_NODES / 4];
+        for (j, &k) in layers.slot_of.iter().enumerate().take(MAX_NODES) {
+            slot_of[j / 4][j % 4] = k;
+        }
+        let mut slot_px = [[0f32; 4]; MAX_LAYERS / 4];
+        for (k, &j) in layers.slots.iter().enumerate().take(MAX_LAYERS) {
+            slot_px[k / 4][k % 4] = node_px(j) as f32;
+        }
         let mut group_of = [[0u32; 4]; UBO_WARPS / 4];
         for (k, &g) in layers.group_of.iter().enumerate().take(UBO_WARPS) {
             group_of[k / 4][k % 4] = g as u32;
@@ -62,13 +76,16 @@ impl GpuLayerParams {
                 pixels as i32,
             ],
             scale: [layers.px_per_residual as f32, guard_px as f32, 0.0, 0.0],
+            slots: [layers.slots.len() as i32, 0, 0, 0],
+            slot_of,
+            slot_px,
             units,
             group_of,
         }
     }
 
     fn layers(&self) -> u32 {
-        (self.header[1] * self.header[2]) as u32
+        (self.slots[0] * self.header[2]) as u32
     }
 }
 
@@ -386,10 +403,12 @@ mod tests {
             );
         }
         assert!(glsl.contains(&format!("const uint MAX_GROUPS = {MAX_GROUPS}u;")));
+        assert!(glsl.contains(&format!("const uint MAX_NODES = {MAX_NODES}u;")));
+        assert!(glsl.contains(&format!("const uint MAX_LAYERS = {MAX_LAYERS}u;")));
         // std140: vec4s and uvec4s only, so the C layout is the block's.
         assert_eq!(
             std::mem::size_of::<GpuLayerParams>(),
-            16 * (2 + MAX_GROUPS + UBO_WARPS / 4)
+            16 * (3 + MAX_NODES / 4 + MAX_LAYERS / 4 + MAX_GROUPS + UBO_WARPS / 4)
         );
     }
 }
