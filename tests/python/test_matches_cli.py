@@ -56,6 +56,10 @@ CASES = {
         ["--disparity", "0.5", "--antialias-defocus", "on"],
         dict(disparity=0.5, antialias_defocus=True),
     ),
+    "antialias-layered": (
+        ["--disparity", "0.5", "--antialias-layered", "on"],
+        dict(disparity=0.5, antialias_layered=True),
+    ),
     "encoded": (
         ["--disparity", "0.5", "--average", "encoded"],
         dict(disparity=0.5, average="encoded"),
