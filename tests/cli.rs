@@ -417,7 +417,7 @@ fn bad_light_fields_fail_naming_the_file() {
 
 /// `--antialias-layered on` renders a shipped-depth light field with layered footprints and
 /// reports it; asked together with defocused views it is refused, naming both switches; a
-/// focus surface is refused, naming the switch to turn off.
+/// focus surface, naming the switch to turn off; an output of another size, naming the views'.
 #[test]
 fn layered_antialiasing_renders_and_refuses_what_it_cannot_do() {
     let tmp = tempfile::tempdir().unwrap();
@@ -471,5 +471,23 @@ fn layered_antialiasing_renders_and_refuses_what_it_cannot_do() {
             tmp.path().join("y.png").to_str().unwrap(),
         ],
         &["layered", "--antialias-layered off"],
+    );
+    // An output of another size than the views: refused, naming the views' size.
+    fails_with(
+        &[
+            "render",
+            "builtin:planes",
+            "--disparity",
+            "-0.667",
+            "--antialias",
+            "on",
+            "--antialias-layered",
+            "on",
+            "--size",
+            "40x40",
+            "-o",
+            tmp.path().join("z.png").to_str().unwrap(),
+        ],
+        &["layered", "views' size"],
     );
 }
