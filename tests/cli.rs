@@ -421,73 +421,52 @@ fn bad_light_fields_fail_naming_the_file() {
 #[test]
 fn layered_antialiasing_renders_and_refuses_what_it_cannot_do() {
     let tmp = tempfile::tempdir().unwrap();
-    let png = tmp.path().join("layered.png");
-    let o = tiltfield(&[
-        "render",
-        "builtin:planes",
-        "--disparity",
-        "-0.667",
-        "--antialias",
-        "on",
-        "--antialias-layered",
-        "on",
-        "-o",
-        png.to_str().unwrap(),
-        "--json",
-    ]);
+    let out = |name: &str| tmp.path().join(name).to_str().unwrap().to_owned();
+    // render builtin:planes with layered anti-aliasing, `extra` after the switches.
+    let layered = |extra: &[&str]| -> Vec<String> {
+        [
+            "render",
+            "builtin:planes",
+            "--antialias",
+            "on",
+            "--antialias-layered",
+            "on",
+        ]
+        .iter()
+        .chain(extra)
+        .map(|a| a.to_string())
+        .collect()
+    };
+    fn args(v: &[String]) -> Vec<&str> {
+        v.iter().map(String::as_str).collect()
+    }
+    let png = out("layered.png");
+    let run = layered(&["--disparity", "-0.667", "-o", &png, "--json"]);
+    let o = tiltfield(&args(&run));
     assert!(o.status.success(), "{}", stderr(&o));
     let report: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
     assert_eq!(report["antialias"]["layered"], true, "{report}");
     assert_eq!(report["antialias"]["occlusion"], false, "{report}");
     let img = image::open(&png).unwrap().to_rgba8();
-    assert!(img.pixels().any(|p| p[3] == 255) && img.pixels().all(|p| p[3] == 255));
+    assert!(img.pixels().all(|p| p[3] == 255));
+    let x = out("x.png");
+    let both = layered(&[
+        "--disparity",
+        "-0.667",
+        "--antialias-defocus",
+        "on",
+        "-o",
+        &x,
+    ]);
     fails_with(
-        &[
-            "render",
-            "builtin:planes",
-            "--disparity",
-            "-0.667",
-            "--antialias",
-            "on",
-            "--antialias-layered",
-            "on",
-            "--antialias-defocus",
-            "on",
-            "-o",
-            tmp.path().join("x.png").to_str().unwrap(),
-        ],
+        &args(&both),
         &["--antialias-layered", "--antialias-defocus"],
     );
-    fails_with(
-        &[
-            "render",
-            "builtin:planes",
-            "--all-in-focus",
-            "--antialias",
-            "on",
-            "--antialias-layered",
-            "on",
-            "-o",
-            tmp.path().join("y.png").to_str().unwrap(),
-        ],
-        &["layered", "--antialias-layered off"],
-    );
+    let y = out("y.png");
+    let surface = layered(&["--all-in-focus", "-o", &y]);
+    fails_with(&args(&surface), &["layered", "--antialias-layered off"]);
     // An output of another size than the views: refused, naming the views' size.
-    fails_with(
-        &[
-            "render",
-            "builtin:planes",
-            "--disparity",
-            "-0.667",
-            "--antialias",
-            "on",
-            "--antialias-layered",
-            "on",
-            "--size",
-            "40x40",
-            "-o",
-            tmp.path().join("z.png").to_str().unwrap(),
-        ],
-        &["layered", "views' size"],
-    );
+    let z = out("z.png");
+    let scaled = layered(&["--disparity", "-0.667", "--size", "40x40", "-o", &z]);
+    fails_with(&args(&scaled), &["layered", "views' size"]);
 }

@@ -1,7 +1,7 @@
-//! Layered anti-aliasing: the f64 model of an anti-aliased refocus whose cost does not grow
-//! with the footprints and that needs no per-sample occlusion test (docs/antialias.md,
-//! "Layered footprints"). It is a model of a pass not yet on the GPU: `antialias-set
-//! --layered-model` scores it beside the default's sub-samples.
+//! Layered anti-aliasing: an anti-aliased refocus whose cost does not grow with the footprints
+//! and that needs no per-sample occlusion test (docs/antialias.md, "Layered footprints"), and
+//! its f64 model. The GPU pass is `passes::refocus`'s layered stage (`--antialias-layered
+//! on`); `antialias-set --layered-model` scores this model beside whatever the set runs.
 //!
 //! **Why a box of the plain sum is the footprint integral.** For a parallel rig the footprint
 //! that view i's aperture cell sweeps at output pixel x is the cell's rectangle `R_i` (grid
@@ -142,8 +142,8 @@ pub const MAX_NODES: usize = 128;
 pub const MAX_LAYERS: usize = 96;
 
 impl LayerPlan {
-    /// The groups and the nodes' spacing of `aa`, with `m` the plane term (the footprints are
-    /// measured at the image's centre).
+    /// The groups, the nodes' scale and the reachable nodes of `aa` for an output of `w × h`
+    /// (the footprints are measured at the image's centre).
     pub fn new(aa: &AntialiasPlan, (w, h): (u32, u32)) -> LayerPlan {
         let centre = DVec2::new(w as f64, h as f64) / 2.0;
         let s = aa.plan.m.dot(centre.extend(1.0)).max(0.0);
@@ -174,32 +174,15 @@ impl LayerPlan {
             .collect();
         let scale = full.x.max(full.y);
         // s = max(m·x, 0) is linear in x before the clamp: its extremes lie at the corners.
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for (x, y) in [(0.0, 0.0), (w as f64 - 1.0, 0.0), (0.0, h as f64 - 1.0)] {
-            let s = aa.plan.m.dot(glam::DVec3::new(x, y, 1.0)).max(0.0);
-            lo = lo.min(s);
-            hi = hi.max(s);
-        }
-        let s = aa
-            .plan
-            .m
-            .dot(glam::DVec3::new(w as f64 - 1.0, h as f64 - 1.0, 1.0))
-            .max(0.0);
-        let (lo, hi) = (lo.min(s), hi.max(s));
-        let valid = aa.depth.inverse_depth.iter().filter(|v| **v >= 0.0);
-        let (slo, shi) = valid.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v as f64), b.max(v as f64))
-        });
-        let (dlo, dhi) = if slo <= shi {
-            (lo - shi, hi - slo)
-        } else {
-            (0.0, 0.0)
-        };
-        let first = node_of(dlo.min(0.0) * scale).0;
-        let nodes = (node_of(dhi.max(0.0) * scale).0 + 2 - first) as usize;
+        let (wl, hl) = (w as f64 - 1.0, h as f64 - 1.0);
+        let (lo, hi) = [(0.0, 0.0), (wl, 0.0), (0.0, hl), (wl, hl)]
+            .iter()
+            .map(|&(x, y)| aa.plan.m.dot(glam::DVec3::new(x, y, 1.0)).max(0.0))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), s| {
+                (a.min(s), b.max(s))
+            });
         // A sample's residual is s − σ for some σ of the depth (every view's map holds the
-        // reference's values) or 0: mark the nodes each σ reaches over the focus's range, and
-        // their upper neighbours (a sample's second share).
+        // reference's values) or 0.
         let mut sigmas: Vec<f32> = aa
             .depth
             .inverse_depth
@@ -209,6 +192,14 @@ impl LayerPlan {
             .collect();
         sigmas.sort_by(f32::total_cmp);
         sigmas.dedup();
+        let (dlo, dhi) = match (sigmas.first(), sigmas.last()) {
+            (Some(&slo), Some(&shi)) => (lo - shi as f64, hi - slo as f64),
+            _ => (0.0, 0.0),
+        };
+        let first = node_of(dlo.min(0.0) * scale).0;
+        let nodes = (node_of(dhi.max(0.0) * scale).0 + 2 - first) as usize;
+        // Mark the nodes each σ reaches over the focus's range, and their upper neighbours (a
+        // sample's second share).
         let mut reached = vec![false; nodes];
         let mut mark = |a: i64, b: i64| {
             for j in a.max(first)..=(b + 1).min(first + nodes as i64 - 1) {
@@ -282,21 +273,16 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
         _ => std::sync::Arc::new(ViewVisibility::filled(&aa.depth, &aa.plan.views)),
     };
     let guard = aa.guard_px;
-    let longest = layers.px_per_residual;
+    let scale = layers.px_per_residual;
     let focused_reach = aa.focused_reach();
     let pixel = |i: usize| DVec2::new((i % w) as f64, (i / w) as f64);
     let samples = |px: DVec2| -> Vec<Binned> {
         let s = s_of(px);
-        let own = aa
-            .depth
-            .at(px)
-            .filter(|sg| guard > 0.0 && ((s - sg) * longest).abs() < guard);
+        let sigma = aa.depth.at(px);
+        let own = sigma.filter(|sg| guard > 0.0 && ((s - sg) * scale).abs() < guard);
         // Catmull-Rom for footprints under half a pixel in a pixel whose own surface is in
         // focus, as the sub-samples do (the GPU runs such pixels in a loop of their own).
-        let focused = aa
-            .depth
-            .at(px)
-            .is_some_and(|sg| (s - sg).abs() < focused_reach);
+        let focused = sigma.is_some_and(|sg| (s - sg).abs() < focused_reach);
         let mut out = Vec::with_capacity(aa.plan.views.len());
         for (k, (v, fp)) in aa.plan.views.iter().zip(&aa.footprints).enumerate() {
             let y0 = v.warp.a * px.extend(1.0) + v.warp.b * s;
@@ -334,7 +320,6 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
         }
         out
     };
-    let scale = layers.px_per_residual;
     let (first, nodes) = (layers.first, layers.nodes);
     let ng = layers.groups.len();
     let per_px = layers.layers();
