@@ -50,6 +50,11 @@ layout(constant_id = 6) const uint OCCLUSION = 1;
 // over its footprints by defocus.comp into binding 9, and the sum reads it once per view at the
 // cell's centroid instead of sub-sampling the footprint; no occlusion tests.
 layout(constant_id = 7) const uint DEFOCUS = 0;
+// BOXED 1 (with ANTIALIAS > 0; refocus::boxed): boxed.comp has decided every pixel it can into
+// binding 10 before this draw: (sum, weight) there, alpha -1 where the footprints are
+// sub-sampled below (its focus test failed there, so it does not run again). The ids 8-11
+// belong to refocus_compute.glsl and the stages' own shaders.
+layout(constant_id = 12) const uint BOXED = 0;
 const float FOCUSED_BLUR_PX = 0.5; // refocus::antialias::FOCUSED_BLUR_PX
 
 layout(set = 0, binding = 0) uniform sampler2DArray views;
@@ -80,6 +85,8 @@ layout(std430, set = 0, binding = 8) readonly buffer Visibility { float view_sig
 // The defocused views (DEFOCUS 1), one layer per view of the plan in the order of the
 // footprints (their vis.y), written by defocus.comp; kept in GENERAL layout.
 layout(set = 0, binding = 9) uniform sampler2DArray defocused;
+// What boxed.comp decided per reference pixel (BOXED 1).
+layout(std430, set = 0, binding = 10) readonly buffer BoxedResults { vec4 boxed_results[]; };
 
 // Index of the reference pixel nearest position p (clamped to the views).
 int depth_index(vec2 p) {
@@ -495,9 +502,18 @@ vec4 accumulate(vec2 frag) {
                 reach = max(reach, abs(s - front));
             }
         }
+        // The boxed stage's pixels are its whole sum, added by the first batch of views.
+        bool tested = false;
+        if (BOXED != 0u) {
+            vec4 decided = boxed_results[depth_index(x.xy)];
+            if (decided.a >= 0.0) {
+                return pc.first_view == 0u ? decided : vec4(0.0);
+            }
+            tested = true;
+        }
         // Views that agree at the focus surface see it in focus: the plain sum with the cells'
         // weights (sigma < 0 gives every sub-sample the plain sample's residual 0).
-        float threshold = footprints[0].vis.w;
+        float threshold = tested ? 0.0 : footprints[0].vis.w;
         vec3 agreed;
         float agreed_w;
         if (threshold > 0.0 && sigma >= 0.0

@@ -552,10 +552,14 @@ fn defocused_views_match_the_f64_model() {
     assert_raster_clean(&r);
 }
 
-/// Pixels where the f64 model with `settings` differs (by over 1e-3) from the default's
-/// sub-samples, focused on `plane`.
+/// Pixels where the f64 model with `settings` differs (by over 1e-3) from the sub-samples at
+/// every pixel (the default without boxed footprints), focused on `plane`.
 fn models_differ(lf: &LightField, plane: Plane, settings: AntialiasSettings) -> usize {
-    let (_, sub) = plain_and_aa(lf, plane, None, AntialiasSettings::default());
+    let every = AntialiasSettings {
+        boxed: false,
+        ..AntialiasSettings::default()
+    };
+    let (_, sub) = plain_and_aa(lf, plane, None, every);
     let (_, other) = plain_and_aa(lf, plane, None, settings);
     let model = |aa: &AntialiasPlan| {
         cpu::render_antialiased(lf, aa, Averaging::Linear, lf.width, lf.height).pixels
@@ -565,6 +569,59 @@ fn models_differ(lf: &LightField, plane: Plane, settings: AntialiasSettings) -> 
         .zip(&model(&other))
         .filter(|(p, q)| (0..3).any(|k| (p[k] - q[k]).abs() > 1e-3))
         .count()
+}
+
+/// Boxed footprints (`AntialiasSettings::boxed`, the default; `refocus::boxed`) on the GPU
+/// equal their f64 model where they decide a pixel and where they hand it to the sub-samples:
+/// focused on the nearest card (the back wall's footprints several pixels long), on a plane
+/// tilted through the layers, from a virtual reference view and on a converging rig. The GPU's
+/// summed-area tables are integers (exact sums whatever the table's size), the model's f64.
+#[test]
+fn boxed_footprints_match_the_f64_model() {
+    let mut r = rasterizer();
+    let size = 96;
+    let settings = AntialiasSettings::default();
+    assert!(settings.boxed, "boxed footprints are the default");
+    let lf = render_light_field(&mut r, &layers_rig(size, RigKind::Parallel), 2, false)
+        .unwrap()
+        .light_field;
+    let near = Plane::new(DVec3::new(0.0, 0.0, 1.3), DVec3::new(0.0, 0.0, -1.0)).unwrap();
+    let tilted = Plane::new(DVec3::new(0.0, 0.0, 1.6), DVec3::new(0.3, 0.0, -1.0)).unwrap();
+    let (_, aa) = plain_and_aa(&lf, near, None, settings);
+    assert!(tiltfield::refocus::boxed::can_box(
+        &aa,
+        (lf.width, lf.height)
+    ));
+    gpu_matches_model(&lf, &aa, "boxed, focused near");
+    // The boxes decided pixels: the model differs from the sub-samples' there.
+    let changed = models_differ(&lf, near, settings);
+    assert!(changed > 500, "boxed footprints changed {changed} pixels");
+    let (_, aa) = plain_and_aa(&lf, tilted, None, settings);
+    gpu_matches_model(&lf, &aa, "boxed, tilted plane");
+    // (On the near plane a virtual view's masks leave too many pixels ambiguous to compare.)
+    let (_, aa) = plain_and_aa(&lf, tilted, Some(DVec2::new(1.5, 2.25)), settings);
+    gpu_matches_model(&lf, &aa, "boxed, virtual view");
+    // Without the occlusion tests no pixel is an edge: every out-of-focus pixel with a long
+    // enough footprint takes its box.
+    let open = AntialiasSettings {
+        occlusion: false,
+        ..settings
+    };
+    let (_, aa) = plain_and_aa(&lf, near, None, open);
+    gpu_matches_model(&lf, &aa, "boxed, without the occlusion tests");
+    let rig = layers_rig(64, RigKind::Converging { distance: 2.5 });
+    let lf = render_light_field(&mut r, &rig, 2, false)
+        .unwrap()
+        .light_field;
+    // The others' planes leave too many pixels of this rig ambiguous (masks, sub-sample counts).
+    let front = Plane::new(DVec3::new(0.0, 0.0, 2.1), DVec3::new(0.0, 0.0, -1.0)).unwrap();
+    let (_, aa) = plain_and_aa(&lf, front, None, settings);
+    assert!(tiltfield::refocus::boxed::can_box(
+        &aa,
+        (lf.width, lf.height)
+    ));
+    gpu_matches_model(&lf, &aa, "boxed, converging rig");
+    assert_raster_clean(&r);
 }
 
 /// Layered footprints (`AntialiasSettings::layered`, `refocus::layered`) on the GPU equal their

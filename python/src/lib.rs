@@ -505,7 +505,7 @@ struct RenderRequest(RenderOptions);
     aperture="disk", aperture_radius=None, view=None, size=None, average="linear",
     include_dark=false, antialias=None, antialias_samples=None, antialias_prefilter=None,
     antialias_focus_test=None, antialias_focused_bicubic=None, antialias_occlusion=None,
-    antialias_defocus=None, antialias_layered=None, strategy=None,
+    antialias_defocus=None, antialias_layered=None, antialias_box=None, strategy=None,
     views_per_draw=None, filter=None, accumulation=None, warps=None, storage=None
 ))]
 #[allow(clippy::too_many_arguments)] // one keyword per CLI option, as `refocus`
@@ -539,6 +539,7 @@ fn render_options(
     antialias_occlusion: Option<&Bound<'_, PyAny>>,
     antialias_defocus: Option<&Bound<'_, PyAny>>,
     antialias_layered: Option<&Bound<'_, PyAny>>,
+    antialias_box: Option<&Bound<'_, PyAny>>,
     strategy: Option<&str>,
     views_per_draw: Option<&Bound<'_, PyAny>>,
     filter: Option<&str>,
@@ -580,6 +581,7 @@ fn render_options(
             occlusion: switch(antialias_occlusion, "antialias_occlusion")?.unwrap_or(aa.occlusion),
             defocus: switch(antialias_defocus, "antialias_defocus")?.unwrap_or(aa.defocus),
             layered: switch(antialias_layered, "antialias_layered")?.unwrap_or(aa.layered),
+            boxed: switch(antialias_box, "antialias_box")?.unwrap_or(aa.boxed),
         },
         strategy: choice::<StrategyChoice>(strategy)?.and_then(|c| c.0),
         views_per_draw: int_arg(views_per_draw, "views_per_draw", 0..=u32::MAX as i64)?.unwrap_or(0)
@@ -883,7 +885,9 @@ impl LightField {
     /// read it once per view, constant cost whatever the blur, no occlusion tests; default
     /// False), ``antialias_layered`` (True/False: bin each view's sample by the depth its view
     /// sees into layers, box-filter each layer once and composite them front to back; default
-    /// False), ``strategy`` ("auto", the default: the device's fastest, measured once and cached;
+    /// False), ``antialias_box`` (True/False: away from occlusion edges an out-of-focus pixel
+    /// is the box of its views' plain sums over its footprint, from summed-area tables; default
+    /// True; False sub-samples every pixel), ``strategy`` ("auto", the default: the device's fastest, measured once and cached;
     /// "fragment", "batched:N", "compute"),
     /// ``views_per_draw``, ``filter`` ("hardware", "shader", "bicubic", "nearest"),
     /// ``accumulation`` ("rgba32f", "rgba16f"), ``warps`` ("ubo", "ssbo"), ``storage``

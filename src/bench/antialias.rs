@@ -27,9 +27,11 @@ use crate::refocus::{RefocusImage, RefocusPlan};
 /// without the focus test (`aa4-untested`: the depth alone decides every pixel), without
 /// Catmull-Rom for in-focus sub-samples (`aa4-bilinear`) and without the occlusion tests
 /// (`aa4-open`), the cheapest sub-sampling setting, [`AntialiasSettings::FASTEST`]
-/// (`aa1-fastest`), and defocused views (`defocus`: constant cost per view, no occlusion
-/// tests).
-pub const VARIANTS: [AntialiasSettings; 12] = [
+/// (`aa1-fastest`), defocused views (`defocus`: constant cost per view, no occlusion
+/// tests), and the default, boxed footprints (`boxed`: the box of the plain sums away from
+/// occlusion edges, `aa4`'s sub-samples at them and in focus). Every `aaN` point sub-samples
+/// every pixel: `aa4` is the default before boxed footprints.
+pub const VARIANTS: [AntialiasSettings; 13] = [
     aa(1, true),
     aa(2, true),
     aa(4, true),
@@ -54,6 +56,10 @@ pub const VARIANTS: [AntialiasSettings; 12] = [
         defocus: true,
         ..aa(4, true)
     },
+    AntialiasSettings {
+        boxed: true,
+        ..aa(4, true)
+    },
 ];
 
 const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
@@ -65,6 +71,7 @@ const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
         occlusion: true,
         defocus: false,
         layered: false,
+        boxed: false,
     }
 }
 
@@ -72,6 +79,9 @@ const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
 fn variant_name(s: &AntialiasSettings) -> String {
     if *s == AntialiasSettings::FASTEST {
         return format!("aa{}-fastest", s.max_samples);
+    }
+    if s.boxed {
+        return "boxed".into();
     }
     if s.defocus {
         let base = "defocus".to_string();

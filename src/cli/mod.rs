@@ -221,6 +221,12 @@ pub struct AntialiasSamplingArgs {
     /// off (default: sub-samples).
     #[arg(long, value_name = "on|off", default_value = "off")]
     pub antialias_layered: Switch,
+    /// Anti-aliasing: boxed footprints: away from occlusion edges a pixel out of focus is the
+    /// box of its views' plain sums over its footprint (summed-area tables: constant cost
+    /// whatever the blur); next to a nearer surface and in focus the sub-samples run as
+    /// before: on (default), or off (sub-samples at every pixel: the earlier default).
+    #[arg(long, value_name = "on|off", default_value = "on")]
+    pub antialias_box: Switch,
 }
 
 impl AntialiasArgs {
@@ -246,6 +252,7 @@ impl AntialiasSamplingArgs {
             occlusion: self.antialias_occlusion == Switch::On,
             defocus: self.antialias_defocus == Switch::On,
             layered: self.antialias_layered == Switch::On,
+            boxed: self.antialias_box == Switch::On,
         };
         s.validate()?;
         Ok(s)

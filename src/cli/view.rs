@@ -191,6 +191,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 "max_samples": antialias.max_samples,
                 "defocus": antialias.defocus,
                 "layered": antialias.layered,
+                "boxed": antialias.boxed && !antialias.defocus && !antialias.layered,
                 "depth_origin": depth_origin.map(crate::depth::DepthOrigin::json),
             },
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},

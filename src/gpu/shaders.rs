@@ -18,6 +18,7 @@ pub const REFOCUS_COMP: &[u8] = spirv!("refocus.comp");
 pub const REFOCUS_HALF_COMP: &[u8] = spirv!("refocus_half.comp");
 pub const DEFOCUS_COMP: &[u8] = spirv!("defocus.comp");
 pub const LAYERED_COMP: &[u8] = spirv!("layered.comp");
+pub const BOXED_COMP: &[u8] = spirv!("boxed.comp");
 pub const LAYERED_HALF_COMP: &[u8] = spirv!("layered_half.comp");
 pub const RESOLVE_FRAG: &[u8] = spirv!("resolve.frag");
 pub const MESH_VERT: &[u8] = spirv!("mesh.vert");

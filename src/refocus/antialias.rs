@@ -89,6 +89,12 @@ pub struct AntialiasSettings {
     /// without a test per sample). `max_samples`, `prefilter` and `occlusion` then do not
     /// apply; the focus test and Catmull-Rom in focus do. Off: sub-samples.
     pub layered: bool,
+    /// Boxed footprints ([`super::boxed`]; with neither `defocus` nor `layered`, at the views'
+    /// size): a pixel away from occlusion edges whose own surface is out of focus is the box of
+    /// the plain sums of its views by cell shape over its footprint (summed-area tables:
+    /// constant cost whatever the blur); only pixels next to a nearer surface the rays can
+    /// reach and focused pixels take the sub-samples. Off: sub-samples at every pixel.
+    pub boxed: bool,
 }
 
 impl Default for AntialiasSettings {
@@ -101,6 +107,7 @@ impl Default for AntialiasSettings {
             occlusion: true,
             defocus: false,
             layered: false,
+            boxed: true,
         }
     }
 }
@@ -126,6 +133,7 @@ impl AntialiasSettings {
         occlusion: false,
         defocus: false,
         layered: false,
+        boxed: false,
     };
 
     /// Checks the settings of a request (the sample cap; the switches take any value).
@@ -189,6 +197,10 @@ pub struct SceneDepth {
     /// none: the occluder whose blur may reach the pixel.
     pub front: Vec<f32>,
     pub front_radius: u32,
+    /// The nearest surface within 1, 2, 4, … 64 px ([`super::boxed::front_levels`]), where
+    /// the front was searched: which pixels need the occlusion tests
+    /// ([`super::boxed::needs_tests`]). Empty otherwise.
+    pub fronts: Vec<f32>,
     /// Pixels without a valid depth (no footprint there).
     pub unknown: usize,
     /// Where the depth came from, for reports.
@@ -293,6 +305,7 @@ pub fn scene_depth(
         height,
         front: sigma.clone(),
         front_radius: 0,
+        fronts: Vec::new(),
         inverse_depth: sigma,
         unknown,
         source: depth.source.clone(),
@@ -942,6 +955,10 @@ fn search_fronts(scene: &mut SceneDepth, footprints: &[Footprint]) {
         r as usize,
     );
     scene.front_radius = r;
+    scene.fronts = super::boxed::front_levels(
+        &scene.inverse_depth,
+        (scene.width as usize, scene.height as usize),
+    );
 }
 
 /// [`plan_antialias`] with the depth of `lf`'s map-carrying view ([`LightField::view_depth`]);
@@ -1002,6 +1019,7 @@ pub fn antialias_json(
             "occlusion": aa.settings.occlusion && !aa.settings.defocus && !aa.settings.layered,
             "defocus": aa.settings.defocus,
             "layered": aa.settings.layered,
+            "boxed": aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered,
             "views_by_cell": aa.plan.views.len(),
             "depth_source": aa.depth.source,
             "depth_origin": depth_origin,
@@ -1396,6 +1414,7 @@ mod tests {
             height: h,
             front: max_filter(&sigma, w as usize, 1, 6),
             front_radius: 6,
+            fronts: Vec::new(),
             inverse_depth: sigma,
             unknown: 0,
             source: "test".into(),

@@ -186,7 +186,10 @@ pub(super) fn normalised(sum: [f64; 3], wsum: f64) -> [f32; 4] {
 /// in a pixel whose own surface is in focus, where sub-samples whose footprint is under half a
 /// pixel take the cell's Catmull-Rom value at its centre ([`AntialiasPlan::focused_reach`]).
 /// With [`AntialiasSettings::layered`](super::antialias::AntialiasSettings::layered) at the
-/// views' size: the layered model ([`super::layered::render_layered`]).
+/// views' size: the layered model ([`super::layered::render_layered`]); with
+/// [`AntialiasSettings::boxed`](super::antialias::AntialiasSettings::boxed) at the views' size
+/// the pixels away from occlusion edges and out of focus are boxes of the plain sums
+/// ([`super::boxed::boxed_pixels`]).
 pub fn render_antialiased(
     lf: &LightField,
     aa: &AntialiasPlan,
@@ -198,7 +201,7 @@ pub fn render_antialiased(
         return super::layered::render_layered(lf, aa, averaging);
     }
     let m = aa.plan.m;
-    antialiased_with(lf, aa, averaging, (w, h), |px| {
+    antialiased_with(lf, aa, averaging, (w, h), true, |px| {
         m.dot(px.extend(1.0)).max(0.0)
     })
 }
@@ -216,7 +219,9 @@ pub fn render_surface(
     (w, h): (u32, u32),
 ) -> RefocusImage {
     match aa {
-        Some(aa) => antialiased_with(lf, aa, averaging, (w, h), |px| surface.inverse_depth(px)),
+        Some(aa) => antialiased_with(lf, aa, averaging, (w, h), false, |px| {
+            surface.inverse_depth(px)
+        }),
         None => plain_with(lf, plan, averaging, (w, h), Kernel::Bilinear, |px| {
             surface.inverse_depth(px)
         }),
@@ -257,12 +262,15 @@ pub fn ambiguous_surface(
         .collect()
 }
 
-/// The anti-aliased sum with the focus surface's inverse depth `s_of(x)` at each output pixel.
+/// The anti-aliased sum with the focus surface's inverse depth `s_of(x)` at each output pixel;
+/// `plane`: `s_of` is the plan's plane (boxed footprints apply to one plane only, as in the
+/// pass).
 fn antialiased_with(
     lf: &LightField,
     aa: &AntialiasPlan,
     averaging: Averaging,
     (w, h): (u32, u32),
+    plane: bool,
     s_of: impl Fn(DVec2) -> f64 + Sync,
 ) -> RefocusImage {
     if aa.settings.defocus {
@@ -279,7 +287,19 @@ fn antialiased_with(
         .map(|v| prefilter.then(|| view_pyramid(&lf.views[v.index].image, &table)))
         .collect();
     let focused_reach = aa.focused_reach();
+    // Boxed footprints decide every pixel away from occlusion edges and out of focus; the
+    // sub-samples below the rest.
+    let boxed = (aa.settings.boxed
+        && plane
+        && (w, h) == (lf.width, lf.height)
+        && super::boxed::can_box(aa, (w, h)))
+    .then(|| super::boxed::boxed_pixels(lf, aa, averaging, &s_of));
     per_pixel(lf, averaging, (w, h), |px, table| {
+        if let Some(boxed) = &boxed {
+            if let Some(r) = boxed[px.y as usize * w as usize + px.x as usize] {
+                return r;
+            }
+        }
         let s = s_of(px);
         let mut sum = [0f64; 3];
         let mut wsum = 0f64;

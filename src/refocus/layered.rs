@@ -145,33 +145,7 @@ impl LayerPlan {
     /// The groups, the nodes' scale and the reachable nodes of `aa` for an output of `w × h`
     /// (the footprints are measured at the image's centre).
     pub fn new(aa: &AntialiasPlan, (w, h): (u32, u32)) -> LayerPlan {
-        let centre = DVec2::new(w as f64, h as f64) / 2.0;
-        let s = aa.plan.m.dot(centre.extend(1.0)).max(0.0);
-        let unit: Vec<DVec2> = aa
-            .plan
-            .views
-            .iter()
-            .zip(&aa.footprints)
-            .map(|(v, fp)| footprint_extent(fp, v.warp.a * centre.extend(1.0) + v.warp.b * s, 1.0))
-            .collect();
-        let full = unit.iter().fold(DVec2::ZERO, |a, &b| a.max(b));
-        let mut keys: Vec<DVec2> = Vec::new();
-        let mut group_of = Vec::with_capacity(unit.len());
-        for u in &unit {
-            let key = (*u / full.max(DVec2::splat(1e-12)) / SHAPE_STEP).round() * SHAPE_STEP;
-            let g = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
-                keys.push(key);
-                keys.len() - 1
-            });
-            group_of.push(g);
-        }
-        let groups = (0..keys.len())
-            .map(|g| {
-                let members = unit.iter().zip(&group_of).filter(|(_, &k)| k == g);
-                let (sum, n) = members.fold((DVec2::ZERO, 0.0), |(a, n), (u, _)| (a + *u, n + 1.0));
-                sum / n
-            })
-            .collect();
+        let (groups, group_of, full) = cell_groups(aa, (w, h));
         let scale = full.x.max(full.y);
         // s = max(m·x, 0) is linear in x before the clamp: its extremes lie at the corners.
         let (wl, hl) = (w as f64 - 1.0, h as f64 - 1.0);
@@ -248,6 +222,42 @@ impl LayerPlan {
         }
         Ok(())
     }
+}
+
+/// The views of `aa` grouped by the shape of their aperture cell, for an output of `w × h`
+/// (footprints measured at the image's centre): each group's footprint per unit of residual
+/// inverse depth, px along x and y (the mean of its views'), and each view's group. Rim cells
+/// of a disk are grouped by the size of their part inside it relative to a full cell, per
+/// axis, rounded to [`SHAPE_STEP`]. Last, the largest footprint per unit residual of any view.
+pub fn cell_groups(aa: &AntialiasPlan, (w, h): (u32, u32)) -> (Vec<DVec2>, Vec<usize>, DVec2) {
+    let centre = DVec2::new(w as f64, h as f64) / 2.0;
+    let s = aa.plan.m.dot(centre.extend(1.0)).max(0.0);
+    let unit: Vec<DVec2> = aa
+        .plan
+        .views
+        .iter()
+        .zip(&aa.footprints)
+        .map(|(v, fp)| footprint_extent(fp, v.warp.a * centre.extend(1.0) + v.warp.b * s, 1.0))
+        .collect();
+    let full = unit.iter().fold(DVec2::ZERO, |a, &b| a.max(b));
+    let mut keys: Vec<DVec2> = Vec::new();
+    let mut group_of = Vec::with_capacity(unit.len());
+    for u in &unit {
+        let key = (*u / full.max(DVec2::splat(1e-12)) / SHAPE_STEP).round() * SHAPE_STEP;
+        let g = keys.iter().position(|k| *k == key).unwrap_or_else(|| {
+            keys.push(key);
+            keys.len() - 1
+        });
+        group_of.push(g);
+    }
+    let groups = (0..keys.len())
+        .map(|g| {
+            let members = unit.iter().zip(&group_of).filter(|(_, &k)| k == g);
+            let (sum, n) = members.fold((DVec2::ZERO, 0.0), |(a, n), (u, _)| (a + *u, n + 1.0));
+            sum / n
+        })
+        .collect();
+    (groups, group_of, full)
 }
 
 /// One view's plain sample binned: its group, residual, weight and colour.

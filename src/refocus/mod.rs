@@ -4,6 +4,7 @@
 //! images to files is [`crate::io`]'s job.
 
 pub mod antialias;
+pub mod boxed;
 pub mod cpu;
 pub mod defocus;
 pub mod focus;

@@ -493,6 +493,7 @@ mod tests {
             height: 4,
             front: v.clone(),
             front_radius: 0,
+            fronts: Vec::new(),
             inverse_depth: v,
             unknown: 1,
             source: "test".into(),

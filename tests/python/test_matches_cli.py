@@ -60,6 +60,10 @@ CASES = {
         ["--disparity", "0.5", "--antialias-layered", "on"],
         dict(disparity=0.5, antialias_layered=True),
     ),
+    "antialias-unboxed": (
+        ["--disparity", "0.5", "--antialias-box", "off"],
+        dict(disparity=0.5, antialias_box=False),
+    ),
     "encoded": (
         ["--disparity", "0.5", "--average", "encoded"],
         dict(disparity=0.5, average="encoded"),

@@ -13,6 +13,7 @@
 //! | 7 | the views, trilinear over their levels | combined image sampler |
 //! | 8 | the views' visibility maps | storage buffer |
 //! | 9 | the defocused views | combined image sampler |
+//! | 10 | what the boxed stage decided per pixel | storage buffer |
 //!
 //! `shaders/refocus_accumulate.glsl` declares the same table. Bindings 8 and 9 are rewritten
 //! when their buffer or image grows; the others never change after creation.
@@ -36,6 +37,8 @@ pub(super) struct Inputs<'a> {
     pub surface: &'a SurfaceInputs,
     /// Binding 9.
     pub defocused: vk::DescriptorImageInfo,
+    /// Binding 10.
+    pub boxed: &'a Buffer,
 }
 
 fn whole(buffer: &Buffer) -> [vk::DescriptorBufferInfo; 1] {
@@ -65,6 +68,7 @@ pub(super) fn write_all(ctx: &GpuContext, sets: &[vk::DescriptorSet], inputs: &I
     let surface = whole(&inputs.surface.buffer);
     let visibility = whole(&inputs.antialias.visibility);
     let defocused = [inputs.defocused];
+    let boxed = whole(inputs.boxed);
     let images: Vec<_> = inputs
         .views
         .iter()
@@ -86,6 +90,7 @@ pub(super) fn write_all(ctx: &GpuContext, sets: &[vk::DescriptorSet], inputs: &I
             (5, T::STORAGE_BUFFER, &depth),
             (6, T::UNIFORM_BUFFER, &surface),
             (8, T::STORAGE_BUFFER, &visibility),
+            (10, T::STORAGE_BUFFER, &boxed),
         ];
         writes.extend(
             buffers.into_iter().map(|(binding, ty, info)| {

@@ -175,6 +175,9 @@ pub(super) struct AntialiasInputs {
     pub defocus: bool,
     /// The uploaded plan's `AntialiasSettings::layered`.
     pub layered: bool,
+    /// Whether the uploaded plan asks for boxed footprints (`AntialiasSettings::boxed`, with
+    /// neither defocused views nor layers).
+    pub boxed: bool,
     /// The uploaded plan's [`AntialiasPlan::focused_reach`], pushed with every draw.
     pub focused_reach: f32,
 }
@@ -211,6 +214,7 @@ impl AntialiasInputs {
             occlusion: false,
             defocus: false,
             layered: false,
+            boxed: false,
             focused_reach: 0.0,
         })
     }
@@ -243,6 +247,7 @@ impl AntialiasInputs {
         self.occlusion = aa.settings.occlusion;
         self.defocus = aa.settings.defocus;
         self.layered = aa.settings.layered;
+        self.boxed = aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered;
         self.focused_reach = aa.focused_reach() as f32;
     }
 
@@ -276,6 +281,7 @@ impl AntialiasInputs {
             || aa.settings.occlusion != self.occlusion
             || aa.settings.defocus != self.defocus
             || aa.settings.layered != self.layered
+            || (aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered) != self.boxed
             || aa.focused_reach() as f32 != self.focused_reach
     }
 }

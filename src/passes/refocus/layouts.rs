@@ -75,6 +75,7 @@ impl PassLayouts {
             T::COMBINED_IMAGE_SAMPLER,
             T::STORAGE_BUFFER,
             T::COMBINED_IMAGE_SAMPLER,
+            T::STORAGE_BUFFER,
         ]
         .into_iter()
         .enumerate()

@@ -41,6 +41,7 @@
 //!
 //! Everything frees itself when the pass is dropped, pipelines first; targets are the caller's.
 
+mod boxed;
 mod defocus;
 mod descriptors;
 mod inputs;
@@ -55,6 +56,7 @@ use std::ops::Range;
 use ash::vk;
 
 use crate::gpu::pod::as_bytes;
+use boxed::{BoxedKey, BoxedStage};
 use defocus::{DefocusKey, DefocusStage};
 use inputs::{AntialiasInputs, SceneDepthInput, SurfaceInputs, ViewInputs};
 pub use interface::{GpuFootprint, GpuSurface, GpuViewWarp, RefocusPush};
@@ -236,6 +238,10 @@ pub struct RefocusPass {
     defocus: DefocusStage,
     /// Bins, boxes and composites an accumulation with layered footprints.
     layered: LayeredStage,
+    /// Sums, boxes and decides the pixels it can before an accumulation with boxed footprints.
+    boxed: BoxedStage,
+    /// Whether `boxed` holds the uploaded plan (false: too many cell shapes, or not asked for).
+    boxed_ready: bool,
     /// How the compute strategy's invocations cover the output (see [`ComputeShape`]).
     compute_shape: ComputeShape,
 }
@@ -282,6 +288,7 @@ impl RefocusPass {
         // Binding 9 needs an image from the start: the stage's one-view placeholder.
         let defocus = DefocusStage::new(ctx, *layouts.input_set, (w, h))?;
         let layered = LayeredStage::new(ctx, *layouts.input_set, *layouts.storage_set)?;
+        let boxed = BoxedStage::new(ctx, *layouts.input_set, (w, h))?;
         let inputs = descriptors::Inputs {
             views: &texture.image.views,
             linear: *layouts.linear,
@@ -291,6 +298,7 @@ impl RefocusPass {
             antialias: &antialias,
             surface: &surface,
             defocused: defocus.sampled_info(*layouts.linear),
+            boxed: &boxed.results,
         };
         descriptors::write_all(ctx, &input_sets, &inputs);
         Ok(RefocusPass {
@@ -305,6 +313,8 @@ impl RefocusPass {
             surface,
             defocus,
             layered,
+            boxed,
+            boxed_ready: false,
             compute_shape: ComputeShape::from_env(),
         })
     }
@@ -443,6 +453,10 @@ impl RefocusPass {
         if aa.settings.layered {
             self.layered.set(ctx, self.layer_params(aa)?)?;
         }
+        let boxing = aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered;
+        let size = (self.view_size[0] as u32, self.view_size[1] as u32);
+        let useful = crate::refocus::boxed::can_box(aa, size);
+        self.boxed_ready = boxing && useful && self.boxed.set(ctx, aa)?;
         if aa.settings.defocus && self.defocus.reserve(ctx, aa.plan.views.len() as u32)? {
             let info = self.defocus.sampled_info(*self.layouts.linear);
             descriptors::write_defocused(ctx, &self.input_sets, info);
@@ -476,6 +490,10 @@ impl RefocusPass {
                 && self
                     .layer_params(aa)
                     .map_or(true, |p| self.layered.differs(&p)))
+            || (aa.settings.boxed
+                && !aa.settings.defocus
+                && !aa.settings.layered
+                && self.boxed.differs(aa))
     }
 
     /// The layer plan of `aa` at the views' size ([`crate::refocus::layered::LayerPlan`]),
@@ -514,6 +532,17 @@ impl RefocusPass {
         let pipeline = self.pipelines.accum(ctx, &self.layouts, key)?;
         if key.defocus {
             self.record_defocus(ctx, cmd, input_set, key, push, a)?;
+        }
+        // The boxed stage decides its pixels over every view at once: the accumulation of the
+        // first views (every accumulation's first batch) runs it, later batches read it.
+        if key.boxed && a.views.start == 0 {
+            let stage_key = BoxedKey {
+                filter: key.filter,
+                texel: key.texel,
+                uniform_warps: key.uniform_warps,
+                surface: key.surface,
+            };
+            self.boxed.record(ctx, cmd, input_set, stage_key, push)?;
         }
         let clear = begin_accumulation(&ctx.device, cmd, target, a.clear);
         if key.compute {
@@ -579,6 +608,13 @@ impl RefocusPass {
             occlusion: anti && aa.occlusion && !aa.defocus,
             surface: rule as u32,
             defocus: anti && aa.defocus,
+            // At the views' size only (the stage's pixels are the reference's), focused on one
+            // plane (whose residuals `can_box` bounded).
+            boxed: anti
+                && aa.boxed
+                && self.boxed_ready
+                && rule == SurfaceRule::Plane
+                && [target.width as f32, target.height as f32] == self.view_size,
             shape: if compute {
                 self.compute_shape
             } else {

@@ -29,12 +29,14 @@ pub(super) struct AccumKey {
     pub surface: u32,
     /// Anti-aliasing reads the defocused views (binding 9) instead of sub-sampling.
     pub defocus: bool,
+    /// Anti-aliasing reads the boxed stage's results (binding 10) first.
+    pub boxed: bool,
     /// The compute shader's shape (the default for fragment pipelines, which ignore it).
     pub shape: ComputeShape,
 }
 
 impl AccumKey {
-    fn constants(&self) -> [u32; 12] {
+    fn constants(&self) -> [u32; 13] {
         [
             self.filter,
             self.texel,
@@ -48,6 +50,7 @@ impl AccumKey {
             self.shape.unroll,
             self.shape.tile.0,
             self.shape.tile.1,
+            u32::from(self.boxed),
         ]
     }
 
@@ -60,7 +63,7 @@ impl AccumKey {
             String::new()
         };
         format!(
-            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}{}{}{}, surface {}){shape}",
+            "refocus {} pipeline (filter {}, texel {}, {} warps, antialias {}{}{}{}{}, surface {}){shape}",
             if self.compute { "compute" } else { "fragment" },
             self.filter,
             self.texel,
@@ -69,6 +72,7 @@ impl AccumKey {
             flag(self.prefilter, " prefiltered"),
             flag(self.occlusion, " occlusion-tested"),
             flag(self.defocus, " defocused"),
+            flag(self.boxed, " boxed"),
             self.surface
         )
     }
