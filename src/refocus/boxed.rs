@@ -170,13 +170,7 @@ pub fn can_box(aa: &AntialiasPlan, (w, h): (u32, u32)) -> bool {
         return false;
     }
     let (groups, _, _) = super::layered::cell_groups(aa, (w, h));
-    let (wl, hl) = (w as f64 - 1.0, h as f64 - 1.0);
-    let (slo, shi) = [(0.0, 0.0), (wl, 0.0), (0.0, hl), (wl, hl)]
-        .iter()
-        .map(|&(x, y)| aa.plan.m.dot(glam::DVec3::new(x, y, 1.0)).max(0.0))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), s| {
-            (a.min(s), b.max(s))
-        });
+    let (slo, shi) = super::layered::focus_range(aa, (w, h));
     let valid = aa.depth.inverse_depth.iter().filter(|v| **v >= 0.0);
     let (dlo, dhi) = valid.fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
         (a.min(v as f64), b.max(v as f64))

@@ -147,14 +147,7 @@ impl LayerPlan {
     pub fn new(aa: &AntialiasPlan, (w, h): (u32, u32)) -> LayerPlan {
         let (groups, group_of, full) = cell_groups(aa, (w, h));
         let scale = full.x.max(full.y);
-        // s = max(m·x, 0) is linear in x before the clamp: its extremes lie at the corners.
-        let (wl, hl) = (w as f64 - 1.0, h as f64 - 1.0);
-        let (lo, hi) = [(0.0, 0.0), (wl, 0.0), (0.0, hl), (wl, hl)]
-            .iter()
-            .map(|&(x, y)| aa.plan.m.dot(glam::DVec3::new(x, y, 1.0)).max(0.0))
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), s| {
-                (a.min(s), b.max(s))
-            });
+        let (lo, hi) = focus_range(aa, (w, h));
         // A sample's residual is s − σ for some σ of the depth (every view's map holds the
         // reference's values) or 0.
         let mut sigmas: Vec<f32> = aa
@@ -222,6 +215,18 @@ impl LayerPlan {
         }
         Ok(())
     }
+}
+
+/// The least and greatest focus inverse depth `s = max(m·x, 0)` of `aa`'s plane over an output
+/// of `w × h`: linear in x before the clamp, so its extremes lie at the corners.
+pub fn focus_range(aa: &AntialiasPlan, (w, h): (u32, u32)) -> (f64, f64) {
+    let (wl, hl) = (w as f64 - 1.0, h as f64 - 1.0);
+    [(0.0, 0.0), (wl, 0.0), (0.0, hl), (wl, hl)]
+        .iter()
+        .map(|&(x, y)| aa.plan.m.dot(glam::DVec3::new(x, y, 1.0)).max(0.0))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), s| {
+            (a.min(s), b.max(s))
+        })
 }
 
 /// The views of `aa` grouped by the shape of their aperture cell, for an output of `w × h`

@@ -8,6 +8,7 @@
 
 use ash::vk;
 
+use super::compute_stage;
 use super::interface::RefocusPush;
 use crate::error::{Error, Result};
 use crate::gpu::commands::memory_barrier;
@@ -118,37 +119,8 @@ impl BoxedStage {
         input_layout: vk::DescriptorSetLayout,
         size: (u32, u32),
     ) -> Result<Self> {
-        use vk::DescriptorType as T;
-        let binding = |i: u32, ty| {
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(i)
-                .descriptor_type(ty)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::COMPUTE)
-        };
-        let bindings = [
-            binding(0, T::UNIFORM_BUFFER),
-            binding(1, T::STORAGE_BUFFER),
-            binding(2, T::STORAGE_BUFFER),
-            binding(3, T::STORAGE_BUFFER),
-        ];
-        let set_layout = pipeline::set_layout(ctx, &bindings, "boxed set layout")?;
-        let sizes = [
-            vk::DescriptorPoolSize {
-                ty: T::UNIFORM_BUFFER,
-                descriptor_count: 1,
-            },
-            vk::DescriptorPoolSize {
-                ty: T::STORAGE_BUFFER,
-                descriptor_count: 3,
-            },
-        ];
-        let pool = pipeline::descriptor_pool(ctx, 1, &sizes, "boxed descriptors")?;
-        let set = pipeline::allocate_sets(ctx, *pool, &[*set_layout])?[0];
-        let push = [vk::PushConstantRange::default()
-            .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            .offset(0)
-            .size(std::mem::size_of::<RefocusPush>() as u32)];
+        let (set_layout, pool, set) = compute_stage::buffer_set(ctx, 3, "boxed")?;
+        let push = compute_stage::push_range();
         let layout =
             pipeline::pipeline_layout(ctx, &[input_layout, *set_layout], &push, "boxed layout")?;
         let pixels = size.0 as u64 * size.1 as u64;
@@ -323,10 +295,10 @@ impl BoxedStage {
         let (w, h) = self.size;
         let groups = params.header[0].max(1) as u32;
         let dispatches = [
-            (w.div_ceil(TILE), h.div_ceil(TILE)),
-            ((h + 1).div_ceil(LINE_GROUP), groups),
-            ((w + 1).div_ceil(LINE_GROUP), groups),
-            (w.div_ceil(TILE), h.div_ceil(TILE)),
+            (pipelines[0], [w.div_ceil(TILE), h.div_ceil(TILE), 1]),
+            (pipelines[1], [(h + 1).div_ceil(LINE_GROUP), groups, 1]),
+            (pipelines[2], [(w + 1).div_ceil(LINE_GROUP), groups, 1]),
+            (pipelines[3], [w.div_ceil(TILE), h.div_ceil(TILE), 1]),
         ];
         use vk::AccessFlags2 as A;
         use vk::PipelineStageFlags2 as S;
@@ -334,34 +306,9 @@ impl BoxedStage {
         let shaders = S::COMPUTE_SHADER | S::FRAGMENT_SHADER;
         // The previous accumulation's reads of the results before these writes.
         memory_barrier(d, cmd, (shaders, any), (S::COMPUTE_SHADER, any));
-        // SAFETY: recording outside a rendering instance; the sets match the layout.
-        unsafe {
-            d.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                *self.layout,
-                0,
-                &[input_set, self.set],
-                &[],
-            );
-            d.cmd_push_constants(
-                cmd,
-                *self.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                as_bytes(&[push]),
-            );
-        }
-        for (i, (&p, &(gx, gy))) in pipelines.iter().zip(&dispatches).enumerate() {
-            if i > 0 {
-                memory_barrier(d, cmd, (S::COMPUTE_SHADER, any), (S::COMPUTE_SHADER, any));
-            }
-            // SAFETY: as above.
-            unsafe {
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, p);
-                d.cmd_dispatch(cmd, gx, gy.max(1), 1);
-            }
-        }
+        let between = ((S::COMPUTE_SHADER, any), (S::COMPUTE_SHADER, any));
+        let sets = [input_set, self.set];
+        compute_stage::record_chain(d, cmd, *self.layout, &sets, &push, &dispatches, between);
         // The results before the accumulation reads them, in either strategy.
         memory_barrier(
             d,

@@ -14,11 +14,11 @@ use std::ops::Range;
 
 use ash::vk;
 
+use super::compute_stage;
 use super::interface::RefocusPush;
 use crate::error::{Error, Result};
 use crate::gpu::commands::{image_barrier, memory_barrier, stage, ImageTransition, Submission};
 use crate::gpu::pipeline::{self, compute_pipeline};
-use crate::gpu::pod::as_bytes;
 use crate::gpu::resources::{Image, ImageDesc};
 use crate::gpu::{shaders, GpuContext, Owned};
 
@@ -83,10 +83,7 @@ impl DefocusStage {
         }];
         let pool = pipeline::descriptor_pool(ctx, 1, &sizes, "defocus descriptors")?;
         let set = pipeline::allocate_sets(ctx, *pool, &[*set_layout])?[0];
-        let push = [vk::PushConstantRange::default()
-            .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            .offset(0)
-            .size(std::mem::size_of::<RefocusPush>() as u32)];
+        let push = compute_stage::push_range();
         let layout =
             pipeline::pipeline_layout(ctx, &[input_layout, *set_layout], &push, "defocus layout")?;
         let mut stage = DefocusStage {
@@ -265,10 +262,10 @@ impl DefocusStage {
         };
         let (w, h) = self.size;
         let n = views.len() as u32;
-        let groups = [
-            ((h + 1).div_ceil(TILE), 1, n),
-            ((w + 1).div_ceil(TILE), 1, n),
-            (w.div_ceil(TILE), h.div_ceil(TILE), n),
+        let dispatches = [
+            (pipelines[0], [(h + 1).div_ceil(TILE), 1, n]),
+            (pipelines[1], [(w + 1).div_ceil(TILE), 1, n]),
+            (pipelines[2], [w.div_ceil(TILE), h.div_ceil(TILE), n]),
         ];
         use vk::AccessFlags2 as A;
         use vk::PipelineStageFlags2 as S;
@@ -276,40 +273,15 @@ impl DefocusStage {
         let any = A::SHADER_SAMPLED_READ | A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE;
         // Earlier samplings (the previous frame's accumulation) before these writes.
         memory_barrier(d, cmd, (shaders, any), (S::COMPUTE_SHADER, any));
-        // SAFETY: recording outside a rendering instance; the sets match the layout.
-        unsafe {
-            d.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                *self.layout,
-                0,
-                &[input_set, self.set],
-                &[],
-            );
-            d.cmd_push_constants(
-                cmd,
-                *self.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                as_bytes(&[push]),
-            );
-        }
+        // The tables (the first two dispatches) only when the views changed.
         let first = if stale { 0 } else { 2 };
-        for (i, (&p, &(gx, gy, gz))) in pipelines.iter().zip(&groups).enumerate().skip(first) {
-            if i > first {
-                memory_barrier(
-                    d,
-                    cmd,
-                    (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE),
-                    (S::COMPUTE_SHADER, any),
-                );
-            }
-            // SAFETY: as above.
-            unsafe {
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, p);
-                d.cmd_dispatch(cmd, gx, gy, gz);
-            }
-        }
+        let between = (
+            (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE),
+            (S::COMPUTE_SHADER, any),
+        );
+        let sets = [input_set, self.set];
+        let chain = &dispatches[first..];
+        compute_stage::record_chain(d, cmd, *self.layout, &sets, &push, chain, between);
         memory_barrier(
             d,
             cmd,

@@ -13,6 +13,7 @@ use std::ops::Range;
 
 use ash::vk;
 
+use super::compute_stage;
 use super::interface::RefocusPush;
 use crate::error::{Error, Result};
 use crate::gpu::commands::memory_barrier;
@@ -125,38 +126,8 @@ impl LayeredStage {
         input_layout: vk::DescriptorSetLayout,
         storage_layout: vk::DescriptorSetLayout,
     ) -> Result<Self> {
-        use vk::DescriptorType as T;
-        let binding = |i: u32, ty| {
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(i)
-                .descriptor_type(ty)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::COMPUTE)
-        };
-        let bindings = [
-            binding(0, T::UNIFORM_BUFFER),
-            binding(1, T::STORAGE_BUFFER),
-            binding(2, T::STORAGE_BUFFER),
-            binding(3, T::STORAGE_BUFFER),
-            binding(4, T::STORAGE_BUFFER),
-        ];
-        let set_layout = pipeline::set_layout(ctx, &bindings, "layered set layout")?;
-        let sizes = [
-            vk::DescriptorPoolSize {
-                ty: T::UNIFORM_BUFFER,
-                descriptor_count: 1,
-            },
-            vk::DescriptorPoolSize {
-                ty: T::STORAGE_BUFFER,
-                descriptor_count: 4,
-            },
-        ];
-        let pool = pipeline::descriptor_pool(ctx, 1, &sizes, "layered descriptors")?;
-        let set = pipeline::allocate_sets(ctx, *pool, &[*set_layout])?[0];
-        let push = [vk::PushConstantRange::default()
-            .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            .offset(0)
-            .size(std::mem::size_of::<RefocusPush>() as u32)];
+        let (set_layout, pool, set) = compute_stage::buffer_set(ctx, 4, "layered")?;
+        let push = compute_stage::push_range();
         let layout = pipeline::pipeline_layout(
             ctx,
             &[input_layout, storage_layout, *set_layout],
@@ -331,11 +302,11 @@ impl LayeredStage {
         };
         let (w, h) = size;
         let layers = params.layers();
-        let groups = [
-            (w.div_ceil(TILE), h.div_ceil(TILE), 1),
-            (h.div_ceil(LINE_GROUP), layers, 1),
-            (w.div_ceil(LINE_GROUP), layers, 1),
-            (w.div_ceil(TILE), h.div_ceil(TILE), 1),
+        let dispatches = [
+            (pipelines[0], [w.div_ceil(TILE), h.div_ceil(TILE), 1]),
+            (pipelines[1], [h.div_ceil(LINE_GROUP), layers.max(1), 1]),
+            (pipelines[2], [w.div_ceil(LINE_GROUP), layers.max(1), 1]),
+            (pipelines[3], [w.div_ceil(TILE), h.div_ceil(TILE), 1]),
         ];
         use vk::AccessFlags2 as A;
         use vk::PipelineStageFlags2 as S;
@@ -343,42 +314,15 @@ impl LayeredStage {
         let shaders = S::COMPUTE_SHADER | S::FRAGMENT_SHADER;
         // The previous accumulation's reads and writes before these.
         memory_barrier(d, cmd, (shaders, any), (S::COMPUTE_SHADER, any));
-        // SAFETY: recording outside a rendering instance; the sets match the layout.
-        unsafe {
-            d.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                *self.layout,
-                0,
-                &[input_set, storage_set, self.set],
-                &[],
-            );
-            d.cmd_push_constants(
-                cmd,
-                *self.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                as_bytes(&[push]),
-            );
-        }
-        for (i, (&p, &(gx, gy, gz))) in pipelines.iter().zip(&groups).enumerate() {
-            if i > 0 {
-                memory_barrier(
-                    d,
-                    cmd,
-                    (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE),
-                    (
-                        S::COMPUTE_SHADER,
-                        A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
-                    ),
-                );
-            }
-            // SAFETY: as above.
-            unsafe {
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, p);
-                d.cmd_dispatch(cmd, gx, gy.max(1), gz);
-            }
-        }
+        let between = (
+            (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE),
+            (
+                S::COMPUTE_SHADER,
+                A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+            ),
+        );
+        let sets = [input_set, storage_set, self.set];
+        compute_stage::record_chain(d, cmd, *self.layout, &sets, &push, &dispatches, between);
         Ok(())
     }
 }

@@ -42,6 +42,7 @@
 //! Everything frees itself when the pass is dropped, pipelines first; targets are the caller's.
 
 mod boxed;
+mod compute_stage;
 mod defocus;
 mod descriptors;
 mod inputs;
