@@ -112,8 +112,9 @@ pub struct DepthSetArgs {
     /// An HCI folder with gt_disp_lowres.pfm to add to the set (repeatable).
     #[arg(long, value_name = "DIR")]
     pub hci: Vec<PathBuf>,
-    /// Estimator variants to compare (comma-separated): default, sweep (without the
-    /// continuous fit), naive.
+    /// Estimator variants to compare (comma-separated): default; no-fit, no-median,
+    /// no-smooth, no-plane-fill, no-snap (the default without that step); sweep (the sweep
+    /// alone, none of those steps); naive (SAD over the same views, box aggregation).
     #[arg(
         long,
         value_name = "A,B,…",

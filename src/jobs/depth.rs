@@ -170,7 +170,11 @@ pub fn estimate(
     if options.params.edge_snap {
         let t = Instant::now();
         param = crate::depth::edges::snap_edges(&fit_plan, &fit_images, &param);
-        log::info!("edge snapping: {:.0} ms", t.elapsed().as_secs_f64() * 1e3);
+        param = crate::depth::edges::unmix_outlines(&fit_plan, reference, &param);
+        log::info!(
+            "edge snapping and mixed outline pixels: {:.0} ms",
+            t.elapsed().as_secs_f64() * 1e3
+        );
     }
     Ok(DepthEstimate {
         width: plan.width,

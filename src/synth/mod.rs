@@ -4,9 +4,11 @@
 //! rasterizer for `tiltfield synth`, with depth, disparity, normals and the optical ground truth
 //! of a tilt-shift lens.
 //!
-//! Model: albedo only — no lighting, shadows or reflections. A pixel's colour is the procedural
-//! texture ([`texture::Texture`], linear light) of the nearest quad its ray hits, or the scene's
-//! background.
+//! Model: by default albedo only — a pixel's colour is the procedural texture
+//! ([`texture::Texture`], linear light) of the nearest surface its ray hits, or the scene's
+//! background. The ray tracer can also light a scene ([`scene::Lighting`]: Lambertian under an
+//! area light with soft shadows, ambient, a mild view-dependent highlight), as the depth test
+//! set's shaded scenes do; the rasterizer of `tiltfield synth` draws albedo only.
 //!
 //! Conventions (those of [`crate::geometry::camera`]):
 //! - world → camera `X_c = R X + t`, camera axes x right, y down, z forward;
