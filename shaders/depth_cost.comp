@@ -18,7 +18,33 @@ layout(constant_id = 0) const uint COST = 0;
 // intrinsics, or classic shift-and-sum), so a view's sample is the pixel plus an offset shared by
 // all pixels; a view in the reference's row or column then needs two texels, not four.
 layout(constant_id = 1) const uint TRANSLATION = 0;
+// UNIFORM_VIEWS 1: the view records come from the uniform buffer (binding 9; at most
+// UBO_VIEWS views), 0: from the storage buffer (any number).
+layout(constant_id = 2) const uint UNIFORM_VIEWS = 0;
 layout(local_size_x = 8, local_size_y = 8) in;
+
+// View v's record from whichever buffer holds it. Member by member: the two blocks' structs
+// have different layouts (std140, std430), and glslang rejects a conditional choosing between
+// them.
+SweepView view_of(uint v) {
+    SweepView r;
+    if (UNIFORM_VIEWS != 0u) {
+        r.a0 = views_u[v].a0;
+        r.a1 = views_u[v].a1;
+        r.a2 = views_u[v].a2;
+        r.b = views_u[v].b;
+        r.halves = views_u[v].halves;
+        r.info = views_u[v].info;
+    } else {
+        r.a0 = views[v].a0;
+        r.a1 = views[v].a1;
+        r.a2 = views[v].a2;
+        r.b = views[v].b;
+        r.halves = views[v].halves;
+        r.info = views[v].info;
+    }
+    return r;
+}
 
 vec3 texel(uint base, ivec2 p) {
     p = clamp(p, ivec2(0), ivec2(pc.width - 1u, pc.height - 1u));
@@ -66,12 +92,12 @@ void main() {
         float total = 0.0;
         float used = 0.0;
         for (uint v = 0u; v < pc.view_count; ++v) {
+            SweepView sv = view_of(v);
             vec2 q;
             if (TRANSLATION == 1u) {
-                q = x.xy + views[v].a2.xy + views[v].b.xy * p;
+                q = x.xy + sv.a2.xy + sv.b.xy * p;
             } else {
-                vec3 y = mat3(views[v].a0.xyz, views[v].a1.xyz, views[v].a2.xyz) * x
-                    + views[v].b.xyz * p;
+                vec3 y = mat3(sv.a0.xyz, sv.a1.xyz, sv.a2.xyz) * x + sv.b.xyz * p;
                 if (y.z <= 0.0) {
                     continue; // behind view v
                 }
@@ -80,10 +106,10 @@ void main() {
             if (any(lessThan(q, vec2(-0.5))) || any(greaterThan(q, hi))) {
                 continue; // outside view v
             }
-            vec4 halves = views[v].halves;
+            vec4 halves = sv.halves;
             vec2 f = q - floor(q);
             vec2 a = 0.5 * f * (1.0 - f);
-            vec3 d = abs(bilinear(views[v].info.x, q) - (ref + a.x * ddx + a.y * ddy));
+            vec3 d = abs(bilinear(sv.info.x, q) - (ref + a.x * ddx + a.y * ddy));
             float e = min((d.r + d.g + d.b) * (1.0 / 3.0), pc.truncation);
             sum += e * halves;
             count += halves;

@@ -64,5 +64,11 @@ layout(std430, set = 0, binding = 6) buffer State { WtaState state[]; };
 layout(std430, set = 0, binding = 7) buffer Result { vec4 result[]; };
 // The last conf_gap aggregated costs of each pixel (a ring: plane g in slot g % conf_gap).
 layout(std430, set = 0, binding = 8) buffer History { float history[]; };
+// The first UBO_VIEWS records of `views` again, in a uniform buffer (UNIFORM_VIEWS in
+// depth_cost.comp). llvmpipe compiles a storage-buffer load indexed by the loop counter into a
+// loop over the SIMD lanes with a bounds check and a branch per lane, a uniform-buffer load
+// into one gather (refocus::settings::WarpMemory measured the same for the warps).
+const uint UBO_VIEWS = 160u; // passes::depth::UBO_VIEWS: 15 KiB, under the 16 KiB guaranteed
+layout(std140, set = 0, binding = 9) uniform ViewsU { SweepView views_u[UBO_VIEWS]; };
 
 const float BIG = 3.0e38;

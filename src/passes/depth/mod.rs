@@ -48,6 +48,10 @@ const MAX_CHUNK: usize = 16;
 /// Bytes of the per-pixel winner-take-all state (`WtaState`: two vec4).
 const STATE_BYTES: u64 = 32;
 
+/// Records of the uniform-buffer copy of the view records (`UBO_VIEWS` in
+/// `depth_interface.glsl`): sweeps of at most this many views read them there.
+pub const UBO_VIEWS: usize = 160;
+
 /// Runs the sweep of `plan` on `images` (`images[0]` the reference view, then the matched
 /// views in plan order) with `params`. Returns the per-pixel result and the GPU time summed
 /// over the submissions (`None` without timestamps). `progress` advances by planes.
@@ -76,8 +80,10 @@ struct SweepPass {
 
 /// Index of the result buffer in `SweepPass::buffers` (= its binding; the buffers are bound
 /// in the order of `depth_interface.glsl`: texels, views, guide, costs, row sums,
-/// coefficients, state, result, history).
+/// coefficients, state, result, history, then the views' uniform copy).
 const RESULT: usize = 7;
+/// Binding of the uniform buffer (every other binding is a storage buffer).
+const VIEWS_UNIFORM: usize = 9;
 
 /// The pipelines, in `SweepPass::pipelines` order.
 #[derive(Clone, Copy)]
@@ -178,11 +184,22 @@ impl SweepPass {
             .push(Buffer::new(ctx, n * 16, storage, true, "depth result")?);
         let history = self.device_buffer(ctx, n * 4 * gap as u64, storage, "depth cost history")?;
         self.buffers.push(history);
+        // The uniform copy is always bound whole (the block's declared size), and read only
+        // where every record fits.
+        let mut uniform_records = records.clone();
+        uniform_records.resize(UBO_VIEWS, GpuSweepView::default());
+        let uniform_views = records.len() <= UBO_VIEWS;
+        self.buffers.push(Buffer::with_bytes(
+            ctx,
+            as_bytes(&uniform_records[..UBO_VIEWS]),
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            "depth views (uniform)",
+        )?);
         self.timestamps = Timestamps::new(ctx, 2)?;
         let set = self.descriptors(ctx)?;
         let translation = plan.views.iter().all(|v| v.is_translation())
             && std::env::var_os("TILTFIELD_DEPTH_GENERAL").is_none();
-        self.pipelines(ctx, params, translation)?;
+        self.pipelines(ctx, params, translation, uniform_views)?;
 
         let mut push = DepthPush {
             width: w,
@@ -324,13 +341,21 @@ impl SweepPass {
         )
     }
 
-    /// The descriptor set layout (9 storage buffers), pipeline layout, pool and the one set.
+    /// The descriptor set layout (9 storage buffers and a uniform one), pipeline layout, pool
+    /// and the one set.
     fn descriptors(&mut self, ctx: &GpuContext) -> Result<vk::DescriptorSet> {
+        let kind = |i: usize| {
+            if i == VIEWS_UNIFORM {
+                vk::DescriptorType::UNIFORM_BUFFER
+            } else {
+                vk::DescriptorType::STORAGE_BUFFER
+            }
+        };
         let bindings: Vec<_> = (0..self.buffers.len() as u32)
             .map(|i| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(i)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_type(kind(i as usize))
                     .descriptor_count(1)
                     .stage_flags(vk::ShaderStageFlags::COMPUTE)
             })
@@ -342,10 +367,16 @@ impl SweepPass {
             .size(std::mem::size_of::<DepthPush>() as u32)];
         let layout =
             pipeline::pipeline_layout(ctx, &[*set_layout], &push, "depth sweep pipeline layout")?;
-        let sizes = [vk::DescriptorPoolSize {
-            ty: vk::DescriptorType::STORAGE_BUFFER,
-            descriptor_count: bindings.len() as u32,
-        }];
+        let sizes = [
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::STORAGE_BUFFER,
+                descriptor_count: bindings.len() as u32 - 1,
+            },
+            vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::UNIFORM_BUFFER,
+                descriptor_count: 1,
+            },
+        ];
         let pool = pipeline::descriptor_pool(ctx, 1, &sizes, "depth sweep descriptors")?;
         let set = pipeline::allocate_sets(ctx, *pool, &[*set_layout])?[0];
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = self
@@ -365,7 +396,7 @@ impl SweepPass {
                 vk::WriteDescriptorSet::default()
                     .dst_set(set)
                     .dst_binding(i as u32)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_type(kind(i))
                     .buffer_info(info)
             })
             .collect();
@@ -383,6 +414,7 @@ impl SweepPass {
         ctx: &GpuContext,
         params: &SweepParams,
         translation: bool,
+        uniform_views: bool,
     ) -> Result<()> {
         let cost = match params.cost {
             CostKind::Robust => 0,
@@ -418,7 +450,7 @@ impl SweepPass {
                 8 => u32::from(params.refine == Refine::Equiangular),
                 _ => 0,
             };
-            let constants = [constant, second];
+            let constants = [constant, second, u32::from(uniform_views)];
             let name = format!("{name} pipeline");
             let p = compute_pipeline(ctx, layout, *module, &constants, &name)?;
             self.pipelines.push(Some(p));
