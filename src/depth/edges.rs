@@ -71,6 +71,16 @@ pub(super) fn mean_of_agreeing(costs: &mut [f64]) -> Option<f64> {
     Some(costs[..k].iter().sum::<f64>() / k as f64)
 }
 
+/// The 8 neighbours of pixel `(x, y)` inside a `w × h` image, row by row.
+fn neighbours(
+    (x, y): (usize, usize),
+    (w, h): (usize, usize),
+) -> impl Iterator<Item = (usize, usize)> {
+    (y.saturating_sub(1)..(y + 2).min(h))
+        .flat_map(move |yy| (x.saturating_sub(1)..(x + 2).min(w)).map(move |xx| (xx, yy)))
+        .filter(move |&p| p != (x, y))
+}
+
 /// The mean absolute colour difference between the reference's colour `c` at pixel `x` and
 /// the views sampled at parameter `p` (`images[k + 1]` is `plan.views[k]`'s), over the
 /// [`AGREEING_SHARE`] of the views inside their images that agree best; `None` without any.
@@ -121,12 +131,8 @@ pub fn snap_edges(plan: &SweepPlan, images: &[&RgbaImage], param: &[f32]) -> Vec
             // pixel's own side.
             let (mut nearer, mut farther) = (Vec::with_capacity(8), Vec::with_capacity(8));
             let (mut lo, mut hi) = ([px[0], px[1], px[2]], [px[0], px[1], px[2]]);
-            for (dx, dy) in (-1i64..=1).flat_map(|dy| (-1i64..=1).map(move |dx| (dx, dy))) {
-                let (xx, yy) = (x as i64 + dx, y as i64 + dy);
-                if (dx, dy) == (0, 0) || xx < 0 || yy < 0 || xx >= w as i64 || yy >= h as i64 {
-                    continue;
-                }
-                let q = param[yy as usize * w + xx as usize] as f64;
+            for (xx, yy) in neighbours((x, y), (w, h)) {
+                let q = param[yy * w + xx] as f64;
                 if q > p0 + jump {
                     nearer.push(q);
                 } else if q < p0 - jump {
@@ -223,12 +229,7 @@ pub fn unmix_outlines(plan: &SweepPlan, reference: &RgbaImage, param: &[f32]) ->
                 continue;
             }
             let (mut farther, mut own) = (Vec::with_capacity(8), Vec::with_capacity(8));
-            for (dx, dy) in (-1i64..=1).flat_map(|dy| (-1i64..=1).map(move |dx| (dx, dy))) {
-                let (xx, yy) = (x as i64 + dx, y as i64 + dy);
-                if (dx, dy) == (0, 0) || xx < 0 || yy < 0 || xx >= w as i64 || yy >= h as i64 {
-                    continue;
-                }
-                let (xx, yy) = (xx as usize, yy as usize);
+            for (xx, yy) in neighbours((x, y), (w, h)) {
                 let q = param[yy * w + xx] as f64;
                 if q < p0 - jump {
                     farther.push((q, colour(xx, yy)));

@@ -191,7 +191,7 @@ impl SweepPass {
         let uniform_views = records.len() <= UBO_VIEWS;
         self.buffers.push(Buffer::with_bytes(
             ctx,
-            as_bytes(&uniform_records[..UBO_VIEWS]),
+            as_bytes(&uniform_records),
             vk::BufferUsageFlags::UNIFORM_BUFFER,
             "depth views (uniform)",
         )?);
