@@ -113,10 +113,20 @@ pub fn estimate(
             t.elapsed().as_secs_f64() * 1e3
         );
         let t = Instant::now();
-        let back;
-        (param, back) = crate::depth::arbitrate::arbitrate(&fit_plan, &fit_images, &param, &median);
+        let winner = std::mem::take(&mut param);
+        let (arbitrated, back) =
+            crate::depth::arbitrate::arbitrate(&fit_plan, &fit_images, &winner, &median);
+        let kept;
+        (param, kept) = crate::depth::arbitrate::keep_smooth_winners(
+            plan.width as usize,
+            plan.step(),
+            &winner,
+            &arbitrated,
+            photometric::is_noisy(&out.best_cost),
+        );
         log::info!(
-            "winner against median: {back} pixels back to the sweep's winner, {:.0} ms",
+            "winner against median: {back} pixels back to the sweep's winner, {kept} smooth \
+             winners kept, {:.0} ms",
             t.elapsed().as_secs_f64() * 1e3
         );
     }
