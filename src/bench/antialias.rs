@@ -28,10 +28,12 @@ use crate::refocus::{RefocusImage, RefocusPlan};
 /// Catmull-Rom for in-focus sub-samples (`aa4-bilinear`) and without the occlusion tests
 /// (`aa4-open`), the cheapest sub-sampling setting, [`AntialiasSettings::FASTEST`]
 /// (`aa1-fastest`), defocused views (`defocus`: constant cost per view, no occlusion
-/// tests), and the default, boxed footprints (`boxed`: the box of the plain sums away from
-/// occlusion edges, `aa4`'s sub-samples at them and in focus). Every `aaN` point sub-samples
-/// every pixel: `aa4` is the default before boxed footprints.
-pub const VARIANTS: [AntialiasSettings; 13] = [
+/// tests), layered footprints (`layered`: every view's sample binned by depth, each layer
+/// box-filtered once, no per-sample tests), and the default, boxed footprints (`boxed`: the
+/// box of the plain sums away from occlusion edges, `aa4`'s sub-samples at them and in
+/// focus). Every `aaN` point sub-samples every pixel: `aa4` is the default before boxed
+/// footprints.
+pub const VARIANTS: [AntialiasSettings; 14] = [
     aa(1, true),
     aa(2, true),
     aa(4, true),
@@ -54,6 +56,10 @@ pub const VARIANTS: [AntialiasSettings; 13] = [
     AntialiasSettings::FASTEST,
     AntialiasSettings {
         defocus: true,
+        ..aa(4, true)
+    },
+    AntialiasSettings {
+        layered: true,
         ..aa(4, true)
     },
     AntialiasSettings {
@@ -82,6 +88,9 @@ fn variant_name(s: &AntialiasSettings) -> String {
     }
     if s.boxed {
         return "boxed".into();
+    }
+    if s.layered {
+        return "layered".into();
     }
     if s.defocus {
         let base = "defocus".to_string();
@@ -113,6 +122,20 @@ fn variant_name(s: &AntialiasSettings) -> String {
     }
 }
 
+/// The footprint route of `s` when it is not sub-samples everywhere (see
+/// [`AntialiasPoint::route`]).
+fn route(s: &AntialiasSettings) -> Option<&'static str> {
+    if s.boxed {
+        Some("boxed")
+    } else if s.layered {
+        Some("layered")
+    } else if s.defocus {
+        Some("defocus")
+    } else {
+        None
+    }
+}
+
 /// One point of the study.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct AntialiasPoint {
@@ -128,6 +151,10 @@ pub struct AntialiasPoint {
     pub focused_bicubic: bool,
     /// Whether sub-samples near a nearer surface were tested for occlusion.
     pub occlusion: bool,
+    /// The footprint route other than sub-samples everywhere, if any: `defocus` (each view's
+    /// cell read once, defocused), `layered` (the samples binned by depth, each layer boxed
+    /// once) or `boxed` (the box of the plain sums away from edges; the default).
+    pub route: Option<&'static str>,
     pub views: usize,
     pub gpu_ms_median: f64,
     /// GPU time over the plain sum's, same run.
@@ -298,6 +325,7 @@ pub fn run(ctx: Arc<GpuContext>, quick: bool, frames: usize) -> Result<Antialias
             focus_test: k > 0 && VARIANTS[k - 1].focus_test,
             focused_bicubic: k > 0 && VARIANTS[k - 1].focused_bicubic,
             occlusion: k > 0 && VARIANTS[k - 1].occlusion,
+            route: (k > 0).then(|| route(&VARIANTS[k - 1])).flatten(),
             views: if k == 0 {
                 plan.views.len()
             } else {

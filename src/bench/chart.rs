@@ -373,6 +373,7 @@ where
             .filter(|p| {
                 p.max_samples.is_none()
                     || (p.prefilter == prefilter
+                        && p.route.is_none()
                         && p.focus_test
                         && p.focused_bicubic
                         && p.occlusion)
