@@ -236,6 +236,7 @@ where
     for v in by_x {
         let at = chart.backend_coord(&(v.gpu_ms_median, v.psnr_vs_reference_db));
         let (x0, y0) = place_label(&mut placed, at, &v.label);
+        leader(root, at, (x0, y0))?;
         let style =
             TextStyle::from((FONT, 13).into_font()).color(if v.default { &RED } else { &BLACK });
         root.draw(&Text::new(v.label.clone(), (x0, y0), style))
@@ -262,8 +263,9 @@ where
 }
 
 /// Where the label `text` of the point at backend position `(px, py)` goes: beside it, moved
-/// up or down where it would overlap one already `placed` (sizes estimated from the 13-px
-/// font: about 0.6 em per character); the box is added to `placed`.
+/// up or down (by up to ten lines) where it would overlap one already `placed` (sizes
+/// estimated from the 13-px font: about 0.6 em per character); where every place overlaps,
+/// the one that overlaps least. The box is added to `placed`.
 fn place_label(
     placed: &mut Vec<(i32, i32, i32, i32)>,
     (px, py): (i32, i32),
@@ -271,20 +273,46 @@ fn place_label(
 ) -> (i32, i32) {
     let w = 8 * text.chars().count() as i32;
     let h = 14;
-    let offsets = [0, -15, 15, -30, 30, -45, 45, -60, 60];
-    let dy = offsets
-        .iter()
-        .copied()
-        .find(|dy| {
-            let (x0, y0) = (px + 8, py - h / 2 + dy);
-            placed
-                .iter()
-                .all(|&(a, b, c, d)| x0 + w <= a || c <= x0 || y0 + h <= b || d <= y0)
-        })
-        .unwrap_or(0);
-    let (x0, y0) = (px + 8, py - h / 2 + dy);
+    let at = |dy: i32| (px + 8, py - h / 2 + dy);
+    // The area the label's box at `dy` shares with the boxes placed before.
+    let overlap = |dy: i32| -> i32 {
+        let (x0, y0) = at(dy);
+        placed
+            .iter()
+            .map(|&(a, b, c, d)| {
+                let ox = (x0 + w).min(c) - x0.max(a);
+                let oy = (y0 + h).min(d) - y0.max(b);
+                ox.max(0) * oy.max(0)
+            })
+            .sum()
+    };
+    let offsets = std::iter::once(0).chain((1..=10).flat_map(|k| [-15 * k, 15 * k]));
+    // The first free place, nearest the point first; min_by_key keeps the first of equals.
+    let dy = offsets.min_by_key(|&dy| overlap(dy)).unwrap_or(0);
+    let (x0, y0) = at(dy);
     placed.push((x0, y0, x0 + w, y0 + h));
     (x0, y0)
+}
+
+/// A thin grey line from the point at `at` to its label at `(x0, y0)` where the label moved
+/// off the point's row (crowded points): which label is whose stays readable.
+fn leader<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    at: (i32, i32),
+    (x0, y0): (i32, i32),
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let mid = y0 + 7;
+    if (mid - at.1).abs() <= 10 {
+        return Ok(());
+    }
+    root.draw(&PathElement::new(
+        vec![(at.0 + 4, at.1), (x0 - 1, mid)],
+        RGBColor(150, 150, 150).stroke_width(1),
+    ))
+    .map_err(chart_err)
 }
 
 /// The anti-aliasing study's points with a measured time and score.
@@ -443,6 +471,7 @@ where
         let label = format!("{} ×{:.1}", p.name, p.cost_ratio);
         let at = chart.backend_coord(&(p.cost_ratio, p.psnr_vs_truth_db));
         let (x0, y0) = place_label(&mut placed, at, &label);
+        leader(root, at, (x0, y0))?;
         let style = TextStyle::from((FONT, 13).into_font()).color(&green);
         root.draw(&Text::new(label, (x0, y0), style))
             .map_err(chart_err)?;
