@@ -540,3 +540,43 @@ where
     }
     legend(&mut chart)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Boxes overlap where they share area.
+    fn overlaps(a: (i32, i32, i32, i32), b: (i32, i32, i32, i32)) -> bool {
+        a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+    }
+
+    /// Fourteen points on one spot (the anti-aliasing study's crowd near ×19): every label
+    /// finds a place of its own, the first beside its point, the others as near it as they
+    /// can; beyond the ten lines each way a label takes the place that overlaps least.
+    #[test]
+    fn crowded_labels_take_places_of_their_own() {
+        let mut placed = Vec::new();
+        let at = (400, 300);
+        let boxes: Vec<_> = (0..14)
+            .map(|k| {
+                let (x0, y0) = place_label(&mut placed, at, &format!("label {k} ×19.0"));
+                (x0, y0, x0 + 8 * 13, y0 + 14)
+            })
+            .collect();
+        assert_eq!((boxes[0].0, boxes[0].1), (408, 293));
+        for (i, a) in boxes.iter().enumerate() {
+            for b in &boxes[..i] {
+                assert!(!overlaps(*a, *b), "{a:?} over {b:?}");
+            }
+            assert!((a.1 - 293).abs() <= 150, "{a:?}");
+        }
+        // A 22nd label on the same spot has no free place left (21 rows, all taken): it goes
+        // where it overlaps least, beside the point over the first label, whose one-digit
+        // name is narrower than the two-digit ones on the rows from label 10 on.
+        for k in 14..21 {
+            place_label(&mut placed, at, &format!("label {k} ×19.0"));
+        }
+        let (x0, y0) = place_label(&mut placed, at, "label 21 ×19.0");
+        assert_eq!((x0, y0), (408, 293));
+    }
+}
