@@ -31,7 +31,7 @@ use crate::lightfield::LightField;
 
 /// Bumped whenever the estimator's output for the same input changes. The key also holds
 /// [`SOURCE_DIGEST`], so a change of the estimator's code alone already misses the cache.
-const ALGORITHM_VERSION: &str = "tiltfield-depth-11";
+const ALGORITHM_VERSION: &str = "tiltfield-depth-12";
 
 /// A digest of the estimator's source (`src/depth/`, `src/passes/depth/`, `src/jobs/depth.rs`,
 /// `shaders/depth_*`; build.rs).

@@ -26,8 +26,9 @@
 //! [`DepthEstimate::values`] gives disparity or metric depth. The range is the one given, else
 //! the dataset's `disp_min … disp_max`, else found automatically ([`RangeOrigin::Automatic`]):
 //! a coarse sweep at a quarter of the resolution over a wide range (the image centre moving by
-//! up to an eighth of the image in the farthest matched view), whose confident pixels' 1st to
-//! 99th percentiles, widened by 5 % and one coarse plane, become the range.
+//! up to an eighth of the image per two grid steps of the farthest matched view), whose
+//! confident pixels' 1st to 99th percentiles, widened by 5 % and one coarse plane, become the
+//! range.
 //!
 //! [`ensure_depth`] gives a light field without a depth map its estimate, cached on disk keyed
 //! by content ([`cache`]); clicks, point clouds and the viewer call it.
