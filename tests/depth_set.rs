@@ -224,6 +224,19 @@ fn the_shaded_scenes_at_96_px_are_held_to_the_issues_target() {
     assert!(d.0 <= n.0 - 10.0, "sculpture {d:?} vs {n:?}");
 }
 
+/// On a 9 × 9 grid the automatic range reaches as near per grid step as on 5 × 5: the
+/// converging rig's nearest card lies inside it. When the range allowed an eighth of the
+/// image of motion in the farthest view (half the reach per step on 9 × 9) the card took the
+/// range's end: BadPix 0.07 24.6 % at 96 px (measured after: 7.6 %).
+#[test]
+fn a_nine_by_nine_grid_finds_the_converging_rigs_nearest_card() {
+    let set = testset::synthetic(9, 96, Some(&["converging".to_string()])).unwrap();
+    let rows = estimate(&set, &["default"]);
+    let s = &rows[0].scores;
+    eprintln!("converging 9x9 at 96 px: {s:?}");
+    assert!(s.bad_pix_007 <= 12.0 && s.mse_x100 <= 40.0, "{s:?}");
+}
+
 #[test]
 fn confidence_ranks_errors_over_the_set() {
     // Over the nine scenes the bound was measured on: on the converging rig (joined later)
