@@ -59,7 +59,8 @@ def main() -> None:
     # from_array of the same views: a grid folder's conventions (classic disparity D = -d of
     # HCI's), so the same focus is the opposite disparity.
     t = time.perf_counter()
-    arr = tiltfield.from_array(lf.views())
+    views = lf.views()
+    arr = tiltfield.from_array(views)
     same = [arr.refocus(disparity=-float(d)) for d in (a.range[0], a.range[1])]
     for x, y in zip(same, (stack[0], stack[-1])):
         diff = np.abs(x.astype(int) - y.astype(int))
@@ -74,7 +75,7 @@ def main() -> None:
     # Process CPU time (every thread), the best of seven: what the conversion costs, not what
     # other processes take from it.
     rng = np.random.default_rng(1)
-    shape = (*lf.views().shape[:4], 3)
+    shape = (*views.shape[:4], 3)
     u8 = rng.integers(0, 256, shape, dtype=np.uint8)
     f32 = rng.random(shape, dtype=np.float32)
 

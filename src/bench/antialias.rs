@@ -86,11 +86,9 @@ fn variant_name(s: &AntialiasSettings) -> String {
     if *s == AntialiasSettings::FASTEST {
         return format!("aa{}-fastest", s.max_samples);
     }
-    if s.boxed {
-        return "boxed".into();
-    }
-    if s.layered {
-        return "layered".into();
+    // Boxed and layered footprints are named by their route alone (no switch below applies).
+    if let Some(r @ ("boxed" | "layered")) = route(s) {
+        return r.into();
     }
     if s.defocus {
         let base = "defocus".to_string();

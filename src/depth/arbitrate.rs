@@ -167,22 +167,22 @@ pub const SMOOTH_PLANES: f64 = 0.03;
 /// flank and `sphere`'s cap by a fraction of a plane. Where the winner is rough (noise, a
 /// fattened or jagged edge) or the views noisy, the median is what removes the noise and stays.
 /// Maps of different lengths, or a `width` that does not divide them, come back as `median`.
-/// Also returns how many pixels took the winner where the median had moved them.
+/// `median` is updated in place and returned, with how many pixels took the winner where the
+/// median had moved them.
 pub fn keep_smooth_winners(
     width: usize,
     step: f64,
     winner: &[f32],
-    median: &[f32],
+    mut median: Vec<f32>,
     noisy: bool,
 ) -> (Vec<f32>, usize) {
     let n = median.len();
     if noisy || winner.len() != n || width == 0 || n % width != 0 {
-        return (median.to_vec(), 0);
+        return (median, 0);
     }
     let (w, h) = (width, n / width);
     let (moved, smooth) = (MOVED_PLANES * step.abs(), SMOOTH_PLANES * step.abs());
-    let mut out = median.to_vec();
-    let kept = out
+    let kept = median
         .par_chunks_mut(w)
         .enumerate()
         .map(|(y, row)| {
@@ -208,7 +208,7 @@ pub fn keep_smooth_winners(
             kept
         })
         .sum();
-    (out, kept)
+    (median, kept)
 }
 
 #[cfg(test)]
@@ -307,7 +307,7 @@ mod tests {
             })
             .collect();
         let flattened: Vec<f32> = dome.iter().map(|v| v - 0.25).collect();
-        let (out, kept) = keep_smooth_winners(w, step, &dome, &flattened, false);
+        let (out, kept) = keep_smooth_winners(w, step, &dome, flattened.clone(), false);
         // The paraboloid's Laplacian is uniform: the dome is smooth at every pixel inside,
         // and at the clamped border the neighbour mean moves by at most a fraction.
         assert!(kept >= (w - 2) * (h - 2), "{kept} kept");
@@ -328,24 +328,27 @@ mod tests {
                 }
             })
             .collect();
-        let (out, kept) = keep_smooth_winners(w, step, &rough, &flattened, false);
+        let (out, kept) = keep_smooth_winners(w, step, &rough, flattened.clone(), false);
         assert_eq!((out, kept), (flattened.clone(), 0));
         // Moved by more than a plane: step 6b's business, not this step's.
         let far: Vec<f32> = dome.iter().map(|v| v - 0.6).collect();
-        assert_eq!(keep_smooth_winners(w, step, &dome, &far, false), (far, 0));
+        assert_eq!(
+            keep_smooth_winners(w, step, &dome, far.clone(), false),
+            (far, 0)
+        );
         // Noisy views, or maps of the wrong size: the median unchanged.
         assert_eq!(
-            keep_smooth_winners(w, step, &dome, &flattened, true),
+            keep_smooth_winners(w, step, &dome, flattened.clone(), true),
             (flattened.clone(), 0)
         );
         assert_eq!(
-            keep_smooth_winners(w, step, &dome[1..], &flattened, false),
+            keep_smooth_winners(w, step, &dome[1..], flattened.clone(), false),
             (flattened.clone(), 0)
         );
         // A non-finite winner next to a pixel makes that pixel's neighbour mean non-finite.
         let mut holed = dome.clone();
         holed[5 * w + 5] = f32::NAN;
-        let (out, _) = keep_smooth_winners(w, step, &holed, &flattened, false);
+        let (out, _) = keep_smooth_winners(w, step, &holed, flattened.clone(), false);
         assert_eq!(out[5 * w + 5], flattened[5 * w + 5]);
         assert_eq!(out[5 * w + 6], flattened[5 * w + 6]);
         assert_eq!(out[5 * w + 8], dome[5 * w + 8]);

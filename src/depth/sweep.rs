@@ -735,13 +735,11 @@ mod tests {
         );
     }
 
-    /// Cameras turned to a point 2.5 m away see it still in every view: the wide range is
-    /// centred there, and reaches an eighth of the image of motion on both sides of it (a
-    /// range anchored at infinity stopped at 1.6 m here and lost everything nearer).
-    #[test]
-    fn a_converging_rig_searches_around_the_point_it_looks_at() {
+    /// The sweep plan (the cross) of an `n` × `n` rig of cameras 0.1 m apart, each turned to
+    /// the point 2.5 m in front of the rig's centre, with 128² views.
+    fn converging_plan(n: usize) -> SweepPlan {
         let rig = crate::synth::SynthRig {
-            grid: GridSize { cols: 5, rows: 5 },
+            grid: GridSize { cols: n, rows: n },
             width: 128,
             height: 128,
             focal_px: 128.0,
@@ -749,13 +747,12 @@ mod tests {
             focus_distance: 2.5,
             kind: crate::synth::RigKind::Converging { distance: 2.5 },
         };
-        let views = blank_views(rig.cameras(), 5, (128, 128));
         let lf = LightField {
             name: "converging".into(),
             grid: rig.grid,
             width: 128,
             height: 128,
-            views,
+            views: blank_views(rig.cameras(), n, (128, 128)),
             depth: Vec::new(),
             rig: None,
             disparity_range: None,
@@ -763,7 +760,15 @@ mod tests {
                 scene: "converging".into(),
             },
         };
-        let plan = calibrated_plan(&lf, ViewSet::Cross(usize::MAX));
+        calibrated_plan(&lf, ViewSet::Cross(usize::MAX))
+    }
+
+    /// Cameras turned to a point 2.5 m away see it still in every view: the wide range is
+    /// centred there, and reaches an eighth of the image of motion on both sides of it (a
+    /// range anchored at infinity stopped at 1.6 m here and lost everything nearer).
+    #[test]
+    fn a_converging_rig_searches_around_the_point_it_looks_at() {
+        let plan = converging_plan(5);
         let (lo, hi) = wide_range(&plan);
         let still = 1.0 / 2.5;
         assert!(lo < still && still < hi, "{lo} … {hi}");
@@ -781,32 +786,7 @@ mod tests {
     /// depth and cut off the depth set's nearest card).
     #[test]
     fn a_larger_grid_searches_as_near_per_grid_step() {
-        let plan_of = |n: usize| {
-            let rig = crate::synth::SynthRig {
-                grid: GridSize { cols: n, rows: n },
-                width: 128,
-                height: 128,
-                focal_px: 128.0,
-                baseline: 0.1,
-                focus_distance: 2.5,
-                kind: crate::synth::RigKind::Converging { distance: 2.5 },
-            };
-            let lf = LightField {
-                name: "converging".into(),
-                grid: rig.grid,
-                width: 128,
-                height: 128,
-                views: blank_views(rig.cameras(), n, (128, 128)),
-                depth: Vec::new(),
-                rig: None,
-                disparity_range: None,
-                source: Source::Generated {
-                    scene: "converging".into(),
-                },
-            };
-            calibrated_plan(&lf, ViewSet::Cross(usize::MAX))
-        };
-        let (small, large) = (plan_of(5), plan_of(9));
+        let (small, large) = (converging_plan(5), converging_plan(9));
         assert_eq!((small.max_offset(), large.max_offset()), (2.0, 4.0));
         let (hi5, hi9) = (wide_range(&small).1, wide_range(&large).1);
         let still = 1.0 / 2.5;

@@ -121,7 +121,7 @@ pub fn estimate(
             plan.width as usize,
             plan.step(),
             &winner,
-            &arbitrated,
+            arbitrated,
             photometric::is_noisy(&out.best_cost),
         );
         log::info!(
