@@ -16,7 +16,7 @@ use tiltfield::geometry::plane::Plane;
 use tiltfield::jobs::raster::{render_light_field, Rasterizer};
 use tiltfield::jobs::refocus::{GpuImage, HeadlessRenderer, RenderSettings};
 use tiltfield::lightfield::{DepthKind, GridSize, LightField};
-use tiltfield::refocus::antialias::{plan_antialias, AntialiasPlan, AntialiasSettings};
+use tiltfield::refocus::antialias::{plan_antialias, AntialiasPlan, AntialiasSettings, Layered};
 use tiltfield::refocus::settings::{Filter, OutputFormat};
 use tiltfield::refocus::{self, cpu, Averaging, FocusSpec, RefocusPlan, RefocusRequest};
 use tiltfield::synth::{synth_scene, RigKind, SynthRig};
@@ -271,8 +271,9 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
 
     let front = Plane::new(DVec3::new(0.0, 0.0, zm), DVec3::new(0.0, 0.0, -1.0)).unwrap();
     let (p, a) = against_the_lens(&mut r, &mut h, &lf, front, "frontoparallel at 0 px");
-    // Measured on lavapipe: plain 29.8 / 27.8 / 59.1 dB, anti-aliased 42.8 / 41.2 / 59.1 dB
-    // (the issue asks 42 / 40 / 55; 42.7 / 41.0 before rim cells were centred on their
+    // Measured on lavapipe: plain 29.8 / 27.8 / 59.1 dB, anti-aliased with the default's
+    // layered footprints (a given depth) 43.5 / 42.2 / 59.1 dB; with the sub-samples 42.8 /
+    // 41.2 / 59.1 dB (the issue asks 42 / 40 / 55; 42.7 / 41.0 before rim cells were centred on their
     // part's centroid). With the occlusion decided per view (its plain sample's
     // ray alone, no visibility maps) it was 40.3 / 38.8: the focused panel's edges were
     // smeared into the wall's blur behind them (docs/conventions.md §11); with the half-pixel
@@ -341,6 +342,16 @@ fn antialiasing_matches_the_lens_where_the_plain_sum_draws_a_lattice() {
     assert_raster_clean(&r);
 }
 
+/// The default with sub-sampled footprints (boxed where they apply): what the default takes on
+/// an estimated depth, a focus surface or a scaled output, and on a given depth with
+/// `--antialias-layered off`.
+fn sub_samples() -> AntialiasSettings {
+    AntialiasSettings {
+        layered: Layered::Off,
+        ..AntialiasSettings::default()
+    }
+}
+
 /// Holds the GPU's anti-aliased sum to the f64 model (`cpu::render_antialiased`) with the
 /// shader's exact bilinear filter, leaving out the pixels where f32 may round a sub-sample count
 /// or a mask the other way.
@@ -383,7 +394,7 @@ fn gpu_antialiasing_matches_the_f64_model() {
     // Off the layers' depths, so footprint lengths are not whole pixels (where f32 and f64
     // may round a sub-sample count differently).
     let front = Plane::new(DVec3::new(0.0, 0.0, 2.1), DVec3::new(0.0, 0.0, -1.0)).unwrap();
-    let settings = AntialiasSettings::default();
+    let settings = sub_samples();
     let (_, aa) = plain_and_aa(&lf, front, None, settings);
     gpu_matches_model(&lf, &aa, "grid centre");
     // Focused a hair behind the 0-px panel (its views shift by at most 0.01 px and agree): the
@@ -557,7 +568,7 @@ fn defocused_views_match_the_f64_model() {
 fn models_differ(lf: &LightField, plane: Plane, settings: AntialiasSettings) -> usize {
     let every = AntialiasSettings {
         boxed: false,
-        ..AntialiasSettings::default()
+        ..sub_samples()
     };
     let (_, sub) = plain_and_aa(lf, plane, None, every);
     let (_, other) = plain_and_aa(lf, plane, None, settings);
@@ -580,8 +591,11 @@ fn models_differ(lf: &LightField, plane: Plane, settings: AntialiasSettings) -> 
 fn boxed_footprints_match_the_f64_model() {
     let mut r = rasterizer();
     let size = 96;
-    let settings = AntialiasSettings::default();
-    assert!(settings.boxed, "boxed footprints are the default");
+    let settings = sub_samples();
+    assert!(
+        settings.boxed,
+        "boxed footprints are the sub-samples' default"
+    );
     let lf = render_light_field(&mut r, &layers_rig(size, RigKind::Parallel), 2, false)
         .unwrap()
         .light_field;
@@ -634,7 +648,7 @@ fn layered_footprints_match_the_f64_model() {
     let mut r = rasterizer();
     let size = 64;
     let settings = AntialiasSettings {
-        layered: true,
+        layered: tiltfield::refocus::antialias::Layered::On,
         ..AntialiasSettings::default()
     };
     let lf = render_light_field(&mut r, &layers_rig(size, RigKind::Parallel), 2, false)
@@ -731,7 +745,7 @@ fn occlusion_edges_keep_the_focused_background() {
     let mut h = renderer(&lf);
     let [zb, _, _, _] = tiltfield::synth::scenes::LAYER_DEPTHS;
     let back = Plane::new(DVec3::new(0.0, 0.0, zb), DVec3::new(0.0, 0.0, -1.0)).unwrap();
-    let (plan, aa) = plain_and_aa(&lf, back, None, AntialiasSettings::default());
+    let (plan, aa) = plain_and_aa(&lf, back, None, sub_samples());
     let radius = RADIUS * lf.rig.unwrap().baseline;
     let (gt, _) = r
         .optical_ground_truth(
@@ -758,10 +772,15 @@ fn occlusion_edges_keep_the_focused_background() {
     // focused wall's sub-samples stay on the wall where an occluder's blur should cover it.
     let open = AntialiasSettings {
         occlusion: false,
-        ..AntialiasSettings::default()
+        ..sub_samples()
     };
     let (_, open) = plain_and_aa(&lf, back, None, open);
     let open = encoded(&float(h.render_antialiased(&open, &settings).unwrap().0));
+    // The default on this given depth: layered footprints, whose compositing keeps the
+    // focused wall's own colour wherever the lens sees past the occluder's blur.
+    let (_, layered) = plain_and_aa(&lf, back, None, AntialiasSettings::default());
+    assert_eq!(layered.settings.layered, Layered::On);
+    let layered = encoded(&float(h.render_antialiased(&layered, &settings).unwrap().0));
     let res = residual_px(&lf, &plan);
     // Focused wall pixels within 6 px of a nearer layer (an occlusion edge), and the rest.
     let focused = mask_where(&res, SIZE, 4, 0, |d| d.abs() <= 0.5);
@@ -774,6 +793,9 @@ fn occlusion_edges_keep_the_focused_background() {
     );
     let ge = psnr_rgb(&guarded, &truth, &edge);
     let oe = psnr_rgb(&open, &truth, &edge);
+    let le = psnr_rgb(&layered, &truth, &edge);
+    eprintln!("at the occlusion edges, layered footprints (the default here) {le:.1} dB");
+    assert!(le >= pe + 10.0, "layered {le} vs plain {pe}");
     let (po, ao) = (
         psnr_rgb(&plain, &truth, &out),
         psnr_rgb(&anti, &truth, &out),
@@ -991,8 +1013,17 @@ fn render_reports_antialiasing_and_its_depth() {
         "eight.png",
     );
     assert_eq!(eight["antialias"]["max_samples"], 8);
-    assert_eq!(on["antialias"]["occlusion"], true, "{on}");
-    let (open, _) = run(&["--antialias-occlusion", "off"], "open.png");
+    // The shipped depth takes layered footprints, which test no sample for occlusion; the
+    // sub-samples do unless told not to.
+    assert_eq!(on["antialias"]["layered"], true, "{on}");
+    assert_eq!(on["antialias"]["occlusion"], false, "{on}");
+    let (sub, _) = run(&["--antialias-layered", "off"], "sub.png");
+    assert_eq!(sub["antialias"]["layered"], false, "{sub}");
+    assert_eq!(sub["antialias"]["occlusion"], true, "{sub}");
+    let (open, _) = run(
+        &["--antialias-layered", "off", "--antialias-occlusion", "off"],
+        "open.png",
+    );
     assert_eq!(open["antialias"]["occlusion"], false, "{open}");
     fails_with(
         &[

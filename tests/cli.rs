@@ -415,6 +415,53 @@ fn bad_light_fields_fail_naming_the_file() {
     assert!(tiltfield(&["info", d]).status.success());
 }
 
+/// By default (`--antialias-layered auto`) a light field that ships its depth is anti-aliased
+/// with layered footprints on one plane at the views' size; a focus surface and a scaled output
+/// take boxed footprints and sub-samples instead (and render), and so does `off`.
+#[test]
+fn the_default_takes_layered_footprints_where_the_depth_is_shipped() {
+    let tmp = tempfile::tempdir().unwrap();
+    let report = |extra: &[&str]| -> serde_json::Value {
+        let png = tmp.path().join("x.png");
+        let mut args = vec![
+            "render",
+            "builtin:planes",
+            "-o",
+            png.to_str().unwrap(),
+            "--json",
+        ];
+        args.extend_from_slice(extra);
+        let o = tiltfield(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        let r: serde_json::Value = serde_json::from_slice(&o.stdout).expect("JSON on stdout");
+        assert_eq!(r["antialias"]["used"], true, "{extra:?}: {r}");
+        r
+    };
+    let plane = report(&["--disparity", "-0.667"]);
+    assert_eq!(plane["antialias"]["layered"], true, "{plane}");
+    let routes = [
+        vec!["--all-in-focus"],
+        vec!["--disparity", "-0.667", "--size", "40x40"],
+        vec!["--disparity", "-0.667", "--antialias-layered", "off"],
+    ];
+    for extra in routes {
+        let r = report(&extra);
+        assert_eq!(r["antialias"]["layered"], false, "{extra:?}: {r}");
+        assert_eq!(r["antialias"]["occlusion"], true, "{extra:?}: {r}");
+    }
+    fails_with(
+        &[
+            "render",
+            "builtin:planes",
+            "--disparity",
+            "0",
+            "--antialias-layered",
+            "maybe",
+        ],
+        &["--antialias-layered", "auto"],
+    );
+}
+
 /// `--antialias-layered on` renders a shipped-depth light field with layered footprints and
 /// reports it; asked together with defocused views it is refused, naming both switches; a
 /// focus surface, naming the switch to turn off; an output of another size, naming the views'.

@@ -29,6 +29,12 @@ def main() -> None:
     ap.add_argument("--range", type=float, nargs=2, default=(-1.5, 1.5), metavar=("MIN", "MAX"))
     ap.add_argument("--cli", help="a tiltfield binary: compare the first and last images with it")
     ap.add_argument("--antialias", choices=["on", "off"], default="off")
+    ap.add_argument(
+        "--antialias-layered",
+        choices=["auto", "on", "off"],
+        default="auto",
+        help="layered footprints (auto: where the light field ships its depth; off: sub-samples)",
+    )
     a = ap.parse_args()
     aa = a.antialias == "on"
 
@@ -40,7 +46,7 @@ def main() -> None:
     walls, gpus, stack = [], [], []
     for d in np.linspace(*a.range, a.planes):
         t = time.perf_counter()
-        stack.append(lf.refocus(disparity=float(d), antialias=aa))
+        stack.append(lf.refocus(disparity=float(d), antialias=aa, antialias_layered=a.antialias_layered))
         walls.append(time.perf_counter() - t)
         gpus.append(lf.last_gpu_ms / 1e3)
     over = [w - g for w, g in zip(walls, gpus)]
@@ -101,7 +107,8 @@ def main() -> None:
                 out = Path(tmp) / "cli.png"
                 t = time.perf_counter()
                 subprocess.run(
-                    [a.cli, "render", a.source, "-o", str(out), f"--disparity={d}", "--antialias", a.antialias],
+                    [a.cli, "render", a.source, "-o", str(out), f"--disparity={d}", "--antialias", a.antialias,
+                     "--antialias-layered", a.antialias_layered],
                     check=True,
                     capture_output=True,
                 )

@@ -46,7 +46,7 @@ use tiltfield::jobs::render::{self, ReadOptions, RenderOptions, Session};
 use tiltfield::jobs::strategy::{StrategyChoice, StrategySource};
 use tiltfield::lightfield::images::LoadLimits;
 use tiltfield::lightfield::{self, GridSize};
-use tiltfield::refocus::antialias::AntialiasSettings;
+use tiltfield::refocus::antialias::{AntialiasSettings, Layered};
 use tiltfield::refocus::options::{plane_of, FocusOptions};
 use tiltfield::refocus::settings::OutputFormat;
 
@@ -315,14 +315,34 @@ fn u32_arg(value: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<u32>
 /// An on/off keyword: `True`/`False` (numpy's too), or the CLI's `"on"`/`"off"`; `None`
 /// passes through. Any other string is a `ValueError`, any other type a `TypeError`, both
 /// naming the keyword and what it takes.
+/// `antialias_layered`: "auto" (the library decides: layered footprints on one plane at the
+/// views' size with the light field's own depth) or a [`switch`]'s on and off.
+fn layered_arg(value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Layered>> {
+    let auto = value.is_some_and(|v| v.extract::<String>().is_ok_and(|t| t == "auto"));
+    if auto {
+        return Ok(Some(Layered::Auto));
+    }
+    let allowed = "\"auto\", True, False, \"on\" or \"off\"";
+    let on = switch_among(value, "antialias_layered", allowed)?;
+    Ok(on.map(|on| if on { Layered::On } else { Layered::Off }))
+}
+
 fn switch(value: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<bool>> {
+    switch_among(value, name, "True, False, \"on\" or \"off\"")
+}
+
+/// [`switch`], whose errors list `allowed` as the words it takes.
+fn switch_among(
+    value: Option<&Bound<'_, PyAny>>,
+    name: &str,
+    allowed: &str,
+) -> PyResult<Option<bool>> {
     let Some(value) = value else {
         return Ok(None);
     };
     if let Ok(on) = value.extract::<bool>() {
         return Ok(Some(on));
     }
-    let allowed = "True, False, \"on\" or \"off\"";
     match value.extract::<String>() {
         Ok(text) if text == "on" => Ok(Some(true)),
         Ok(text) if text == "off" => Ok(Some(false)),
@@ -580,7 +600,7 @@ fn render_options(
                 .unwrap_or(aa.focused_bicubic),
             occlusion: switch(antialias_occlusion, "antialias_occlusion")?.unwrap_or(aa.occlusion),
             defocus: switch(antialias_defocus, "antialias_defocus")?.unwrap_or(aa.defocus),
-            layered: switch(antialias_layered, "antialias_layered")?.unwrap_or(aa.layered),
+            layered: layered_arg(antialias_layered)?.unwrap_or(aa.layered),
             boxed: switch(antialias_box, "antialias_box")?.unwrap_or(aa.boxed),
         },
         strategy: choice::<StrategyChoice>(strategy)?.and_then(|c| c.0),
@@ -883,9 +903,10 @@ impl LightField {
     /// follow their own rays and are tested against what their view sees; default True),
     /// ``antialias_defocus`` (True/False: defocus each view once with a summed-area table and
     /// read it once per view, constant cost whatever the blur, no occlusion tests; default
-    /// False), ``antialias_layered`` (True/False: bin each view's sample by the depth its view
-    /// sees into layers, box-filter each layer once and composite them front to back; default
-    /// False), ``antialias_box`` (True/False: away from occlusion edges an out-of-focus pixel
+    /// False), ``antialias_layered`` ("auto", True/False: bin each view's sample by the depth its
+    /// view sees into layers, box-filter each layer once and composite them front to back;
+    /// default "auto": on one focus plane at the views' size with the light field's own depth,
+    /// else off), ``antialias_box`` (True/False: away from occlusion edges an out-of-focus pixel
     /// is the box of its views' plain sums over its footprint, from summed-area tables; default
     /// True; False sub-samples every pixel), ``strategy`` ("auto", the default: the device's fastest, measured once and cached;
     /// "fragment", "batched:N", "compute"),

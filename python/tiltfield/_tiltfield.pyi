@@ -14,6 +14,7 @@ _Numbers = Union[_Number, Sequence[_Number], npt.NDArray[np.floating[Any]]]
 # n numbers given as any sequence (a tuple, list or 1-D array).
 _Vector = Union[Sequence[_Number], npt.NDArray[np.floating[Any]], npt.NDArray[np.integer[Any]]]
 _Switch = Union[bool, np.bool_, Literal["on", "off"]]
+_AutoSwitch = Union[_Switch, Literal["auto"]]
 _Aperture = Literal["disk", "square", "gaussian"]
 _Average = Literal["linear", "encoded"]
 _NormalMethod = Literal["inverse-depth", "pca"]
@@ -89,7 +90,7 @@ class LightField:
         antialias_focused_bicubic: Optional[_Switch] = None,
         antialias_occlusion: Optional[_Switch] = None,
         antialias_defocus: Optional[_Switch] = None,
-        antialias_layered: Optional[_Switch] = None,
+        antialias_layered: Optional[_AutoSwitch] = None,
         antialias_box: Optional[_Switch] = None,
         strategy: Optional[_Strategy] = None,
         views_per_draw: Optional[int] = None,
@@ -131,7 +132,7 @@ class LightField:
         antialias_focused_bicubic: Optional[_Switch] = None,
         antialias_occlusion: Optional[_Switch] = None,
         antialias_defocus: Optional[_Switch] = None,
-        antialias_layered: Optional[_Switch] = None,
+        antialias_layered: Optional[_AutoSwitch] = None,
         antialias_box: Optional[_Switch] = None,
         strategy: Optional[_Strategy] = None,
         views_per_draw: Optional[int] = None,

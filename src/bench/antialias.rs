@@ -18,7 +18,7 @@ use crate::error::{Error, Result};
 use crate::gpu::GpuContext;
 use crate::jobs::refocus::{GpuImage, HeadlessRenderer, PassTimings, RenderSettings};
 use crate::lightfield::LightField;
-use crate::refocus::antialias::{plan_for, AntialiasPlan, AntialiasSettings};
+use crate::refocus::antialias::{plan_for, AntialiasPlan, AntialiasSettings, Layered};
 use crate::refocus::settings::OutputFormat;
 use crate::refocus::{RefocusImage, RefocusPlan};
 
@@ -59,7 +59,7 @@ pub const VARIANTS: [AntialiasSettings; 14] = [
         ..aa(4, true)
     },
     AntialiasSettings {
-        layered: true,
+        layered: Layered::On,
         ..aa(4, true)
     },
     AntialiasSettings {
@@ -76,7 +76,7 @@ const fn aa(max_samples: u32, prefilter: bool) -> AntialiasSettings {
         focused_bicubic: true,
         occlusion: true,
         defocus: false,
-        layered: false,
+        layered: Layered::Off,
         boxed: false,
     }
 }
@@ -125,7 +125,7 @@ fn variant_name(s: &AntialiasSettings) -> String {
 fn route(s: &AntialiasSettings) -> Option<&'static str> {
     if s.boxed {
         Some("boxed")
-    } else if s.layered {
+    } else if s.layered == Layered::On {
         Some("layered")
     } else if s.defocus {
         Some("defocus")

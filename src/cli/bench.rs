@@ -301,7 +301,7 @@ pub struct AntialiasSetArgs {
     #[arg(long)]
     pub no_estimate: bool,
     /// Also score the f64 model of layered anti-aliasing (boxed layers composited front to
-    /// back; docs/antialias.md), beside the default's sub-samples.
+    /// back; docs/antialias.md) on the given and the estimated depth, beside what the set runs.
     #[arg(long)]
     pub layered_model: bool,
     /// How every image samples the views (as for `render`): hardware (bilinear), shader,

@@ -212,15 +212,17 @@ pub struct AntialiasSamplingArgs {
     /// Anti-aliasing: defocus each view once, box-filtering it over its footprints with a
     /// summed-area table, and read it once per view (constant cost whatever the blur; the
     /// occlusion tests do not run, each aperture cell takes the depth its view sees): on, or
-    /// off (default: sub-samples of every footprint at every pixel).
+    /// off (default: layered footprints where they apply, else sub-samples).
     #[arg(long, value_name = "on|off", default_value = "off")]
     pub antialias_defocus: Switch,
     /// Anti-aliasing: layered footprints: each view's sample binned by the depth its view sees
     /// into layers, each layer box-filtered once by its footprint, the layers composited front
-    /// to back (constant cost whatever the blur, occlusion without a test per sample): on, or
-    /// off (default: sub-samples).
-    #[arg(long, value_name = "on|off", default_value = "off")]
-    pub antialias_layered: Switch,
+    /// to back (constant cost whatever the blur, occlusion without a test per sample). auto
+    /// (default): on one focus plane at the views' size with a depth shipped with the light
+    /// field, else boxed footprints and sub-samples; on: always (a focus surface or another
+    /// output size is refused); off: never.
+    #[arg(long, value_name = "auto|on|off", default_value = "auto")]
+    pub antialias_layered: AutoSwitch,
     /// Anti-aliasing: boxed footprints: away from occlusion edges a pixel out of focus is the
     /// box of its views' plain sums over its footprint (summed-area tables: constant cost
     /// whatever the blur); next to a nearer surface and in focus the sub-samples run as
@@ -244,6 +246,7 @@ impl AntialiasArgs {
 impl AntialiasSamplingArgs {
     /// The sampling settings (validated).
     pub fn settings(&self) -> Result<crate::refocus::antialias::AntialiasSettings> {
+        use crate::refocus::antialias::Layered;
         let s = crate::refocus::antialias::AntialiasSettings {
             max_samples: self.antialias_samples,
             prefilter: self.antialias_prefilter == Switch::On,
@@ -251,7 +254,11 @@ impl AntialiasSamplingArgs {
             focused_bicubic: self.antialias_focused_bicubic == Switch::On,
             occlusion: self.antialias_occlusion == Switch::On,
             defocus: self.antialias_defocus == Switch::On,
-            layered: self.antialias_layered == Switch::On,
+            layered: match self.antialias_layered {
+                AutoSwitch::Auto => Layered::Auto,
+                AutoSwitch::On => Layered::On,
+                AutoSwitch::Off => Layered::Off,
+            },
             boxed: self.antialias_box == Switch::On,
         };
         s.validate()?;
@@ -262,6 +269,14 @@ impl AntialiasSamplingArgs {
 /// `on` or `off`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Switch {
+    On,
+    Off,
+}
+
+/// `auto`, `on` or `off`: a switch whose default the library decides case by case.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum AutoSwitch {
+    Auto,
     On,
     Off,
 }

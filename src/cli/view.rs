@@ -190,8 +190,11 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 "used": state.antialias() && depth_origin.is_some(),
                 "max_samples": antialias.max_samples,
                 "defocus": antialias.defocus,
+                // The setting as asked ("auto": layered where the depth was handed over).
                 "layered": antialias.layered,
-                "boxed": antialias.boxed && !antialias.defocus && !antialias.layered,
+                "boxed": antialias.boxed
+                    && !antialias.defocus
+                    && antialias.layered != crate::refocus::antialias::Layered::On,
                 "depth_origin": depth_origin.map(crate::depth::DepthOrigin::json),
             },
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},

@@ -434,14 +434,28 @@ fn antialias_plan_excluding(
     plan: &RefocusPlan,
     excluded: &[bool],
 ) -> Result<Option<AntialiasPlan>> {
-    let made = refocus::antialias::plan_for(
-        lf,
-        plan,
-        options.aperture,
-        excluded,
-        options.antialias_settings()?,
-    );
+    let views_size = (lf.width, lf.height);
+    let one_plane = !options.surface()?.needs_depth();
+    let at_views_size = options.size.map_or(true, |s| s == views_size);
+    let settings = options
+        .antialias_settings()?
+        .for_output(one_plane && at_views_size);
+    let made = refocus::antialias::plan_for(lf, plan, options.aperture, excluded, settings);
     match made {
+        // Asked for layered footprints (`--antialias-layered on`) where they cannot integrate.
+        Ok(aa) if aa.settings.layered.on() && !one_plane => Err(Error::Invalid(
+            "layered anti-aliasing focuses on one plane; a focus surface needs \
+             --antialias-layered off or auto"
+                .into(),
+        )),
+        Ok(aa) if aa.settings.layered.on() && !at_views_size => {
+            let (w, h) = options.size.unwrap_or(views_size);
+            Err(Error::Invalid(format!(
+                "layered anti-aliasing renders at the views' size ({}×{}), not {w}×{h}: use \
+                 --antialias-layered off or auto",
+                views_size.0, views_size.1
+            )))
+        }
         Ok(aa) => Ok(Some(aa)),
         Err(e) if options.antialias.is_none() => {
             log::warn!("rendering without anti-aliasing: {e}");

@@ -86,9 +86,10 @@ pub struct AntialiasSettings {
     /// Layered footprints ([`super::layered`]): each view's plain sample binned by the depth
     /// its view sees into layers by residual, each layer box-filtered once by its footprint
     /// (constant cost whatever the blur), the layers composited front to back (occlusion
-    /// without a test per sample). `max_samples`, `prefilter` and `occlusion` then do not
-    /// apply; the focus test and Catmull-Rom in focus do. Off: sub-samples.
-    pub layered: bool,
+    /// without a test per sample). Where they are used, `max_samples`, `prefilter` and
+    /// `occlusion` do not apply; the focus test and Catmull-Rom in focus do. A plan holds
+    /// [`Layered::On`] or [`Layered::Off`] only: planning decides [`Layered::Auto`].
+    pub layered: Layered,
     /// Boxed footprints ([`super::boxed`]; with neither `defocus` nor `layered`, at the views'
     /// size): a pixel away from occlusion edges whose own surface is out of focus is the box of
     /// the plain sums of its views by cell shape over its footprint (summed-area tables:
@@ -106,9 +107,35 @@ impl Default for AntialiasSettings {
             focused_bicubic: true,
             occlusion: true,
             defocus: false,
-            layered: false,
+            layered: Layered::Auto,
             boxed: true,
         }
+    }
+}
+
+/// When anti-aliasing takes layered footprints ([`AntialiasSettings::layered`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Layered {
+    /// Never: boxed footprints and sub-samples.
+    Off,
+    /// The default: where they are exact and cheapest, which is one focus plane at the views'
+    /// size with a depth handed over with the light field (not an estimate: its silhouettes
+    /// are not where the map puts them, and the views' maps would carry its errors into the
+    /// focused pixels), without defocused views, within the layer and depth-map budgets.
+    /// Elsewhere [`Layered::Off`]. On `antialias-set` at 128 px they score what the
+    /// sub-samples score (39.5 / 40.8 / 44.1 dB against 39.4 / 40.7 / 44.1) at about 0.6×
+    /// their time, on a 9×9 light field about 0.27× (docs/antialias.md).
+    Auto,
+    /// Always; what they cannot do (a focus surface, an output of another size, an estimate's
+    /// budget) is refused, naming the cause.
+    On,
+}
+
+impl Layered {
+    /// Whether a plan's setting takes layered footprints (planning made `Auto` `On` or `Off`).
+    pub fn on(self) -> bool {
+        self == Layered::On
     }
 }
 
@@ -132,9 +159,23 @@ impl AntialiasSettings {
         focused_bicubic: false,
         occlusion: false,
         defocus: false,
-        layered: false,
+        layered: Layered::Off,
         boxed: false,
     };
+
+    /// The settings for an output that is (`one_plane_at_views_size`) or is not one focus
+    /// plane at the views' size: layered footprints integrate at the views' pixels and on a
+    /// plane's residuals, so [`Layered::Auto`] is [`Layered::Off`] for a focus surface or a
+    /// scaled output (boxed footprints and sub-samples take it); what was asked stays.
+    pub fn for_output(self, one_plane_at_views_size: bool) -> Self {
+        match self.layered {
+            Layered::Auto if !one_plane_at_views_size => AntialiasSettings {
+                layered: Layered::Off,
+                ..self
+            },
+            _ => self,
+        }
+    }
 
     /// Checks the settings of a request (the sample cap; the switches take any value).
     pub fn validate(&self) -> Result<()> {
@@ -144,7 +185,7 @@ impl AntialiasSettings {
                 self.max_samples
             )));
         }
-        if self.layered && self.defocus {
+        if self.layered == Layered::On && self.defocus {
             return Err(Error::Invalid(
                 "--antialias-layered and --antialias-defocus are two ways to integrate the \
                  footprints: turn one of them off"
@@ -831,12 +872,6 @@ pub fn plan_antialias_reusing(
         });
         footprints.push(fp);
     }
-    let mut scene = scene;
-    // Without the occlusion tests the front stays the pixel's own σ: nothing is nearer, and
-    // the shader's and the model's tests never run.
-    if settings.occlusion && !settings.defocus && !settings.layered {
-        search_fronts(&mut scene, &footprints);
-    }
     if views.len() > MAX_VIEWS {
         return Err(Error::Invalid(format!(
             "anti-aliasing handles at most {MAX_VIEWS} views in the aperture, this one has {}; \
@@ -845,50 +880,84 @@ pub fn plan_antialias_reusing(
         )));
     }
     let map_bytes = views.len() * scene.inverse_depth.len() * 4;
-    if (settings.defocus || settings.layered) && map_bytes > MAX_VISIBILITY_BYTES {
-        return Err(Error::Invalid(format!(
-            "defocused views need every view's depth map: {} MiB for {} views, over the {} MiB \
-             budget; use a smaller --aperture-radius or --antialias-defocus off",
-            map_bytes >> 20,
-            views.len(),
-            MAX_VISIBILITY_BYTES >> 20
-        )));
-    }
-    let visibility = match previous {
-        Some(p)
-            if (p.settings.defocus || p.settings.layered)
-                == (settings.defocus || settings.layered)
-                && p.depth.inverse_depth == scene.inverse_depth
-                && p.plan.views.len() == views.len()
-                && p.plan
-                    .views
-                    .iter()
-                    .zip(&views)
-                    .all(|(a, b)| a.index == b.index && a.warp == b.warp) =>
-        {
-            p.visibility.clone()
-        }
-        _ if settings.defocus || settings.layered => {
-            Some(std::sync::Arc::new(ViewVisibility::filled(&scene, &views)))
-        }
-        _ => (settings.occlusion && map_bytes <= MAX_VISIBILITY_BYTES)
-            .then(|| std::sync::Arc::new(ViewVisibility::new(&scene, &views))),
-    };
-    Ok(AntialiasPlan {
+    let mut aa = AntialiasPlan {
         plan: RefocusPlan {
             views,
             ..base.clone()
         },
         footprints,
         depth: scene,
-        visibility,
+        visibility: None,
         guard_px: if depth.estimated {
             ESTIMATED_DEPTH_GUARD_PX
         } else {
             0.0
         },
         settings,
-    })
+    };
+    aa.settings.layered = layered_route(&aa, depth.estimated, map_bytes);
+    let settings = aa.settings;
+    let per_view_maps = settings.defocus || settings.layered.on();
+    if per_view_maps && map_bytes > MAX_VISIBILITY_BYTES {
+        let (route, switch) = match settings.defocus {
+            true => ("defocused views", "--antialias-defocus"),
+            false => ("layered footprints", "--antialias-layered"),
+        };
+        return Err(Error::Invalid(format!(
+            "{route} need every view's depth map: {} MiB for {} views, over the {} MiB \
+             budget; use a smaller --aperture-radius or {switch} off",
+            map_bytes >> 20,
+            aa.plan.views.len(),
+            MAX_VISIBILITY_BYTES >> 20
+        )));
+    }
+    // Without the occlusion tests the front stays the pixel's own σ: nothing is nearer, and
+    // the shader's and the model's tests never run.
+    if settings.occlusion && !per_view_maps {
+        search_fronts(&mut aa.depth, &aa.footprints);
+    }
+    let (scene, views) = (&aa.depth, &aa.plan.views);
+    aa.visibility = match previous {
+        Some(p)
+            if (p.settings.defocus || p.settings.layered.on()) == per_view_maps
+                && p.depth.inverse_depth == scene.inverse_depth
+                && p.plan.views.len() == views.len()
+                && p.plan
+                    .views
+                    .iter()
+                    .zip(views)
+                    .all(|(a, b)| a.index == b.index && a.warp == b.warp) =>
+        {
+            p.visibility.clone()
+        }
+        _ if per_view_maps => Some(std::sync::Arc::new(ViewVisibility::filled(scene, views))),
+        _ => (settings.occlusion && map_bytes <= MAX_VISIBILITY_BYTES)
+            .then(|| std::sync::Arc::new(ViewVisibility::new(scene, views))),
+    };
+    Ok(aa)
+}
+
+/// What `aa.settings.layered` comes to once planned ([`Layered`]): [`Layered::Auto`] takes
+/// layered footprints on a depth handed over with the light field (`estimated` false), without
+/// defocused views, where every view's depth map fits the budget (`map_bytes`) and the pass
+/// holds the layers the plane's focus range reaches; else [`Layered::Off`]. (One plane at the
+/// views' size is the caller's to know: [`AntialiasSettings::for_output`].)
+fn layered_route(aa: &AntialiasPlan, estimated: bool, map_bytes: usize) -> Layered {
+    match aa.settings.layered {
+        Layered::Auto => {
+            let size = (aa.depth.width, aa.depth.height);
+            let fits = !estimated
+                && !aa.settings.defocus
+                && map_bytes <= MAX_VISIBILITY_BYTES
+                && super::layered::LayerPlan::new(aa, size).check().is_ok();
+            if fits {
+                Layered::On
+            } else {
+                Layered::Off
+            }
+        }
+        asked => asked,
+    }
 }
 
 /// Each view's aperture cell: `(view index, weight, [u0, u1, v0, v1])`, the part of its cell
@@ -1016,10 +1085,10 @@ pub fn antialias_json(
             "prefilter": aa.settings.prefilter,
             "focus_test": aa.settings.focus_test,
             "focused_bicubic": aa.settings.focused_bicubic,
-            "occlusion": aa.settings.occlusion && !aa.settings.defocus && !aa.settings.layered,
+            "occlusion": aa.settings.occlusion && !aa.settings.defocus && !aa.settings.layered.on(),
             "defocus": aa.settings.defocus,
-            "layered": aa.settings.layered,
-            "boxed": aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered,
+            "layered": aa.settings.layered.on(),
+            "boxed": aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered.on(),
             "views_by_cell": aa.plan.views.len(),
             "depth_source": aa.depth.source,
             "depth_origin": depth_origin,
@@ -1037,7 +1106,7 @@ mod tests {
     #[test]
     fn layered_and_defocused_footprints_are_not_asked_for_together() {
         let both = AntialiasSettings {
-            layered: true,
+            layered: Layered::On,
             defocus: true,
             ..AntialiasSettings::default()
         };
@@ -1047,7 +1116,7 @@ mod tests {
             "{err}"
         );
         let layered = AntialiasSettings {
-            layered: true,
+            layered: Layered::On,
             ..AntialiasSettings::default()
         };
         assert!(layered.validate().is_ok());
@@ -1461,6 +1530,53 @@ mod tests {
         let aa = aa_plan(&lf, Aperture::default(), None);
         assert_eq!(aa.guard_px, ESTIMATED_DEPTH_GUARD_PX);
         assert!(aa.depth.unknown == 0 && aa.visibility.is_some());
+    }
+
+    /// `Layered::Auto` takes layered footprints on a given depth and nowhere else: not on an
+    /// estimate (which keeps the sub-samples' fronts and maps), not with defocused views, not
+    /// for a focus surface or a scaled output (`for_output`); an explicit setting stays.
+    #[test]
+    fn automatic_layers_take_a_given_depth_on_one_plane_at_the_views_size() {
+        let plan_with = |lf: &LightField, settings: AntialiasSettings| {
+            let req = super::super::RefocusRequest {
+                focus: super::super::FocusSpec::Disparity(0.0),
+                aperture: Aperture::default(),
+                reference: None,
+            };
+            let base = super::super::plan(lf, &req, &[]).unwrap();
+            plan_for(lf, &base, Aperture::default(), &[], settings).unwrap()
+        };
+        let auto = AntialiasSettings::default();
+        assert_eq!(auto.layered, Layered::Auto);
+        let mut lf = grid();
+        let given = plan_with(&lf, auto);
+        assert_eq!(given.settings.layered, Layered::On);
+        // Every view's own map, and no sub-sample fronts (nothing is searched).
+        let maps = given.visibility.as_ref().expect("the views' maps");
+        assert_eq!(maps.sigma.len(), given.plan.views.len() * 16 * 12);
+        let off = AntialiasSettings {
+            layered: Layered::Off,
+            ..auto
+        };
+        assert_eq!(plan_with(&lf, off).settings.layered, Layered::Off);
+        let defocus = AntialiasSettings {
+            defocus: true,
+            ..auto
+        };
+        assert_eq!(plan_with(&lf, defocus).settings.layered, Layered::Off);
+        // A surface or a scaled output: boxed footprints and sub-samples, unless asked for.
+        assert_eq!(auto.for_output(false).layered, Layered::Off);
+        assert_eq!(auto.for_output(true).layered, Layered::Auto);
+        let on = AntialiasSettings {
+            layered: Layered::On,
+            ..auto
+        };
+        assert_eq!(on.for_output(false).layered, Layered::On);
+        assert_eq!(off.for_output(true).layered, Layered::Off);
+        lf.depth[0].1.estimated = true;
+        let estimated = plan_with(&lf, auto);
+        assert_eq!(estimated.settings.layered, Layered::Off);
+        assert_eq!(plan_with(&lf, on).settings.layered, Layered::On);
     }
 
     #[test]

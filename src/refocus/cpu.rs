@@ -197,7 +197,7 @@ pub fn render_antialiased(
     w: u32,
     h: u32,
 ) -> RefocusImage {
-    if aa.settings.layered && (w, h) == (lf.width, lf.height) {
+    if aa.settings.layered.on() && (w, h) == (lf.width, lf.height) {
         return super::layered::render_layered(lf, aa, averaging);
     }
     let m = aa.plan.m;

@@ -1,7 +1,9 @@
 //! Layered anti-aliasing: an anti-aliased refocus whose cost does not grow with the footprints
 //! and that needs no per-sample occlusion test (docs/antialias.md, "Layered footprints"), and
-//! its f64 model. The GPU pass is `passes::refocus`'s layered stage (`--antialias-layered
-//! on`); `antialias-set --layered-model` scores this model beside whatever the set runs.
+//! its f64 model. The GPU pass is `passes::refocus`'s layered stage: the default on one focus
+//! plane at the views' size with a depth handed over with the light field
+//! ([`Layered::Auto`](super::antialias::Layered::Auto)), and wherever `--antialias-layered on`;
+//! `antialias-set --layered-model` scores this model beside whatever the set runs.
 //!
 //! **Why a box of the plain sum is the footprint integral.** For a parallel rig the footprint
 //! that view i's aperture cell sweeps at output pixel x is the cell's rectangle `R_i` (grid
@@ -36,7 +38,7 @@
 //! sees past the nearer ones, so a focused background behind an out-of-focus occluder keeps
 //! its own sharp colour under the occluder's blur, with no test per sample.
 //!
-//! **What stays as in the default.** The focus test (a pixel whose views agree at the focus
+//! **What stays as in the sub-samples.** The focus test (a pixel whose views agree at the focus
 //! surface is their plain sum), Catmull-Rom for samples whose footprint is under half a pixel
 //! in a pixel whose own surface is in focus ([`AntialiasPlan::focused_reach`]),
 //! the cells' area weights, and on an estimated depth the guard: a pixel whose own surface is
@@ -284,7 +286,7 @@ pub fn render_layered(lf: &LightField, aa: &AntialiasPlan, averaging: Averaging)
     // The plan's own maps are the filled ones when it is layered; any other plan (scored
     // beside the sub-samples) gets them here.
     let vis = match &aa.visibility {
-        Some(v) if aa.settings.layered => std::sync::Arc::clone(v),
+        Some(v) if aa.settings.layered.on() => std::sync::Arc::clone(v),
         _ => std::sync::Arc::new(ViewVisibility::filled(&aa.depth, &aa.plan.views)),
     };
     let guard = aa.guard_px;

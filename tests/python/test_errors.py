@@ -123,6 +123,12 @@ PYTHON_CHECKED = {
         ValueError,
         'antialias must be True, False, "on" or "off", got \'yes\'',
     ),
+    "antialias-layered-word": (
+        ["--disparity", "0.5", "--antialias-layered", "maybe"],
+        dict(disparity=0.5, antialias_layered="maybe"),
+        ValueError,
+        'antialias_layered must be "auto", True, False, "on" or "off", got \'maybe\'',
+    ),
 }
 
 

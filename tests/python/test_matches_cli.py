@@ -60,6 +60,14 @@ CASES = {
         ["--disparity", "0.5", "--antialias-layered", "on"],
         dict(disparity=0.5, antialias_layered=True),
     ),
+    "antialias-layered-off": (
+        ["--disparity", "0.5", "--antialias-layered", "off"],
+        dict(disparity=0.5, antialias_layered="off"),
+    ),
+    "antialias-layered-auto": (
+        ["--disparity", "0.5", "--antialias-layered", "auto"],
+        dict(disparity=0.5, antialias_layered="auto"),
+    ),
     "antialias-unboxed": (
         ["--disparity", "0.5", "--antialias-box", "off"],
         dict(disparity=0.5, antialias_box=False),

@@ -233,6 +233,13 @@ impl AntialiasInputs {
                 "the anti-aliasing plan has a footprint per view".into(),
             ));
         }
+        // The layers bin each view's sample by what that view sees: its map (a plan made
+        // without them, past the budget, takes the sub-samples).
+        if aa.settings.layered.on() && aa.visibility.is_none() {
+            return Err(Error::Invalid(
+                "layered anti-aliasing needs every view's depth map, and this plan has none".into(),
+            ));
+        }
         Ok(())
     }
 
@@ -246,8 +253,8 @@ impl AntialiasInputs {
         self.prefilter = aa.settings.prefilter;
         self.occlusion = aa.settings.occlusion;
         self.defocus = aa.settings.defocus;
-        self.layered = aa.settings.layered;
-        self.boxed = aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered;
+        self.layered = aa.settings.layered.on();
+        self.boxed = aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered.on();
         self.focused_reach = aa.focused_reach() as f32;
     }
 
@@ -280,8 +287,9 @@ impl AntialiasInputs {
             || aa.settings.prefilter != self.prefilter
             || aa.settings.occlusion != self.occlusion
             || aa.settings.defocus != self.defocus
-            || aa.settings.layered != self.layered
-            || (aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered) != self.boxed
+            || aa.settings.layered.on() != self.layered
+            || (aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered.on())
+                != self.boxed
             || aa.focused_reach() as f32 != self.focused_reach
     }
 }

@@ -451,10 +451,10 @@ impl RefocusPass {
         if self.antialias.set_visibility(ctx, aa)? {
             descriptors::write_visibility(ctx, &self.input_sets, &self.antialias.visibility);
         }
-        if aa.settings.layered {
+        if aa.settings.layered.on() {
             self.layered.set(ctx, self.layer_params(aa)?)?;
         }
-        let boxing = aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered;
+        let boxing = aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered.on();
         let size = (self.view_size[0] as u32, self.view_size[1] as u32);
         let useful = crate::refocus::boxed::can_box(aa, size);
         self.boxed_ready = boxing && useful && self.boxed.set(ctx, aa)?;
@@ -487,13 +487,13 @@ impl RefocusPass {
         self.views_differ(&aa.plan)
             || self.antialias.differ(aa)
             || self.depth.differs(&aa.depth)
-            || (aa.settings.layered
+            || (aa.settings.layered.on()
                 && self
                     .layer_params(aa)
                     .map_or(true, |p| self.layered.differs(&p)))
             || (aa.settings.boxed
                 && !aa.settings.defocus
-                && !aa.settings.layered
+                && !aa.settings.layered.on()
                 && self.boxed.differs(aa))
     }
 

@@ -183,6 +183,7 @@ impl Status<'_> {
             state.averaging(),
             match aa {
                 Some(a) if a.settings.defocus => "aa defocused".to_string(),
+                Some(a) if a.settings.layered.on() => "aa layered".to_string(),
                 Some(a) => format!("aa {}x{}", a.settings.max_samples, a.settings.max_samples),
                 None => "aa off".to_string(),
             },

@@ -698,6 +698,9 @@ impl Session {
             return None;
         }
         let s = &self.state;
+        // The full-size target is the views' size; a focus surface takes boxed footprints and
+        // sub-samples (`AntialiasSettings::for_output`).
+        let settings = settings.for_output(!s.surface().needs_depth());
         // The views' visibility maps depend on the depth and the view set, not on the plane:
         // moving the plane reuses them.
         crate::refocus::antialias::plan_antialias_reusing(
