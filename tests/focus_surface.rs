@@ -201,7 +201,8 @@ fn gpu_focus_surfaces_match_the_f64_model() {
         disk(),
         &[],
         &depth,
-        AntialiasSettings::default(),
+        // A focus surface takes the sub-samples (`for_output`: not one plane).
+        AntialiasSettings::default().for_output(false),
     )
     .unwrap();
     let surface = FocusSurface::Planes(vec![frontal(zb), frontal(zm)]);
@@ -401,7 +402,7 @@ fn focus_surfaces_match_the_lens_inside_the_surface() {
             disk(),
             &[],
             &depth,
-            AntialiasSettings::default(),
+            AntialiasSettings::default().for_output(false),
         )
         .unwrap();
         let sp = surface_for(&lf, &plan, &c.surface, Some(&aa)).unwrap();
