@@ -1212,3 +1212,63 @@ fn a_grid_folder_focused_by_disparity_antialiases_on_its_estimate() {
         ],
     );
 }
+
+/// A session's requests (the Python module's) share the views' depth maps while only the plane
+/// moves, as a focal stack does, and each image equals that of a session without the previous
+/// plan; a change of the aperture's views makes new maps.
+#[test]
+fn a_session_keeps_the_views_maps_while_only_the_plane_moves() {
+    use tiltfield::geometry::aperture::Aperture;
+    use tiltfield::jobs::render::{RenderOptions, Session};
+    use tiltfield::refocus::options::FocusOptions;
+    let lf = builtin("planes");
+    let ctx = std::sync::Arc::new(
+        tiltfield::gpu::GpuContext::new(&gpu_options())
+            .unwrap_or_else(|e| panic!("cannot create a validated Vulkan context: {e}")),
+    );
+    let at = |d: f64, radius: Option<f64>| RenderOptions {
+        focus: FocusOptions {
+            disparity: vec![d],
+            ..FocusOptions::default()
+        },
+        aperture: Aperture {
+            radius,
+            ..Aperture::default()
+        },
+        ..RenderOptions::default()
+    };
+    let hidden = indicatif::ProgressBar::hidden();
+    let mut session = Session::new(std::sync::Arc::clone(&ctx), lf.clone());
+    let maps = |p: &tiltfield::jobs::render::Prepared| {
+        std::sync::Arc::clone(p.antialias.as_ref().unwrap().visibility.as_ref().unwrap())
+    };
+    let (_, _, first) = session.render(&at(0.5, None), &hidden).unwrap();
+    let (second, _, p2) = session.render(&at(-0.5, None), &hidden).unwrap();
+    assert!(
+        std::sync::Arc::ptr_eq(&maps(&first), &maps(&p2)),
+        "maps reused"
+    );
+    let mut fresh = Session::new(std::sync::Arc::clone(&ctx), lf);
+    let (alone, _, p3) = fresh.render(&at(-0.5, None), &hidden).unwrap();
+    assert!(!std::sync::Arc::ptr_eq(&maps(&p2), &maps(&p3)));
+    let bytes = |g: &GpuImage| match g {
+        GpuImage::Srgb8(i) => i.as_raw().clone(),
+        GpuImage::Float(_) => panic!("an sRGB render"),
+    };
+    assert_eq!(
+        bytes(&second),
+        bytes(&alone),
+        "the same image with and without reuse"
+    );
+    let (_, _, p4) = session.render(&at(-0.5, Some(1.0)), &hidden).unwrap();
+    assert!(
+        !std::sync::Arc::ptr_eq(&maps(&p2), &maps(&p4)),
+        "other views, other maps"
+    );
+    assert_eq!(
+        ctx.validation().errors(),
+        0,
+        "{:#?}",
+        ctx.validation().messages()
+    );
+}

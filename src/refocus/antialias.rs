@@ -1128,10 +1128,23 @@ pub fn plan_for(
     excluded: &[bool],
     settings: AntialiasSettings,
 ) -> Result<AntialiasPlan> {
+    plan_for_reusing(lf, base, aperture, excluded, settings, None)
+}
+
+/// [`plan_for`], taking the views' maps from `previous` where they are the same
+/// ([`plan_antialias_reusing`]).
+pub fn plan_for_reusing(
+    lf: &LightField,
+    base: &RefocusPlan,
+    aperture: Aperture,
+    excluded: &[bool],
+    settings: AntialiasSettings,
+    previous: Option<&AntialiasPlan>,
+) -> Result<AntialiasPlan> {
     let depth = lf
         .view_depth()
         .map_err(|e| Error::Invalid(format!("anti-aliasing needs the scene's depth: {e}")))?;
-    plan_antialias(lf, base, aperture, excluded, &depth, settings)
+    plan_antialias_reusing(lf, base, aperture, excluded, &depth, settings, previous)
 }
 
 /// Sub-samples per axis of a footprint span for residual `d` at a plain sample with
