@@ -29,10 +29,10 @@ use crate::refocus::{RefocusImage, RefocusPlan};
 /// (`aa4-open`), the cheapest sub-sampling setting, [`AntialiasSettings::FASTEST`]
 /// (`aa1-fastest`), defocused views (`defocus`: constant cost per view, no occlusion
 /// tests), layered footprints (`layered`: every view's sample binned by depth, each layer
-/// box-filtered once, no per-sample tests), and the default, boxed footprints (`boxed`: the
-/// box of the plain sums away from occlusion edges, `aa4`'s sub-samples at them and in
-/// focus). Every `aaN` point sub-samples every pixel: `aa4` is the default before boxed
-/// footprints.
+/// box-filtered once, no per-sample tests: the default on the study's given depth), and boxed
+/// footprints (`boxed`: the box of the plain sums away from occlusion edges, `aa4`'s
+/// sub-samples at them and in focus; the default before layered footprints). Every `aaN`
+/// point sub-samples every pixel: `aa4` is the default before boxed footprints.
 pub const VARIANTS: [AntialiasSettings; 14] = [
     aa(1, true),
     aa(2, true),
@@ -151,7 +151,8 @@ pub struct AntialiasPoint {
     pub occlusion: bool,
     /// The footprint route other than sub-samples everywhere, if any: `defocus` (each view's
     /// cell read once, defocused), `layered` (the samples binned by depth, each layer boxed
-    /// once) or `boxed` (the box of the plain sums away from edges; the default).
+    /// once; the default on a given depth) or `boxed` (the box of the plain sums away from
+    /// edges).
     pub route: Option<&'static str>,
     pub views: usize,
     pub gpu_ms_median: f64,
