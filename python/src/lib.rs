@@ -312,9 +312,6 @@ fn u32_arg(value: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<u32>
     Ok(int_arg(value, name, 0..=u32::MAX as i64)?.map(|v| v as u32))
 }
 
-/// An on/off keyword: `True`/`False` (numpy's too), or the CLI's `"on"`/`"off"`; `None`
-/// passes through. Any other string is a `ValueError`, any other type a `TypeError`, both
-/// naming the keyword and what it takes.
 /// `antialias_layered`: "auto" (the library decides: layered footprints on one plane at the
 /// views' size with the light field's own depth) or a [`switch`]'s on and off.
 fn layered_arg(value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Layered>> {
@@ -327,6 +324,9 @@ fn layered_arg(value: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Layered>> {
     Ok(on.map(|on| if on { Layered::On } else { Layered::Off }))
 }
 
+/// An on/off keyword: `True`/`False` (numpy's too), or the CLI's `"on"`/`"off"`; `None`
+/// passes through. Any other string is a `ValueError`, any other type a `TypeError`, both
+/// naming the keyword and what it takes.
 fn switch(value: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<bool>> {
     switch_among(value, name, "True, False, \"on\" or \"off\"")
 }

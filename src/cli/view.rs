@@ -192,9 +192,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
                 "defocus": antialias.defocus,
                 // The setting as asked ("auto": layered where the depth was handed over).
                 "layered": antialias.layered,
-                "boxed": antialias.boxed
-                    && !antialias.defocus
-                    && antialias.layered != crate::refocus::antialias::Layered::On,
+                "boxed": antialias.boxes(),
                 "depth_origin": depth_origin.map(crate::depth::DepthOrigin::json),
             },
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},

@@ -177,6 +177,23 @@ impl AntialiasSettings {
         }
     }
 
+    /// Whether every view's own depth map is needed (defocused views or layered footprints):
+    /// those routes take the depth each view sees and test no sample for occlusion.
+    pub fn per_view_maps(&self) -> bool {
+        self.defocus || self.layered.on()
+    }
+
+    /// Whether boxed footprints are asked for and no other route takes their place (they
+    /// still apply only where [`super::boxed::can_box`] says).
+    pub fn boxes(&self) -> bool {
+        self.boxed && !self.per_view_maps()
+    }
+
+    /// Whether the sub-samples' occlusion tests run (asked for, and sub-samples taken).
+    pub fn occlusion_tests(&self) -> bool {
+        self.occlusion && !self.per_view_maps()
+    }
+
     /// Checks the settings of a request (the sample cap; the switches take any value).
     pub fn validate(&self) -> Result<()> {
         if !(1..=MAX_SAMPLES_LIMIT).contains(&self.max_samples) {
@@ -367,15 +384,11 @@ pub(super) fn fill_ring(sigma: &mut [f32], (w, h): (usize, usize), holes: &[usiz
     let source = sigma.to_vec();
     let mut left = Vec::new();
     for &k in holes {
-        let (x, y) = ((k % w) as i64, (k / w) as i64);
         let mut far: Option<f32> = None;
-        for (dx, dy) in [(-1, 0), (1, 0), (0, -1), (0, 1)] {
-            let (nx, ny) = (x + dx, y + dy);
-            if nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 {
-                let v = source[ny as usize * w + nx as usize];
-                if v >= 0.0 {
-                    far = Some(far.map_or(v, |f| f.min(v)));
-                }
+        for (nx, ny) in neighbours4(k % w, k / w, w, h) {
+            let v = source[ny * w + nx];
+            if v >= 0.0 {
+                far = Some(far.map_or(v, |f| f.min(v)));
             }
         }
         match far {
@@ -985,7 +998,7 @@ pub fn plan_antialias_reusing(
     };
     aa.settings.layered = layered_route(&aa, depth.estimated, map_bytes);
     let settings = aa.settings;
-    let per_view_maps = settings.defocus || settings.layered.on();
+    let per_view_maps = settings.per_view_maps();
     if per_view_maps && map_bytes > MAX_VISIBILITY_BYTES {
         let (route, switch) = match settings.defocus {
             true => ("defocused views", "--antialias-defocus"),
@@ -1001,21 +1014,21 @@ pub fn plan_antialias_reusing(
     }
     // Without the occlusion tests the front stays the pixel's own σ: nothing is nearer, and
     // the shader's and the model's tests never run.
-    if settings.occlusion && !per_view_maps {
+    if settings.occlusion_tests() {
         search_fronts(&mut aa.depth, &aa.footprints);
     }
     let (scene, views) = (maps_from.as_ref().unwrap_or(&aa.depth), &aa.plan.views);
     aa.visibility = match previous {
         Some(p)
-            if (p.settings.defocus || p.settings.layered.on()) == per_view_maps
-                && p.visibility.as_ref().map(|v| v.depth_hash)
-                    == Some(ViewVisibility::hash_of(scene))
+            if p.settings.per_view_maps() == per_view_maps
                 && p.plan.views.len() == views.len()
                 && p.plan
                     .views
                     .iter()
                     .zip(views)
-                    .all(|(a, b)| a.index == b.index && a.warp == b.warp) =>
+                    .all(|(a, b)| a.index == b.index && a.warp == b.warp)
+                && p.visibility.as_ref().map(|v| v.depth_hash)
+                    == Some(ViewVisibility::hash_of(scene)) =>
         {
             p.visibility.clone()
         }
@@ -1187,10 +1200,10 @@ pub fn antialias_json(
             "prefilter": aa.settings.prefilter,
             "focus_test": aa.settings.focus_test,
             "focused_bicubic": aa.settings.focused_bicubic,
-            "occlusion": aa.settings.occlusion && !aa.settings.defocus && !aa.settings.layered.on(),
+            "occlusion": aa.settings.occlusion_tests(),
             "defocus": aa.settings.defocus,
             "layered": aa.settings.layered.on(),
-            "boxed": aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered.on(),
+            "boxed": aa.settings.boxes(),
             "views_by_cell": aa.plan.views.len(),
             "depth_source": aa.depth.source,
             "depth_origin": depth_origin,

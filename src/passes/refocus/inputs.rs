@@ -254,7 +254,7 @@ impl AntialiasInputs {
         self.occlusion = aa.settings.occlusion;
         self.defocus = aa.settings.defocus;
         self.layered = aa.settings.layered.on();
-        self.boxed = aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered.on();
+        self.boxed = aa.settings.boxes();
         self.focused_reach = aa.focused_reach() as f32;
     }
 
@@ -288,8 +288,7 @@ impl AntialiasInputs {
             || aa.settings.occlusion != self.occlusion
             || aa.settings.defocus != self.defocus
             || aa.settings.layered.on() != self.layered
-            || (aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered.on())
-                != self.boxed
+            || aa.settings.boxes() != self.boxed
             || aa.focused_reach() as f32 != self.focused_reach
     }
 }

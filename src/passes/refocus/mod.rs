@@ -454,7 +454,7 @@ impl RefocusPass {
         if aa.settings.layered.on() {
             self.layered.set(ctx, self.layer_params(aa)?)?;
         }
-        let boxing = aa.settings.boxed && !aa.settings.defocus && !aa.settings.layered.on();
+        let boxing = aa.settings.boxes();
         let size = (self.view_size[0] as u32, self.view_size[1] as u32);
         let useful = crate::refocus::boxed::can_box(aa, size);
         self.boxed_ready = boxing && useful && self.boxed.set(ctx, aa)?;
@@ -491,10 +491,7 @@ impl RefocusPass {
                 && self
                     .layer_params(aa)
                     .map_or(true, |p| self.layered.differs(&p)))
-            || (aa.settings.boxed
-                && !aa.settings.defocus
-                && !aa.settings.layered.on()
-                && self.boxed.differs(aa))
+            || (aa.settings.boxes() && self.boxed.differs(aa))
     }
 
     /// The layer plan of `aa` at the views' size ([`crate::refocus::layered::LayerPlan`]),
