@@ -6,10 +6,13 @@
 //            there (its filled visibility map) gives the residual d; the view is read at its
 //            cell's centroid for d (Catmull-Rom where the footprint is under half a pixel) and
 //            added to the two nodes around d * scale of its cell's group, weighted by the cell's
-//            area and the node's share. accumulate 0 starts the pixel's sums from zero.
+//            area and the node's share. accumulate 0 starts the pixel's sums from zero. Each
+//            8×8 tile records which layers it holds (Occupancy): a pixel's views reach a few
+//            nodes, so most of a layer's image is empty, and what is empty costs nothing after.
 //   STAGE 1 (rows): one invocation per (row, layer) runs the layer's box along the row: the
 //            mean of the row's linear interpolation over the node's footprint (narrowed by the
-//            interpolation's own variance), from running sums of trapezoids.
+//            interpolation's own variance), from running sums of trapezoids; only over the
+//            tiles within the box's reach of a tile that holds the layer (the rest is zero).
 //   STAGE 2 (columns): the same down the columns of the row-boxed layers.
 //   STAGE 3 (composite): one invocation per pixel: where the views' plain samples agree, their
 //            mean; else the boxed layers front to back, each covering its share of what the
@@ -50,6 +53,42 @@ layout(std430, set = 2, binding = 1) buffer Bins { vec4 bins[]; };
 layout(std430, set = 2, binding = 2) buffer Stats { vec4 stats[]; };
 layout(std430, set = 2, binding = 3) buffer Rows { vec4 rows[]; };
 layout(std430, set = 2, binding = 4) buffer Boxed { vec4 boxed[]; };
+// Per 8×8 tile of the output (TILE_PX, the bin and composite workgroups' shape) and stage
+// (0 sums, 1 rows, 2 boxes): a bit per layer, set where the tile of that layer holds what the
+// stage wrote. The rest of a layer's image is zero and never written, read, boxed or
+// composited: at word (tile * 3 + stage) * 4 + layer / 32.
+layout(std430, set = 2, binding = 5) buffer Occupancy { uint occ[]; };
+const uint TILE_PX = 8u;
+
+uint tiles_x() {
+    return (uint(pc.view_size.x) + TILE_PX - 1u) / TILE_PX;
+}
+
+uint occ_word(uint tile, uint stage, uint l) {
+    return (tile * 3u + stage) * 4u + (l >> 5u);
+}
+
+bool occupied(uint tile, uint stage, uint l) {
+    return (occ[occ_word(tile, stage, l)] & (1u << (l & 31u))) != 0u;
+}
+
+// The binning pixel's layers: those its tile held before this batch (none when the batch
+// starts the sums) and those the pixel has written since. A layer's first write stores, so
+// the sums need no clearing.
+uvec4 held_before = uvec4(0u);
+uvec4 written = uvec4(0u);
+
+void add_bin(uint l, uint n, uint pix, vec4 v) {
+    uint word = l >> 5u;
+    uint bit = 1u << (l & 31u);
+    uint i = l * n + pix;
+    if (((held_before[word] | written[word]) & bit) != 0u) {
+        bins[i] += v;
+    } else {
+        bins[i] = v;
+    }
+    written[word] |= bit;
+}
 
 // Node j's footprint in pixels, signed (refocus::layered::node_px).
 float node_px(int j) {
@@ -138,13 +177,11 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uin
     // Reachable by construction (refocus::layered::LayerPlan::slots).
     int s0 = slot_of(j);
     if (f < 1.0 && s0 >= 0) {
-        uint l0 = uint(s0) * groups + g;
-        bins[l0 * n + pix] += vec4(wk * (1.0 - f) * col, wk * (1.0 - f));
+        add_bin(uint(s0) * groups + g, n, pix, vec4(wk * (1.0 - f) * col, wk * (1.0 - f)));
     }
     int s1 = j + 1 < nodes ? slot_of(j + 1) : -1;
     if (f > 0.0 && s1 >= 0) {
-        uint l1 = uint(s1) * groups + g;
-        bins[l1 * n + pix] += vec4(wk * f * col, wk * f);
+        add_bin(uint(s1) * groups + g, n, pix, vec4(wk * f * col, wk * f));
     }
     st1.w += wk;
 }
@@ -152,18 +189,10 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uin
 void bin_pixel(ivec2 px) {
     uint n = uint(lp.header.w);
     uint pix = uint(px.y) * uint(pc.view_size.x) + uint(px.x);
-    int first = lp.header.x;
-    int nodes = lp.header.y;
-    uint groups = uint(lp.header.z);
-    uint layers = uint(lp.slots.x) * groups;
     vec4 st0 = vec4(0.0);
     vec4 st1 = vec4(0.0);
     vec4 st2 = vec4(0.0);
-    if (pc.accumulate == 0u) {
-        for (uint l = 0u; l < layers; ++l) {
-            bins[l * n + pix] = vec4(0.0);
-        }
-    } else {
+    if (pc.accumulate != 0u) {
         st0 = stats[3u * pix];
         st1 = stats[3u * pix + 1u];
         st2 = stats[3u * pix + 2u];
@@ -210,16 +239,33 @@ float box_of(uint l, uint axis) {
 }
 
 // Running box along a line of `count` samples at `base + i * stride` (refocus::layered::
-// tent_box_1d): STAGE 1 reads bins and writes rows, STAGE 2 reads rows and writes boxed.
-vec4 line_value(uint i) {
-    return STAGE == 1u ? bins[i] : rows[i];
+// tent_box_1d): STAGE 1 reads bins and writes rows, STAGE 2 reads rows and writes boxed. The
+// line's tiles are `line_tile0 + t * line_tile_step`; a sample in a tile the stage before left
+// empty for the line's layer is zero (its memory holds another plan's values).
+uint line_base;
+uint line_stride;
+uint line_layer;
+uint line_tile0;
+uint line_tile_step;
+
+bool line_tile_on(int t) {
+    return occupied(line_tile0 + uint(t) * line_tile_step, STAGE - 1u, line_layer);
 }
 
-void store_line(uint i, vec4 v) {
+vec4 line_value(int i) {
+    if (!line_tile_on(i / int(TILE_PX))) {
+        return vec4(0.0);
+    }
+    uint at = line_base + uint(i) * line_stride;
+    return STAGE == 1u ? bins[at] : rows[at];
+}
+
+void store_line(int i, vec4 v) {
+    uint at = line_base + uint(i) * line_stride;
     if (STAGE == 1u) {
-        rows[i] = v;
+        rows[at] = v;
     } else {
-        boxed[i] = v;
+        boxed[at] = v;
     }
 }
 
@@ -232,37 +278,70 @@ struct Cursor {
     vec4 b;
 };
 
-// The integral over [0, t] (t within [0, count - 1], non-decreasing between calls).
-vec4 integral(inout Cursor c, float t, uint base, uint stride, int count) {
+// The integral over [0, t] (t within [c.k, count - 1] at the first call, non-decreasing
+// between calls).
+vec4 integral(inout Cursor c, float t, int count) {
     int k = min(int(floor(t)), count - 2);
     while (c.k < k) {
         c.t += 0.5 * (c.a + c.b);
         c.k += 1;
         c.a = c.b;
-        c.b = line_value(base + uint(c.k + 1) * stride);
+        c.b = line_value(c.k + 1);
     }
     float f = t - float(c.k);
     return c.t + f * c.a + 0.5 * f * f * (c.b - c.a);
 }
 
-void box_line(uint base, uint stride, int count, float width) {
+// The box of the line's outputs [lo, hi), every sample at or below `zero` being zero (so the
+// integrals start there, at exactly what a sum of the zeros before gives: 0).
+void box_line(int count, float width, int lo, int hi, int zero) {
     if (count < 2 || !(width > 0.0)) {
-        for (int i = 0; i < count; ++i) {
-            store_line(base + uint(i) * stride, line_value(base + uint(i) * stride));
+        for (int i = lo; i < hi; ++i) {
+            store_line(i, line_value(i));
         }
         return;
     }
     float last = float(count - 1);
-    vec4 v0 = line_value(base);
-    vec4 v1 = line_value(base + stride);
-    Cursor lower = Cursor(0, vec4(0.0), v0, v1);
-    Cursor upper = Cursor(0, vec4(0.0), v0, v1);
-    for (int i = 0; i < count; ++i) {
+    int k0 = min(zero, count - 2);
+    Cursor lower = Cursor(k0, vec4(0.0), line_value(k0), line_value(k0 + 1));
+    Cursor upper = lower;
+    float from = float(k0);
+    for (int i = lo; i < hi; ++i) {
         float a = max(float(i) - 0.5 * width, 0.0);
         float b = min(float(i) + 0.5 * width, last);
-        vec4 ib = integral(upper, b, base, stride, count);
-        vec4 ia = integral(lower, a, base, stride, count);
-        store_line(base + uint(i) * stride, (ib - ia) / (b - a));
+        vec4 ib = integral(upper, max(b, from), count);
+        vec4 ia = integral(lower, max(a, from), count);
+        store_line(i, (ib - ia) / (b - a));
+    }
+}
+
+// One line of layer l (STAGE 1: a row, STAGE 2: a column): only the span of tiles within the
+// box's reach of a tile the stage before wrote; its tiles marked for the next stage (by the
+// line first in its tile, as the tile's other lines find the same span).
+void layer_line(uint l, uint line, uint count, uint tiles, float width) {
+    line_layer = l;
+    int first_on = -1;
+    int last_on = -1;
+    for (int t = 0; t < int(tiles); ++t) {
+        if (line_tile_on(t)) {
+            first_on = first_on < 0 ? t : first_on;
+            last_on = t;
+        }
+    }
+    if (first_on < 0) {
+        return;
+    }
+    // An output reads samples up to ceil(width / 2) + 1 away: that many tiles and one more.
+    int reach = int(ceil(0.5 * max(width, 0.0))) / int(TILE_PX) + 1;
+    int t0 = max(first_on - reach, 0);
+    int t1 = min(last_on + reach, int(tiles) - 1);
+    int lo = t0 * int(TILE_PX);
+    int hi = min((t1 + 1) * int(TILE_PX), int(count));
+    box_line(int(count), width, lo, hi, max(first_on * int(TILE_PX) - 1, 0));
+    if (line % TILE_PX == 0u) {
+        for (int t = t0; t <= t1; ++t) {
+            atomicOr(occ[occ_word(line_tile0 + uint(t) * line_tile_step, STAGE, l)], 1u << (l & 31u));
+        }
     }
 }
 
@@ -273,6 +352,7 @@ void composite_pixel(ivec2 px) {
     vec4 st1 = stats[3u * pix + 1u];
     vec4 st2 = stats[3u * pix + 2u];
     vec3 x = vec3((vec2(px) + 0.5) * pc.out_scale - 0.5, 1.0);
+    uint tile = uint(px.y) / TILE_PX * tiles_x() + uint(px.x) / TILE_PX;
     float threshold = footprints[0].vis.w;
     if (threshold > 0.0 && st0.w > 0.0 && scene_sigma[2 * depth_index(x.xy)] >= 0.0) {
         vec3 mean = st2.rgb / st0.w;
@@ -291,7 +371,10 @@ void composite_pixel(ivec2 px) {
         for (int slot = 0; slot < lp.slots.x; ++slot) {
             vec4 cw = vec4(0.0);
             for (uint g = 0u; g < groups; ++g) {
-                cw += boxed[(uint(slot) * groups + g) * n + pix];
+                uint l = uint(slot) * groups + g;
+                if (occupied(tile, 2u, l)) {
+                    cw += boxed[l * n + pix];
+                }
             }
             if (cw.w <= 1e-12) {
                 continue;
@@ -311,36 +394,90 @@ void composite_pixel(ivec2 px) {
     imageStore(accum_image, px, result);
 }
 
+shared uint tile_layers[3];
+
+// STAGE 0: the pixel's views binned; then every layer some pixel of the tile holds is
+// written at every pixel of the tile (zero where this pixel has none), so the next stages
+// read whole tiles; the tile's rows and boxes are cleared for them to mark.
+void bin_tile(ivec2 px, bool inside) {
+    uint tile = gl_WorkGroupID.y * tiles_x() + gl_WorkGroupID.x;
+    if (gl_LocalInvocationIndex == 0u) {
+        tile_layers[0] = 0u;
+        tile_layers[1] = 0u;
+        tile_layers[2] = 0u;
+    }
+    if (pc.accumulate != 0u) {
+        for (uint w = 0u; w < 3u; ++w) {
+            held_before[w] = occ[(tile * 3u) * 4u + w];
+        }
+    }
+    barrier();
+    if (inside) {
+        bin_pixel(px);
+        for (uint w = 0u; w < 3u; ++w) {
+            atomicOr(tile_layers[w], written[w]);
+        }
+    }
+    barrier();
+    uint n = uint(lp.header.w);
+    uint pix = uint(px.y) * uint(pc.view_size.x) + uint(px.x);
+    for (uint w = 0u; w < 3u; ++w) {
+        uint all_held = tile_layers[w] | held_before[w];
+        uint missing = inside ? all_held & ~(held_before[w] | written[w]) : 0u;
+        while (missing != 0u) {
+            uint l = w * 32u + uint(findLSB(missing));
+            missing &= missing - 1u;
+            bins[l * n + pix] = vec4(0.0);
+        }
+        if (gl_LocalInvocationIndex == 0u) {
+            occ[(tile * 3u) * 4u + w] = all_held;
+            occ[(tile * 3u + 1u) * 4u + w] = 0u;
+            occ[(tile * 3u + 2u) * 4u + w] = 0u;
+        }
+    }
+}
+
 void main() {
     ivec2 size = ivec2(pc.view_size);
     uvec3 id = gl_GlobalInvocationID;
     uint layers = uint(lp.slots.x) * uint(lp.header.z);
     uint n = uint(lp.header.w);
-    if (STAGE == 0u || STAGE == 3u) {
+    if (STAGE == 0u) {
+        ivec2 px = ivec2(id.xy);
+        bin_tile(px, all(lessThan(px, size)));
+        return;
+    }
+    if (STAGE == 3u) {
         ivec2 px = ivec2(id.xy);
         if (any(greaterThanEqual(px, size))) {
             return;
         }
-        if (STAGE == 0u) {
-            bin_pixel(px);
-        } else {
-            composite_pixel(px);
-        }
+        composite_pixel(px);
         return;
     }
     uint l = id.y;
     if (l >= layers) {
         return;
     }
+    uint tx = tiles_x();
+    uint ty = (uint(size.y) + TILE_PX - 1u) / TILE_PX;
     if (STAGE == 1u) {
         if (id.x >= uint(size.y)) {
             return;
         }
-        box_line(l * n + id.x * uint(size.x), 1u, size.x, box_of(l, 0u));
+        line_base = l * n + id.x * uint(size.x);
+        line_stride = 1u;
+        line_tile0 = id.x / TILE_PX * tx;
+        line_tile_step = 1u;
+        layer_line(l, id.x, uint(size.x), tx, box_of(l, 0u));
     } else {
         if (id.x >= uint(size.x)) {
             return;
         }
-        box_line(l * n + id.x, uint(size.x), size.y, box_of(l, 1u));
+        line_base = l * n + id.x;
+        line_stride = uint(size.x);
+        line_tile0 = id.x / TILE_PX;
+        line_tile_step = tx;
+        layer_line(l, id.x, uint(size.y), ty, box_of(l, 1u));
     }
 }

@@ -250,6 +250,19 @@ impl HeadlessRenderer {
         self.read_image(settings)
     }
 
+    /// [`Self::accumulate`] anti-aliased: adds the views `views` of `aa`'s plan to what the
+    /// target holds (from zero when `restart`) and reads back the result so far.
+    pub fn accumulate_antialiased(
+        &mut self,
+        aa: &AntialiasPlan,
+        settings: &RenderSettings,
+        views: Range<usize>,
+        restart: bool,
+    ) -> Result<GpuImage> {
+        self.frame(&aa.plan, Some(aa), settings, views, restart, true)?;
+        self.read_image(settings)
+    }
+
     fn frame(
         &mut self,
         plan: &RefocusPlan,

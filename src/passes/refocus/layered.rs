@@ -24,8 +24,12 @@ use crate::gpu::{shaders, GpuContext, Owned};
 use crate::refocus::layered::{node_px, LayerPlan, MAX_GROUPS, MAX_LAYERS, MAX_NODES};
 use crate::refocus::settings::UBO_WARPS;
 
+/// The bin and composite workgroups' side: the occupancy's tiles (`TILE_PX` in layered.glsl).
 const TILE: u32 = 8;
 const LINE_GROUP: u32 = 64;
+
+// The occupancy holds three 32-bit words of layer bits a tile and stage.
+const _: () = assert!(MAX_LAYERS <= 96);
 
 /// The layer plan as the shader reads it (`LayerParams` in layered.glsl, std140).
 #[repr(C)]
@@ -108,8 +112,9 @@ pub struct LayeredStage {
     _set_layout: Owned<vk::DescriptorSetLayout>,
     set: vk::DescriptorSet,
     params: Buffer,
-    /// Sums, rows, boxes (layers × pixels vec4 each) and the focus test's sums (3 per pixel).
-    bins: Option<[Buffer; 4]>,
+    /// Sums, rows, boxes (layers × pixels vec4 each), the focus test's sums (3 per pixel) and
+    /// the layers' occupancy (three masks per tile).
+    bins: Option<[Buffer; 5]>,
     /// Layers × pixels the buffers hold.
     capacity: (u32, u32),
     uploaded: Option<GpuLayerParams>,
@@ -126,7 +131,7 @@ impl LayeredStage {
         input_layout: vk::DescriptorSetLayout,
         storage_layout: vk::DescriptorSetLayout,
     ) -> Result<Self> {
-        let (set_layout, pool, set) = compute_stage::buffer_set(ctx, 4, "layered")?;
+        let (set_layout, pool, set) = compute_stage::buffer_set(ctx, 5, "layered")?;
         let push = compute_stage::push_range();
         let layout = pipeline::pipeline_layout(
             ctx,
@@ -163,11 +168,14 @@ impl LayeredStage {
             let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
             let big = 16 * layers.max(1) as u64 * pixels.max(1) as u64;
             let make = |name: &str, size: u64| Buffer::new(ctx, size, storage, false, name);
+            // A w × h image has at most w·h / 64 + (w + h) / 8 + 1 tiles: w·h / 8 + 1 at most.
+            let tiles = pixels.max(1) as u64 / 8 + 1;
             let bins = [
                 make("layered sums", big)?,
                 make("layered focus sums", 48 * pixels.max(1) as u64)?,
                 make("layered rows", big)?,
                 make("layered boxes", big)?,
+                make("layered occupancy", 48 * tiles)?,
             ];
             let info = |b: &Buffer| {
                 [vk::DescriptorBufferInfo::default()
@@ -177,12 +185,7 @@ impl LayeredStage {
             let uniform = [vk::DescriptorBufferInfo::default()
                 .buffer(self.params.buffer)
                 .range(vk::WHOLE_SIZE)];
-            let infos = [
-                info(&bins[0]),
-                info(&bins[1]),
-                info(&bins[2]),
-                info(&bins[3]),
-            ];
+            let infos = bins.each_ref().map(info);
             let mut writes = vec![vk::WriteDescriptorSet::default()
                 .dst_set(self.set)
                 .dst_binding(0)
@@ -349,6 +352,7 @@ mod tests {
         assert!(glsl.contains(&format!("const uint MAX_GROUPS = {MAX_GROUPS}u;")));
         assert!(glsl.contains(&format!("const uint MAX_NODES = {MAX_NODES}u;")));
         assert!(glsl.contains(&format!("const uint MAX_LAYERS = {MAX_LAYERS}u;")));
+        assert!(glsl.contains(&format!("const uint TILE_PX = {TILE}u;")));
         // std140: vec4s and uvec4s only, so the C layout is the block's.
         assert_eq!(
             std::mem::size_of::<GpuLayerParams>(),
