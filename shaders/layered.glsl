@@ -53,27 +53,34 @@ layout(std430, set = 2, binding = 1) buffer Bins { vec4 bins[]; };
 layout(std430, set = 2, binding = 2) buffer Stats { vec4 stats[]; };
 layout(std430, set = 2, binding = 3) buffer Rows { vec4 rows[]; };
 layout(std430, set = 2, binding = 4) buffer Boxed { vec4 boxed[]; };
-// Per 8×8 tile of the output (TILE_PX, the bin and composite workgroups' shape) and stage
-// (0 sums, 1 rows, 2 boxes): a bit per layer, set where the tile of that layer holds what the
-// stage wrote. The rest of a layer's image is zero and never written, read, boxed or
-// composited: at word (tile * 3 + stage) * 4 + layer / 32.
+// Per stage (0 sums, 1 rows, 2 boxes) and 8×8 tile of the output (TILE_PX): a bit per layer,
+// set where the tile of that layer holds what the stage wrote. The rest of a layer's image is
+// zero and never read, boxed or composited: at word (stage * tiles + tile) * 4 + layer / 32.
+// The pass clears the sums' masks where an accumulation starts, the others before each.
 layout(std430, set = 2, binding = 5) buffer Occupancy { uint occ[]; };
+// Per pixel: the layers its sums hold (a bit each); elsewhere the sums hold another plan's
+// values, which the rows read as zero.
+layout(std430, set = 2, binding = 6) buffer PixelLayers { uvec4 pixel_layers[]; };
 const uint TILE_PX = 8u;
 
 uint tiles_x() {
     return (uint(pc.view_size.x) + TILE_PX - 1u) / TILE_PX;
 }
 
+uint tiles_y() {
+    return (uint(pc.view_size.y) + TILE_PX - 1u) / TILE_PX;
+}
+
 uint occ_word(uint tile, uint stage, uint l) {
-    return (tile * 3u + stage) * 4u + (l >> 5u);
+    return (stage * tiles_x() * tiles_y() + tile) * 4u + (l >> 5u);
 }
 
 bool occupied(uint tile, uint stage, uint l) {
     return (occ[occ_word(tile, stage, l)] & (1u << (l & 31u))) != 0u;
 }
 
-// The binning pixel's layers: those its tile held before this batch (none when the batch
-// starts the sums) and those the pixel has written since. A layer's first write stores, so
+// The binning pixel's layers: those it held before this batch (none when the batch starts
+// the sums) and those it has written since. A layer's first write stores, so
 // the sums need no clearing.
 uvec4 held_before = uvec4(0u);
 uvec4 written = uvec4(0u);
@@ -244,6 +251,7 @@ float box_of(uint l, uint axis) {
 // empty for the line's layer is zero (its memory holds another plan's values).
 uint line_base;
 uint line_stride;
+uint line_pixel0;
 uint line_layer;
 uint line_tile0;
 uint line_tile_step;
@@ -253,11 +261,12 @@ bool line_tile_on(int t) {
 }
 
 vec4 line_value(int i) {
-    if (!line_tile_on(i / int(TILE_PX))) {
-        return vec4(0.0);
-    }
     uint at = line_base + uint(i) * line_stride;
-    return STAGE == 1u ? bins[at] : rows[at];
+    if (STAGE == 1u) {
+        uint held = pixel_layers[line_pixel0 + uint(i) * line_stride][line_layer >> 5u];
+        return (held & (1u << (line_layer & 31u))) != 0u ? bins[at] : vec4(0.0);
+    }
+    return line_tile_on(i / int(TILE_PX)) ? rows[at] : vec4(0.0);
 }
 
 void store_line(int i, vec4 v) {
@@ -394,45 +403,18 @@ void composite_pixel(ivec2 px) {
     imageStore(accum_image, px, result);
 }
 
-shared uint tile_layers[3];
-
-// STAGE 0: the pixel's views binned; then every layer some pixel of the tile holds is
-// written at every pixel of the tile (zero where this pixel has none), so the next stages
-// read whole tiles; the tile's rows and boxes are cleared for them to mark.
-void bin_tile(ivec2 px, bool inside) {
-    uint tile = gl_WorkGroupID.y * tiles_x() + gl_WorkGroupID.x;
-    if (gl_LocalInvocationIndex == 0u) {
-        tile_layers[0] = 0u;
-        tile_layers[1] = 0u;
-        tile_layers[2] = 0u;
-    }
-    if (pc.accumulate != 0u) {
-        for (uint w = 0u; w < 3u; ++w) {
-            held_before[w] = occ[(tile * 3u) * 4u + w];
-        }
-    }
-    barrier();
-    if (inside) {
-        bin_pixel(px);
-        for (uint w = 0u; w < 3u; ++w) {
-            atomicOr(tile_layers[w], written[w]);
-        }
-    }
-    barrier();
-    uint n = uint(lp.header.w);
+// STAGE 0: the pixel's views binned, the layers it holds recorded, and its tile's.
+void bin_tile(ivec2 px) {
     uint pix = uint(px.y) * uint(pc.view_size.x) + uint(px.x);
+    if (pc.accumulate != 0u) {
+        held_before = pixel_layers[pix];
+    }
+    bin_pixel(px);
+    pixel_layers[pix] = held_before | written;
+    uint tile = uint(px.y) / TILE_PX * tiles_x() + uint(px.x) / TILE_PX;
     for (uint w = 0u; w < 3u; ++w) {
-        uint all_held = tile_layers[w] | held_before[w];
-        uint missing = inside ? all_held & ~(held_before[w] | written[w]) : 0u;
-        while (missing != 0u) {
-            uint l = w * 32u + uint(findLSB(missing));
-            missing &= missing - 1u;
-            bins[l * n + pix] = vec4(0.0);
-        }
-        if (gl_LocalInvocationIndex == 0u) {
-            occ[(tile * 3u) * 4u + w] = all_held;
-            occ[(tile * 3u + 1u) * 4u + w] = 0u;
-            occ[(tile * 3u + 2u) * 4u + w] = 0u;
+        if ((written[w] & ~held_before[w]) != 0u) {
+            atomicOr(occ[occ_word(tile, 0u, w * 32u)], written[w]);
         }
     }
 }
@@ -442,17 +424,16 @@ void main() {
     uvec3 id = gl_GlobalInvocationID;
     uint layers = uint(lp.slots.x) * uint(lp.header.z);
     uint n = uint(lp.header.w);
-    if (STAGE == 0u) {
-        ivec2 px = ivec2(id.xy);
-        bin_tile(px, all(lessThan(px, size)));
-        return;
-    }
-    if (STAGE == 3u) {
+    if (STAGE == 0u || STAGE == 3u) {
         ivec2 px = ivec2(id.xy);
         if (any(greaterThanEqual(px, size))) {
             return;
         }
-        composite_pixel(px);
+        if (STAGE == 0u) {
+            bin_tile(px);
+        } else {
+            composite_pixel(px);
+        }
         return;
     }
     uint l = id.y;
@@ -460,12 +441,13 @@ void main() {
         return;
     }
     uint tx = tiles_x();
-    uint ty = (uint(size.y) + TILE_PX - 1u) / TILE_PX;
+    uint ty = tiles_y();
     if (STAGE == 1u) {
         if (id.x >= uint(size.y)) {
             return;
         }
         line_base = l * n + id.x * uint(size.x);
+        line_pixel0 = id.x * uint(size.x);
         line_stride = 1u;
         line_tile0 = id.x / TILE_PX * tx;
         line_tile_step = 1u;

@@ -112,9 +112,9 @@ pub struct LayeredStage {
     _set_layout: Owned<vk::DescriptorSetLayout>,
     set: vk::DescriptorSet,
     params: Buffer,
-    /// Sums, rows, boxes (layers × pixels vec4 each), the focus test's sums (3 per pixel) and
-    /// the layers' occupancy (three masks per tile).
-    bins: Option<[Buffer; 5]>,
+    /// Sums, rows, boxes (layers × pixels vec4 each), the focus test's sums (3 per pixel), the
+    /// layers' occupancy (a mask per stage and tile) and the layers each pixel's sums hold.
+    bins: Option<[Buffer; 6]>,
     /// Layers × pixels the buffers hold.
     capacity: (u32, u32),
     uploaded: Option<GpuLayerParams>,
@@ -131,7 +131,7 @@ impl LayeredStage {
         input_layout: vk::DescriptorSetLayout,
         storage_layout: vk::DescriptorSetLayout,
     ) -> Result<Self> {
-        let (set_layout, pool, set) = compute_stage::buffer_set(ctx, 5, "layered")?;
+        let (set_layout, pool, set) = compute_stage::buffer_set(ctx, 6, "layered")?;
         let push = compute_stage::push_range();
         let layout = pipeline::pipeline_layout(
             ctx,
@@ -175,7 +175,14 @@ impl LayeredStage {
                 make("layered focus sums", 48 * pixels.max(1) as u64)?,
                 make("layered rows", big)?,
                 make("layered boxes", big)?,
-                make("layered occupancy", 48 * tiles)?,
+                Buffer::new(
+                    ctx,
+                    48 * tiles,
+                    storage | vk::BufferUsageFlags::TRANSFER_DST,
+                    false,
+                    "layered occupancy",
+                )?,
+                make("layered pixel layers", 16 * pixels.max(1) as u64)?,
             ];
             let info = |b: &Buffer| {
                 [vk::DescriptorBufferInfo::default()
@@ -316,7 +323,31 @@ impl LayeredStage {
         let any = A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE | A::SHADER_SAMPLED_READ;
         let shaders = S::COMPUTE_SHADER | S::FRAGMENT_SHADER;
         // The previous accumulation's reads and writes before these.
-        memory_barrier(d, cmd, (shaders, any), (S::COMPUTE_SHADER, any));
+        memory_barrier(
+            d,
+            cmd,
+            (shaders, any),
+            (S::COMPUTE_SHADER | S::CLEAR, any | A::TRANSFER_WRITE),
+        );
+        // The occupancy's masks start empty: the sums' where the sums start, the rows' and
+        // boxes' at every accumulation (they box everything binned so far).
+        let Some(bins) = &self.bins else {
+            return Err(Error::Internal("layered buffers before the plan".into()));
+        };
+        let mask = 16 * w.div_ceil(TILE) as u64 * h.div_ceil(TILE) as u64;
+        let from = if clear { 0 } else { mask };
+        // SAFETY: recording outside a rendering instance; the range lies within the buffer
+        // (at most w·h / 8 + 1 tiles) and is a multiple of 4 bytes.
+        unsafe { d.cmd_fill_buffer(cmd, bins[4].buffer, from, 3 * mask - from, 0) };
+        memory_barrier(
+            d,
+            cmd,
+            (S::CLEAR, A::TRANSFER_WRITE),
+            (
+                S::COMPUTE_SHADER,
+                A::SHADER_STORAGE_READ | A::SHADER_STORAGE_WRITE,
+            ),
+        );
         let between = (
             (S::COMPUTE_SHADER, A::SHADER_STORAGE_WRITE),
             (
