@@ -43,6 +43,7 @@ layout(std140, set = 2, binding = 0) uniform LayerParams {
     ivec4 slots;         // x: the reachable nodes' count (each a layer per group)
     ivec4 slot_of4[MAX_NODES / 4u]; // node j - first's slot, -1 where no sample reaches it
     vec4 slot_px4[MAX_LAYERS / 4u]; // slot k's node footprint in pixels, signed
+    vec4 node_px4[MAX_NODES / 4u + 1u]; // node first + j's footprint in pixels, j ≤ count
     vec4 units[MAX_GROUPS]; // xy: group g's footprint px per unit residual along x and y
     uvec4 group_of4[UBO_WARPS / 4u]; // view k's group at [k / 4][k % 4]
 } lp;
@@ -97,21 +98,20 @@ void add_bin(uint l, uint n, uint pix, vec4 v) {
     written[word] |= bit;
 }
 
-// Node j's footprint in pixels, signed (refocus::layered::node_px).
+// Node first + j's footprint in pixels, signed (refocus::layered::node_px), from a table:
+// llvmpipe evaluates a power in software, two a sample.
 float node_px(int j) {
-    float k = float(abs(j));
-    float linear = NODE_LINEAR_PX / NODE_STEP_PX;
-    float g = k <= linear ? k * NODE_STEP_PX : NODE_LINEAR_PX * pow(NODE_RATIO, k - linear);
-    return j < 0 ? -g : g;
+    return lp.node_px4[j >> 2][j & 3];
 }
 
-// The node below footprint px and the share of the one above (refocus::layered::node_of).
+// The node below footprint px (relative to the first, within the range) and the share of the
+// one above (refocus::layered::node_of).
 int node_of(float px, out float f) {
     float k = abs(px);
     float linear = NODE_LINEAR_PX / NODE_STEP_PX;
     float t = k <= NODE_LINEAR_PX ? k / NODE_STEP_PX
                                   : linear + log(k / NODE_LINEAR_PX) / log(NODE_RATIO);
-    int j = int(floor(px < 0.0 ? -t : t));
+    int j = clamp(int(floor(px < 0.0 ? -t : t)) - lp.header.x, 0, lp.header.y - 1);
     float a = node_px(j);
     float b = node_px(j + 1);
     f = b > a ? clamp((px - a) / (b - a), 0.0, 1.0) : 0.0;
@@ -134,7 +134,6 @@ float slot_px(uint k) {
 // it): the focus test's sums and the layer sums. `cr`: Catmull-Rom for footprints under half a
 // pixel (a pixel whose own surface is in focus).
 void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uint n, uint pix, inout vec4 st0, inout vec4 st1, inout vec4 st2) {
-    int first = lp.header.x;
     int nodes = lp.header.y;
     uint groups = uint(lp.header.z);
     float scale = lp.scale.x;
@@ -180,7 +179,7 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uin
         col = fetch(p, w.a0.w);
     }
     float f;
-    int j = clamp(node_of(d * scale, f) - first, 0, nodes - 1);
+    int j = node_of(d * scale, f);
     // Reachable by construction (refocus::layered::LayerPlan::slots).
     int s0 = slot_of(j);
     if (f < 1.0 && s0 >= 0) {

@@ -45,6 +45,8 @@ pub struct GpuLayerParams {
     pub slot_of: [[i32; 4]; MAX_NODES / 4],
     /// Per slot: its node's footprint in pixels, signed.
     pub slot_px: [[f32; 4]; MAX_LAYERS / 4],
+    /// Per node of the range and the one after it: its footprint in pixels, signed.
+    pub node_px: [[f32; 4]; MAX_NODES / 4 + 1],
     /// Per group: its footprint px per unit residual along x and y.
     pub units: [[f32; 4]; MAX_GROUPS],
     /// View k's group at `[k / 4][k % 4]`.
@@ -69,6 +71,10 @@ impl GpuLayerParams {
         for (k, &j) in layers.slots.iter().enumerate().take(MAX_LAYERS) {
             slot_px[k / 4][k % 4] = node_px(j) as f32;
         }
+        let mut node_table = [[0f32; 4]; MAX_NODES / 4 + 1];
+        for j in 0..=layers.nodes.min(MAX_NODES) {
+            node_table[j / 4][j % 4] = node_px(layers.first + j as i64) as f32;
+        }
         let mut group_of = [[0u32; 4]; UBO_WARPS / 4];
         for (k, &g) in layers.group_of.iter().enumerate().take(UBO_WARPS) {
             group_of[k / 4][k % 4] = g as u32;
@@ -84,6 +90,7 @@ impl GpuLayerParams {
             slots: [layers.slots.len() as i32, 0, 0, 0],
             slot_of,
             slot_px,
+            node_px: node_table,
             units,
             group_of,
         }
@@ -387,7 +394,13 @@ mod tests {
         // std140: vec4s and uvec4s only, so the C layout is the block's.
         assert_eq!(
             std::mem::size_of::<GpuLayerParams>(),
-            16 * (3 + MAX_NODES / 4 + MAX_LAYERS / 4 + MAX_GROUPS + UBO_WARPS / 4)
+            16 * (3
+                + MAX_NODES / 4
+                + MAX_LAYERS / 4
+                + MAX_NODES / 4
+                + 1
+                + MAX_GROUPS
+                + UBO_WARPS / 4)
         );
     }
 }
