@@ -41,9 +41,10 @@ layout(std140, set = 2, binding = 0) uniform LayerParams {
                          // given depth). Catmull-Rom at footprints under half a pixel where
                          // pc.focused_reach > 0 (the bilinear filters with it on).
     ivec4 slots;         // x: the reachable nodes' count (each a layer per group)
-    ivec4 slot_of4[MAX_NODES / 4u]; // node j - first's slot, -1 where no sample reaches it
+    // Node first + j of the range: its footprint in pixels and the next node's (signed), and
+    // their slots (-1 where no sample reaches it, or past the range): one read a sample.
+    vec4 nodes4[MAX_NODES];
     vec4 slot_px4[MAX_LAYERS / 4u]; // slot k's node footprint in pixels, signed
-    vec4 node_px4[MAX_NODES / 4u + 1u]; // node first + j's footprint in pixels, j ≤ count
     vec4 units[MAX_GROUPS]; // xy: group g's footprint px per unit residual along x and y
     uvec4 group_of4[UBO_WARPS / 4u]; // view k's group at [k / 4][k % 4]
 } lp;
@@ -98,32 +99,22 @@ void add_bin(uint l, uint n, uint pix, vec4 v) {
     written[word] |= bit;
 }
 
-// Node first + j's footprint in pixels, signed (refocus::layered::node_px), from a table:
-// llvmpipe evaluates a power in software, two a sample.
-float node_px(int j) {
-    return lp.node_px4[j >> 2][j & 3];
-}
-
-// The node below footprint px (relative to the first, within the range) and the share of the
-// one above (refocus::layered::node_of).
-int node_of(float px, out float f) {
+// The node below footprint px and the share f of the one above (refocus::layered::node_of),
+// as the two nodes' slots (reachable by construction, refocus::layered::LayerPlan::slots).
+// The nodes' footprints come from a table: llvmpipe evaluates a power in software.
+ivec2 node_slots(float px, out float f) {
     float k = abs(px);
     float linear = NODE_LINEAR_PX / NODE_STEP_PX;
     float t = k <= NODE_LINEAR_PX ? k / NODE_STEP_PX
                                   : linear + log(k / NODE_LINEAR_PX) / log(NODE_RATIO);
     int j = clamp(int(floor(px < 0.0 ? -t : t)) - lp.header.x, 0, lp.header.y - 1);
-    float a = node_px(j);
-    float b = node_px(j + 1);
-    f = b > a ? clamp((px - a) / (b - a), 0.0, 1.0) : 0.0;
-    return j;
+    vec4 e = lp.nodes4[j];
+    f = e.y > e.x ? clamp((px - e.x) / (e.y - e.x), 0.0, 1.0) : 0.0;
+    return ivec2(e.zw);
 }
 
 uint group_of(uint k) {
     return lp.group_of4[k >> 2u][k & 3u];
-}
-
-int slot_of(int j) {
-    return lp.slot_of4[j >> 2][j & 3];
 }
 
 float slot_px(uint k) {
@@ -134,7 +125,6 @@ float slot_px(uint k) {
 // it): the focus test's sums and the layer sums. `cr`: Catmull-Rom for footprints under half a
 // pixel (a pixel whose own surface is in focus).
 void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uint n, uint pix, inout vec4 st0, inout vec4 st1, inout vec4 st2) {
-    int nodes = lp.header.y;
     uint groups = uint(lp.header.z);
     float scale = lp.scale.x;
     ViewWarp w = warp_of(k);
@@ -156,14 +146,18 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uin
     float seen = visible_sigma(uint(footprints[k].vis.y), p0);
     float sigma = own >= 0.0 ? (seen > own ? seen : own) : seen;
     float d = sigma >= 0.0 ? s - sigma : 0.0;
-    vec3 origin = footprints[k].origin.xyz;
-    vec3 span_s = footprints[k].span_s.xyz;
-    vec3 span_t = footprints[k].span_t.xyz;
-    vec3 q = y0 + (origin + 0.5 * (span_s + span_t)) * d;
-    if (!(q.z > 0.0)) {
-        return;
+    // The cell's centroid; a full cell's is the view itself (the branch is the same for
+    // every pixel: a rim cell's alone pays for the second projection).
+    vec3 cell_centre = footprints[k].origin.xyz
+                  + 0.5 * (footprints[k].span_s.xyz + footprints[k].span_t.xyz);
+    vec2 p = p0;
+    if (cell_centre != vec3(0.0)) {
+        vec3 q = y0 + cell_centre * d;
+        if (!(q.z > 0.0)) {
+            return;
+        }
+        p = q.xy / q.z;
     }
-    vec2 p = q.xy / q.z;
     if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
         return;
     }
@@ -179,15 +173,12 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uin
         col = fetch(p, w.a0.w);
     }
     float f;
-    int j = node_of(d * scale, f);
-    // Reachable by construction (refocus::layered::LayerPlan::slots).
-    int s0 = slot_of(j);
-    if (f < 1.0 && s0 >= 0) {
-        add_bin(uint(s0) * groups + g, n, pix, vec4(wk * (1.0 - f) * col, wk * (1.0 - f)));
+    ivec2 slot = node_slots(d * scale, f);
+    if (f < 1.0 && slot.x >= 0) {
+        add_bin(uint(slot.x) * groups + g, n, pix, vec4(wk * (1.0 - f) * col, wk * (1.0 - f)));
     }
-    int s1 = j + 1 < nodes ? slot_of(j + 1) : -1;
-    if (f > 0.0 && s1 >= 0) {
-        add_bin(uint(s1) * groups + g, n, pix, vec4(wk * f * col, wk * f));
+    if (f > 0.0 && slot.y >= 0) {
+        add_bin(uint(slot.y) * groups + g, n, pix, vec4(wk * f * col, wk * f));
     }
     st1.w += wk;
 }

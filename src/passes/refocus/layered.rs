@@ -41,12 +41,11 @@ pub struct GpuLayerParams {
     pub scale: [f32; 4],
     /// The reachable nodes' count (slots); yzw unused.
     pub slots: [i32; 4],
-    /// Per node of the range: its slot, −1 where unreachable (`[j / 4][j % 4]`).
-    pub slot_of: [[i32; 4]; MAX_NODES / 4],
+    /// Per node j of the range: its footprint in pixels and the next node's (signed), their
+    /// slots (−1 where unreachable or past the range).
+    pub nodes: [[f32; 4]; MAX_NODES],
     /// Per slot: its node's footprint in pixels, signed.
     pub slot_px: [[f32; 4]; MAX_LAYERS / 4],
-    /// Per node of the range and the one after it: its footprint in pixels, signed.
-    pub node_px: [[f32; 4]; MAX_NODES / 4 + 1],
     /// Per group: its footprint px per unit residual along x and y.
     pub units: [[f32; 4]; MAX_GROUPS],
     /// View k's group at `[k / 4][k % 4]`.
@@ -63,17 +62,20 @@ impl GpuLayerParams {
         for (u, g) in units.iter_mut().zip(&layers.groups) {
             *u = [g.x as f32, g.y as f32, 0.0, 0.0];
         }
-        let mut slot_of = [[-1i32; 4]; MAX_NODES / 4];
-        for (j, &k) in layers.slot_of.iter().enumerate().take(MAX_NODES) {
-            slot_of[j / 4][j % 4] = k;
+        let mut nodes = [[0f32; 4]; MAX_NODES];
+        let slot = |j: usize| layers.slot_of.get(j).copied().unwrap_or(-1) as f32;
+        for (j, e) in nodes.iter_mut().enumerate().take(layers.nodes) {
+            let at = layers.first + j as i64;
+            *e = [
+                node_px(at) as f32,
+                node_px(at + 1) as f32,
+                slot(j),
+                slot(j + 1),
+            ];
         }
         let mut slot_px = [[0f32; 4]; MAX_LAYERS / 4];
         for (k, &j) in layers.slots.iter().enumerate().take(MAX_LAYERS) {
             slot_px[k / 4][k % 4] = node_px(j) as f32;
-        }
-        let mut node_table = [[0f32; 4]; MAX_NODES / 4 + 1];
-        for j in 0..=layers.nodes.min(MAX_NODES) {
-            node_table[j / 4][j % 4] = node_px(layers.first + j as i64) as f32;
         }
         let mut group_of = [[0u32; 4]; UBO_WARPS / 4];
         for (k, &g) in layers.group_of.iter().enumerate().take(UBO_WARPS) {
@@ -88,9 +90,8 @@ impl GpuLayerParams {
             ],
             scale: [layers.px_per_residual as f32, guard_px as f32, 0.0, 0.0],
             slots: [layers.slots.len() as i32, 0, 0, 0],
-            slot_of,
+            nodes,
             slot_px,
-            node_px: node_table,
             units,
             group_of,
         }
@@ -394,13 +395,7 @@ mod tests {
         // std140: vec4s and uvec4s only, so the C layout is the block's.
         assert_eq!(
             std::mem::size_of::<GpuLayerParams>(),
-            16 * (3
-                + MAX_NODES / 4
-                + MAX_LAYERS / 4
-                + MAX_NODES / 4
-                + 1
-                + MAX_GROUPS
-                + UBO_WARPS / 4)
+            16 * (3 + MAX_NODES + MAX_LAYERS / 4 + MAX_GROUPS + UBO_WARPS / 4)
         );
     }
 }
