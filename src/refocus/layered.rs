@@ -20,8 +20,8 @@
 //! [`ViewVisibility::filled`]) into layers at nodes of footprint ([`node_px`]: a pixel apart
 //! up to 3 px, then geometric; soft: the two nearest nodes, linear weights; node 0 is the
 //! focus, so an in-focus sample stays unfiltered; only nodes a sample can reach are kept,
-//! [`LayerPlan::slots`]), and by the
-//! shape of its cell ([`LayerPlan::groups`]: full cells, and the rim cells of a disk by the
+//! [`LayerPlan::slots`]; the GPU stage also skips a layer's 8×8 tiles that no binned sample's
+//! box reaches: they are zero), and by the shape of its cell ([`LayerPlan::groups`]: full cells, and the rim cells of a disk by the
 //! size of their part inside it, rounded to [`SHAPE_STEP`]). Every layer image, colour and
 //! weight, is box-filtered by its node's footprint: along its rows, then its columns, the
 //! mean of its linear interpolation over the footprint narrowed by that interpolation's own

@@ -4,6 +4,13 @@
 //! then its columns, and composites the layers into the accumulation image, four compute
 //! dispatches in all.
 //!
+//! Most of a layer's image is zero (a pixel's views reach a few nodes), so the stage pays for
+//! the layers only where they hold something: each pixel records the layers its sums hold and
+//! its 8×8 tile's mask gathers them; a layer's first write stores (nothing clears the sums);
+//! the boxes run over the tiles within their reach of an occupied one and mark the tiles they
+//! wrote; the composite reads only the marked layers. What is skipped is exactly zero, so the
+//! output is the same as boxing every layer everywhere.
+//!
 //! The sums (`bins`, per layer and pixel) and the focus test's sums (`stats`) persist between
 //! accumulations into the same target, so views can be added batch by batch (the viewer's
 //! progressive refinement); every accumulation boxes and composites what has been binned so
