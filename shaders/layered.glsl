@@ -365,13 +365,16 @@ void composite_pixel(ivec2 px) {
     vec4 result = vec4(0.0);
     if (total > 0.0) {
         uint groups = uint(lp.header.z);
+        // The tile's boxed layers, read once (not once a layer).
+        uvec3 held = uvec3(occ[occ_word(tile, 2u, 0u)], occ[occ_word(tile, 2u, 32u)],
+                           occ[occ_word(tile, 2u, 64u)]);
         vec3 acc = vec3(0.0);
         float uncovered = 1.0;
         for (int slot = 0; slot < lp.slots.x; ++slot) {
             vec4 cw = vec4(0.0);
             for (uint g = 0u; g < groups; ++g) {
                 uint l = uint(slot) * groups + g;
-                if (occupied(tile, 2u, l)) {
+                if ((held[l >> 5u] & (1u << (l & 31u))) != 0u) {
                     cw += boxed[l * n + pix];
                 }
             }
