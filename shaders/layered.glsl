@@ -82,8 +82,8 @@ bool occupied(uint tile, uint stage, uint l) {
 }
 
 // The binning pixel's layers: those it held before this batch (none when the batch starts
-// the sums) and those it has written since. A layer's first write stores, so
-// the sums need no clearing.
+// the sums) and those it has written since. A layer's first write stores, so the sums need
+// no clearing.
 uvec4 held_before = uvec4(0u);
 uvec4 written = uvec4(0u);
 
@@ -149,7 +149,7 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uin
     // The cell's centroid; a full cell's is the view itself (the branch is the same for
     // every pixel: a rim cell's alone pays for the second projection).
     vec3 cell_centre = footprints[k].origin.xyz
-                  + 0.5 * (footprints[k].span_s.xyz + footprints[k].span_t.xyz);
+                     + 0.5 * (footprints[k].span_s.xyz + footprints[k].span_t.xyz);
     vec2 p = p0;
     if (cell_centre != vec3(0.0)) {
         vec3 q = y0 + cell_centre * d;
@@ -237,8 +237,9 @@ float box_of(uint l, uint axis) {
 
 // Running box along a line of `count` samples at `base + i * stride` (refocus::layered::
 // tent_box_1d): STAGE 1 reads bins and writes rows, STAGE 2 reads rows and writes boxed. The
-// line's tiles are `line_tile0 + t * line_tile_step`; a sample in a tile the stage before left
-// empty for the line's layer is zero (its memory holds another plan's values).
+// line's tiles are `line_tile0 + t * line_tile_step`. STAGE 1 reads a pixel's sums only where
+// the pixel holds the line's layer, STAGE 2 the rows only in the tiles STAGE 1 wrote:
+// elsewhere the memory holds another plan's values, and the sample is zero.
 uint line_base;
 uint line_stride;
 uint line_pixel0;
