@@ -73,12 +73,22 @@ uint tiles_y() {
     return (uint(pc.view_size.y) + TILE_PX - 1u) / TILE_PX;
 }
 
+// The tile of output pixel px.
+uint tile_of(ivec2 px) {
+    return uint(px.y) / TILE_PX * tiles_x() + uint(px.x) / TILE_PX;
+}
+
+// Layer l's bit in its word of a layer mask (word l / 32).
+uint layer_bit(uint l) {
+    return 1u << (l & 31u);
+}
+
 uint occ_word(uint tile, uint stage, uint l) {
     return (stage * tiles_x() * tiles_y() + tile) * 4u + (l >> 5u);
 }
 
 bool occupied(uint tile, uint stage, uint l) {
-    return (occ[occ_word(tile, stage, l)] & (1u << (l & 31u))) != 0u;
+    return (occ[occ_word(tile, stage, l)] & layer_bit(l)) != 0u;
 }
 
 // The binning pixel's layers: those it held before this batch (none when the batch starts
@@ -89,7 +99,7 @@ uvec4 written = uvec4(0u);
 
 void add_bin(uint l, uint n, uint pix, vec4 v) {
     uint word = l >> 5u;
-    uint bit = 1u << (l & 31u);
+    uint bit = layer_bit(l);
     uint i = l * n + pix;
     if (((held_before[word] | written[word]) & bit) != 0u) {
         bins[i] += v;
@@ -255,7 +265,7 @@ vec4 line_value(int i) {
     uint at = line_base + uint(i) * line_stride;
     if (STAGE == 1u) {
         uint held = pixel_layers[line_pixel0 + uint(i) * line_stride][line_layer >> 5u];
-        return (held & (1u << (line_layer & 31u))) != 0u ? bins[at] : vec4(0.0);
+        return (held & layer_bit(line_layer)) != 0u ? bins[at] : vec4(0.0);
     }
     return line_tile_on(i / int(TILE_PX)) ? rows[at] : vec4(0.0);
 }
@@ -340,7 +350,7 @@ void layer_line(uint l, uint line, uint count, uint tiles, float width) {
     box_line(int(count), width, lo, hi, max(first_on * int(TILE_PX) - 1, 0));
     if (line % TILE_PX == 0u) {
         for (int t = t0; t <= t1; ++t) {
-            atomicOr(occ[occ_word(line_tile0 + uint(t) * line_tile_step, STAGE, l)], 1u << (l & 31u));
+            atomicOr(occ[occ_word(line_tile0 + uint(t) * line_tile_step, STAGE, l)], layer_bit(l));
         }
     }
 }
@@ -352,7 +362,7 @@ void composite_pixel(ivec2 px) {
     vec4 st1 = stats[3u * pix + 1u];
     vec4 st2 = stats[3u * pix + 2u];
     vec3 x = vec3((vec2(px) + 0.5) * pc.out_scale - 0.5, 1.0);
-    uint tile = uint(px.y) / TILE_PX * tiles_x() + uint(px.x) / TILE_PX;
+    uint tile = tile_of(px);
     float threshold = footprints[0].vis.w;
     if (threshold > 0.0 && st0.w > 0.0 && scene_sigma[2 * depth_index(x.xy)] >= 0.0) {
         vec3 mean = st2.rgb / st0.w;
@@ -375,7 +385,7 @@ void composite_pixel(ivec2 px) {
             vec4 cw = vec4(0.0);
             for (uint g = 0u; g < groups; ++g) {
                 uint l = uint(slot) * groups + g;
-                if ((held[l >> 5u] & (1u << (l & 31u))) != 0u) {
+                if ((held[l >> 5u] & layer_bit(l)) != 0u) {
                     cw += boxed[l * n + pix];
                 }
             }
@@ -405,7 +415,7 @@ void bin_tile(ivec2 px) {
     }
     bin_pixel(px);
     pixel_layers[pix] = held_before | written;
-    uint tile = uint(px.y) / TILE_PX * tiles_x() + uint(px.x) / TILE_PX;
+    uint tile = tile_of(px);
     for (uint w = 0u; w < 3u; ++w) {
         if ((written[w] & ~held_before[w]) != 0u) {
             atomicOr(occ[occ_word(tile, 0u, w * 32u)], written[w]);
