@@ -101,11 +101,9 @@ void add_bin(uint l, uint n, uint pix, vec4 v) {
     uint word = l >> 5u;
     uint bit = layer_bit(l);
     uint i = l * n + pix;
-    if (((held_before[word] | written[word]) & bit) != 0u) {
-        bins[i] += v;
-    } else {
-        bins[i] = v;
-    }
+    // One store either way (llvmpipe runs both sides of a branch, each store a loop over lanes).
+    bool held = ((held_before[word] | written[word]) & bit) != 0u;
+    bins[i] = held ? bins[i] + v : v;
     written[word] |= bit;
 }
 
@@ -245,6 +243,14 @@ float box_of(uint l, uint axis) {
     return sqrt(max(e * e - 2.0, 0.0));
 }
 
+// A layer whose box is zero wide along both axes (a footprint within the interpolation's own
+// blur: the nodes near the focus) is its sums as they are: the rows and columns skip it and
+// the composite reads its sums where the pixel holds it. Near the focus lie most samples, so
+// this is most of what the boxes would copy.
+bool sharp(uint l) {
+    return box_of(l, 0u) == 0.0 && box_of(l, 1u) == 0.0;
+}
+
 // Running box along a line of `count` samples at `base + i * stride` (refocus::layered::
 // tent_box_1d): STAGE 1 reads bins and writes rows, STAGE 2 reads rows and writes boxed. The
 // line's tiles are `line_tile0 + t * line_tile_step`. STAGE 1 reads a pixel's sums only where
@@ -329,6 +335,9 @@ void box_line(int count, float width, int lo, int hi, int zero) {
 // box's reach of a tile the stage before wrote; its tiles marked for the next stage (by the
 // line first in its tile, as the tile's other lines find the same span).
 void layer_line(uint l, uint line, uint count, uint tiles, float width) {
+    if (sharp(l)) {
+        return;
+    }
     line_layer = l;
     int first_on = -1;
     int last_on = -1;
@@ -376,17 +385,20 @@ void composite_pixel(ivec2 px) {
     vec4 result = vec4(0.0);
     if (total > 0.0) {
         uint groups = uint(lp.header.z);
-        // The tile's boxed layers, read once (not once a layer).
-        uvec3 held = uvec3(occ[occ_word(tile, 2u, 0u)], occ[occ_word(tile, 2u, 32u)],
-                           occ[occ_word(tile, 2u, 64u)]);
+        // The tile's boxed layers, read once (not once a layer), and the pixel's sharp ones.
+        uvec3 boxed_in = uvec3(occ[occ_word(tile, 2u, 0u)], occ[occ_word(tile, 2u, 32u)],
+                               occ[occ_word(tile, 2u, 64u)]);
+        uvec3 summed_in = pixel_layers[pix].xyz;
         vec3 acc = vec3(0.0);
         float uncovered = 1.0;
         for (int slot = 0; slot < lp.slots.x; ++slot) {
             vec4 cw = vec4(0.0);
             for (uint g = 0u; g < groups; ++g) {
                 uint l = uint(slot) * groups + g;
+                bool as_summed = sharp(l);
+                uvec3 held = as_summed ? summed_in : boxed_in;
                 if ((held[l >> 5u] & layer_bit(l)) != 0u) {
-                    cw += boxed[l * n + pix];
+                    cw += as_summed ? bins[l * n + pix] : boxed[l * n + pix];
                 }
             }
             if (cw.w <= 1e-12) {
