@@ -48,22 +48,28 @@ layout(std140, set = 2, binding = 0) uniform LayerParams {
     vec4 units[MAX_GROUPS]; // xy: group g's footprint px per unit residual along x and y
     uvec4 group_of4[UBO_WARPS / 4u]; // view k's group at [k / 4][k % 4]
 } lp;
-// Per layer (node * groups + group) and pixel: (colour * weight, weight).
-layout(std430, set = 2, binding = 1) buffer Bins { vec4 bins[]; };
+// Per layer (node * groups + group) and pixel: (colour * weight, weight); the sums in the
+// first half, the boxes in the second (boxes_base()), so that the composite reads a sharp
+// layer's sums and another's box with one load.
+layout(std430, set = 2, binding = 1) buffer Layers { vec4 bins[]; };
 // Per pixel: (plain sum, plain weight), (clamped plain sum, binned weight), (root sum, 0): the
 // focus test's sums over the plain samples (views_agree) and the weight of the binned views.
 layout(std430, set = 2, binding = 2) buffer Stats { vec4 stats[]; };
 layout(std430, set = 2, binding = 3) buffer Rows { vec4 rows[]; };
-layout(std430, set = 2, binding = 4) buffer Boxed { vec4 boxed[]; };
 // Per stage (0 sums, 1 rows, 2 boxes) and 8×8 tile of the output (TILE_PX): a bit per layer,
 // set where the tile of that layer holds what the stage wrote. The rest of a layer's image is
 // zero and never read, boxed or composited: at word (stage * tiles + tile) * 4 + layer / 32.
 // The pass clears the sums' masks where an accumulation starts, the others before each.
-layout(std430, set = 2, binding = 5) buffer Occupancy { uint occ[]; };
+layout(std430, set = 2, binding = 4) buffer Occupancy { uint occ[]; };
 // Per pixel: the layers its sums hold (a bit each); elsewhere the sums hold another plan's
 // values, which the rows read as zero.
-layout(std430, set = 2, binding = 6) buffer PixelLayers { uvec4 pixel_layers[]; };
+layout(std430, set = 2, binding = 5) buffer PixelLayers { uvec4 pixel_layers[]; };
 const uint TILE_PX = 8u;
+
+// Where the boxes start in the layer buffer (its second half).
+uint boxes_base() {
+    return uint(bins.length()) / 2u;
+}
 
 uint tiles_x() {
     return (uint(pc.view_size.x) + TILE_PX - 1u) / TILE_PX;
@@ -252,7 +258,7 @@ bool sharp(uint l) {
 }
 
 // Running box along a line of `count` samples at `base + i * stride` (refocus::layered::
-// tent_box_1d): STAGE 1 reads bins and writes rows, STAGE 2 reads rows and writes boxed. The
+// tent_box_1d): STAGE 1 reads bins and writes rows, STAGE 2 reads rows and writes the boxes. The
 // line's tiles are `line_tile0 + t * line_tile_step`. STAGE 1 reads a pixel's sums only where
 // the pixel holds the line's layer, STAGE 2 the rows only in the tiles STAGE 1 wrote:
 // elsewhere the memory holds another plan's values, and the sample is zero.
@@ -281,7 +287,7 @@ void store_line(int i, vec4 v) {
     if (STAGE == 1u) {
         rows[at] = v;
     } else {
-        boxed[at] = v;
+        bins[boxes_base() + at] = v;
     }
 }
 
@@ -398,7 +404,7 @@ void composite_pixel(ivec2 px) {
                 bool as_summed = sharp(l);
                 uvec3 held = as_summed ? summed_in : boxed_in;
                 if ((held[l >> 5u] & layer_bit(l)) != 0u) {
-                    cw += as_summed ? bins[l * n + pix] : boxed[l * n + pix];
+                    cw += bins[(as_summed ? 0u : boxes_base()) + l * n + pix];
                 }
             }
             if (cw.w <= 1e-12) {

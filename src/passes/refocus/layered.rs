@@ -127,9 +127,10 @@ pub struct LayeredStage {
     _set_layout: Owned<vk::DescriptorSetLayout>,
     set: vk::DescriptorSet,
     params: Buffer,
-    /// Sums, rows, boxes (layers × pixels vec4 each), the focus test's sums (3 per pixel), the
-    /// layers' occupancy (a mask per stage and tile) and the layers each pixel's sums hold.
-    bins: Option<[Buffer; 6]>,
+    /// Sums and boxes (layers × pixels vec4 each, one buffer), rows (the same), the focus
+    /// test's sums (3 per pixel), the layers' occupancy (a mask per stage and tile) and the
+    /// layers each pixel's sums hold.
+    bins: Option<[Buffer; 5]>,
     /// Layers × pixels the buffers hold.
     capacity: (u32, u32),
     uploaded: Option<GpuLayerParams>,
@@ -146,7 +147,7 @@ impl LayeredStage {
         input_layout: vk::DescriptorSetLayout,
         storage_layout: vk::DescriptorSetLayout,
     ) -> Result<Self> {
-        let (set_layout, pool, set) = compute_stage::buffer_set(ctx, 6, "layered")?;
+        let (set_layout, pool, set) = compute_stage::buffer_set(ctx, 5, "layered")?;
         let push = compute_stage::push_range();
         let layout = pipeline::pipeline_layout(
             ctx,
@@ -186,10 +187,10 @@ impl LayeredStage {
             // A w × h image has at most w·h / 64 + (w + h) / 8 + 1 tiles: w·h / 8 + 1 at most.
             let tiles = pixels.max(1) as u64 / 8 + 1;
             let bins = [
-                make("layered sums", big)?,
+                // The sums, then the boxes (layered.glsl finds the boxes at its half).
+                make("layered sums and boxes", 2 * big)?,
                 make("layered focus sums", 48 * pixels.max(1) as u64)?,
                 make("layered rows", big)?,
-                make("layered boxes", big)?,
                 Buffer::new(
                     ctx,
                     48 * tiles,
@@ -353,7 +354,7 @@ impl LayeredStage {
         let from = if clear { 0 } else { mask };
         // SAFETY: recording outside a rendering instance; the range lies within the buffer
         // (at most w·h / 8 + 1 tiles) and is a multiple of 4 bytes.
-        unsafe { d.cmd_fill_buffer(cmd, bins[4].buffer, from, 3 * mask - from, 0) };
+        unsafe { d.cmd_fill_buffer(cmd, bins[3].buffer, from, 3 * mask - from, 0) };
         memory_barrier(
             d,
             cmd,
