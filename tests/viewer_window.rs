@@ -9,7 +9,7 @@ mod realworld_rig;
 use std::path::Path;
 use std::process::{Command, Output};
 
-use common::{fails_with, stderr, tiltfield};
+use common::{fails_with, json_of, stderr, tiltfield};
 use glam::DVec3;
 use tiltfield::viewer::layout::Layout;
 
@@ -170,6 +170,19 @@ fn the_viewer_converges_to_render_with_the_compute_strategy() {
     );
     let a = json_file(&d.join("a.json"));
     let mut focus = plane_args(&a);
+    // The report names the anti-aliasing route taken, as render's does for the same plane
+    // (builtin:tilted ships its depth: layered footprints), not only the setting asked for.
+    let mut args: Vec<&str> = vec!["render", lf, "--json", "-o"];
+    let rendered = d.join("route.png");
+    args.push(rendered.to_str().unwrap());
+    args.extend(focus.iter().map(String::as_str));
+    let o = tiltfield(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let route = &json_of(&o)["antialias"];
+    assert_eq!(route["layered"], true, "{route}");
+    for key in ["used", "layered", "boxed", "max_samples", "views_by_cell"] {
+        assert_eq!(report["antialias"][key], route[key], "{key}: {report}");
+    }
     focus.push("--strategy=compute".into());
     let want = render_state(lf, &a, &focus, &d.join("ra.png"));
     assert_eq!(

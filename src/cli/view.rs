@@ -186,15 +186,7 @@ pub fn run(args: &ViewArgs) -> Result<()> {
             "depth_ready_ms": report.milestones.depth_ready_ms,
             "averaging": state.averaging(),
             "surface": report.surface,
-            "antialias": {
-                "used": state.antialias() && depth_origin.is_some(),
-                "max_samples": antialias.max_samples,
-                "defocus": antialias.defocus,
-                // The setting as asked ("auto": layered where the depth was handed over).
-                "layered": antialias.layered,
-                "boxed": antialias.boxes(),
-                "depth_origin": depth_origin.map(crate::depth::DepthOrigin::json),
-            },
+            "antialias": report.antialias,
             "aperture": {"shape": state.aperture().shape, "radius": state.aperture().radius},
             "storage": ViewStorage::default(),
             "filter": args.filter,

@@ -105,6 +105,9 @@ pub struct ViewerReport {
     pub milestones: Milestones,
     /// The final focus surface, as `render --json` reports it.
     pub surface: serde_json::Value,
+    /// The final anti-aliasing plan, as `render --json` reports it: the route taken (layered
+    /// footprints or sub-samples), not only the settings asked for.
+    pub antialias: serde_json::Value,
     pub device: String,
     /// How the views were summed and whether that was chosen for the device.
     pub strategy: Chosen,
@@ -835,9 +838,14 @@ impl Viewer {
             session.surface.as_ref(),
             session.depth_origin.as_ref(),
         );
+        let antialias = crate::refocus::antialias::antialias_json(
+            session.aa.as_ref(),
+            session.depth_origin.as_ref().map(DepthOrigin::json),
+        );
         let lf = &session.lf;
         let light_field = (lf.name.clone(), lf.grid, (lf.width, lf.height));
         Ok(ViewerReport {
+            antialias,
             light_field,
             frames: session.stats.report(),
             depth: session.depth_origin,
