@@ -297,8 +297,22 @@ fn messenger_create_info(
         .user_data(Arc::as_ptr(log) as *mut _)
 }
 
+/// Held while an instance and its device are made or destroyed. The validation layer keeps
+/// every instance's and device's state in process-wide tables; with instances made and
+/// destroyed on two threads at once (the test harness runs GPU tests side by side, each with
+/// its own context) it once crashed inside the layer (a SIGSEGV in
+/// libVkLayer_khronos_validation.so, one run of the suite in about a hundred). Contexts are
+/// made a few times a process, so serialising their lifecycle costs nothing.
+static LIFECYCLE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn lifecycle() -> std::sync::MutexGuard<'static, ()> {
+    // A panic while holding it leaves nothing half-made that a later context would see.
+    LIFECYCLE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// Lists the physical devices (for `tiltfield devices`).
 pub fn list_devices() -> Result<Vec<DeviceInfo>> {
+    let _lifecycle = lifecycle();
     let entry = load_entry()?;
     let log = Arc::new(ValidationLog::default());
     let (instance, _) = create_instance(&entry, false, &[], &log)?;
@@ -319,6 +333,7 @@ pub fn list_devices() -> Result<Vec<DeviceInfo>> {
 impl GpuContext {
     /// Creates the context.
     pub fn new(options: &GpuOptions) -> Result<Self> {
+        let made = lifecycle();
         let entry = load_entry()?;
         let log = Arc::new(ValidationLog::default());
         let (instance, has_debug_utils) = create_instance(
@@ -427,6 +442,8 @@ impl GpuContext {
         let debug_device = debug
             .as_ref()
             .map(|_| ash::ext::debug_utils::Device::new(&instance, &device));
+        // Released before the context exists: its drop takes the lock again.
+        drop(made);
         let ctx = GpuContext(Arc::new(ContextCore {
             entry,
             instance,
@@ -587,6 +604,7 @@ fn choose_device(
 
 impl Drop for ContextCore {
     fn drop(&mut self) {
+        let _lifecycle = lifecycle();
         // SAFETY: reverse creation order after the device is idle; every resource created from
         // this context holds a clone of it, so they were all freed before the last clone went.
         unsafe {
