@@ -116,7 +116,7 @@ void main() {
         return;
     }
     uint n = uint(size.x) * uint(size.y);
-    float sigma = view_sigma[uint(map) * n + uint(px.y) * uint(size.x) + uint(px.x)];
+    float sigma = view_sigma(uint(map) * n + uint(px.y) * uint(size.x) + uint(px.x));
     bool boxed = false;
     vec3 result = vec3(0.0);
     mat3 a = mat3(w.a0.xyz, w.a1.xyz, w.a2.xyz);

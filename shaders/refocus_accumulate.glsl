@@ -80,8 +80,15 @@ layout(std140, set = 0, binding = 6) uniform Surface { vec4 surface_planes[MAX_P
 layout(set = 0, binding = 7) uniform sampler2DArray views_mip;
 // What each view of the anti-aliasing plan sees (refocus::antialias::ViewVisibility): sigma
 // per view pixel, view after view in the order of the footprints; -1 where nothing landed.
-// Read only for views whose footprint's vis.x is 1; vis.y is the view's map.
-layout(std430, set = 0, binding = 8) readonly buffer Visibility { float view_sigma[]; };
+// Read only for views whose footprint's vis.x is 1; vis.y is the view's map. 16-bit floats,
+// two to a word (ViewVisibility::half_words): half the stream of a view's map.
+layout(std430, set = 0, binding = 8) readonly buffer Visibility { uint view_sigma_bits[]; };
+
+// Entry i of the maps.
+float view_sigma(uint i) {
+    vec2 pair = unpackHalf2x16(view_sigma_bits[i >> 1u]);
+    return (i & 1u) == 0u ? pair.x : pair.y;
+}
 // The defocused views (DEFOCUS 1), one layer per view of the plan in the order of the
 // footprints (their vis.y), written by defocus.comp; kept in GENERAL layout.
 layout(set = 0, binding = 9) uniform sampler2DArray defocused;
@@ -246,7 +253,7 @@ float visible_sigma(uint map, vec2 p) {
         return -1.0;
     }
     uint n = uint(size.x) * uint(size.y);
-    return view_sigma[map * n + uint(ip.y) * uint(size.x) + uint(ip.x)];
+    return view_sigma(map * n + uint(ip.y) * uint(size.x) + uint(ip.x));
 }
 
 // Whether the reference sees inverse depth c where the ray (parallax `ray` per unit of s - c)

@@ -187,7 +187,7 @@ impl AntialiasInputs {
     pub fn new(ctx: &GpuContext, width: u32, height: u32, layers: u32) -> Result<Self> {
         // Room for every layer's map up front where that fits the budget, so the binding is
         // written once; a larger light field grows it on first use.
-        let full = layers.min(UBO_WARPS as u32) as u64 * width as u64 * height as u64 * 4;
+        let full = layers.min(UBO_WARPS as u32) as u64 * width as u64 * height as u64 * 2;
         let visibility_bytes = if full as usize <= MAX_VISIBILITY_BYTES {
             full.max(16)
         } else {
@@ -268,7 +268,8 @@ impl AntialiasInputs {
         if self.uploaded_visibility == Some(vis.id) {
             return Ok(false);
         }
-        let bytes = as_bytes(&vis.sigma);
+        let words = vis.half_words();
+        let bytes = as_bytes(&words);
         let grown = bytes.len() as u64 > self.visibility.size;
         if grown {
             let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
