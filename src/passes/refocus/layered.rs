@@ -8,7 +8,9 @@
 //! the layers only where they hold something: each pixel records the layers its sums hold and
 //! its 8×8 tile's mask gathers them; a layer's first write stores (nothing clears the sums);
 //! the boxes run over the tiles within their reach of an occupied one and mark the tiles they
-//! wrote; the composite reads only the marked layers. What is skipped is exactly zero, so the
+//! wrote; the composite reads only the marked layers. A layer whose box has no width (a node
+//! near the focus) is not boxed at all: the composite reads its sums, which share a buffer with
+//! the boxes so that either is one load. What is skipped is exactly zero or a copy, so the
 //! output is the same as boxing every layer everywhere.
 //!
 //! The sums (`bins`, per layer and pixel) and the focus test's sums (`stats`) persist between
