@@ -41,6 +41,7 @@ layout(std140, set = 2, binding = 0) uniform LayerParams {
                          // given depth). Catmull-Rom at footprints under half a pixel where
                          // pc.focused_reach > 0 (the bilinear filters with it on).
     ivec4 slots;         // x: the reachable nodes' count (each a layer per group)
+    uvec4 sharp;         // a bit per layer: its box is zero wide (sharp())
     // Node first + j of the range: its footprint in pixels and the next node's (signed), and
     // their slots (-1 where no sample reaches it, or past the range): one read a sample.
     vec4 nodes4[MAX_NODES];
@@ -249,12 +250,13 @@ float box_of(uint l, uint axis) {
     return sqrt(max(e * e - 2.0, 0.0));
 }
 
-// A layer whose box is zero wide along both axes (a footprint within the interpolation's own
-// blur: the nodes near the focus) is its sums as they are: the rows and columns skip it and
-// the composite reads its sums where the pixel holds it. Near the focus lie most samples, so
-// this is most of what the boxes would copy.
+// A layer whose box is zero wide along both axes (box_of 0: a footprint within the
+// interpolation's own blur, the nodes near the focus) is its sums as they are: the rows and
+// columns skip it and the composite reads its sums where the pixel holds it. Near the focus lie
+// most samples, so this is most of what the boxes would copy. The plan marks them once
+// (GpuLayerParams::new), so the composite's loop over layers pays one read, not two boxes.
 bool sharp(uint l) {
-    return box_of(l, 0u) == 0.0 && box_of(l, 1u) == 0.0;
+    return (lp.sharp[l >> 5u] & layer_bit(l)) != 0u;
 }
 
 // Running box along a line of `count` samples at `base + i * stride` (refocus::layered::

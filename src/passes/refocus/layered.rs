@@ -50,6 +50,10 @@ pub struct GpuLayerParams {
     pub scale: [f32; 4],
     /// The reachable nodes' count (slots); yzw unused.
     pub slots: [i32; 4],
+    /// A bit per layer (`slot × groups + group`, word `l / 32`): set where its box is zero
+    /// wide along both axes (`box_of` in layered.glsl, in the same f32 arithmetic), so the
+    /// boxes skip it and the composite reads its sums. Decided once per plan, not per pixel.
+    pub sharp: [u32; 4],
     /// Per node j of the range: its footprint in pixels and the next node's (signed), their
     /// slots (−1 where unreachable or past the range).
     pub nodes: [[f32; 4]; MAX_NODES],
@@ -86,6 +90,23 @@ impl GpuLayerParams {
         for (k, &j) in layers.slots.iter().enumerate().take(MAX_LAYERS) {
             slot_px[k / 4][k % 4] = node_px(j) as f32;
         }
+        // The shader's box_of: the node's footprint per unit residual times the group's unit,
+        // narrowed by the interpolation's variance; zero where e² ≤ 2.
+        let scale = layers.px_per_residual as f32;
+        let mut sharp = [0u32; 4];
+        for (k, &j) in layers.slots.iter().enumerate().take(MAX_LAYERS) {
+            let d = node_px(j) as f32 / scale.max(1e-12);
+            for (g, u) in units.iter().enumerate().take(layers.groups.len()) {
+                let flat = |unit: f32| {
+                    let e = d.abs() * unit;
+                    e * e - 2.0 <= 0.0
+                };
+                let l = k * layers.groups.len() + g;
+                if l < MAX_LAYERS && flat(u[0]) && flat(u[1]) {
+                    sharp[l / 32] |= 1 << (l % 32);
+                }
+            }
+        }
         let mut group_of = [[0u32; 4]; UBO_WARPS / 4];
         for (k, &g) in layers.group_of.iter().enumerate().take(UBO_WARPS) {
             group_of[k / 4][k % 4] = g as u32;
@@ -97,8 +118,9 @@ impl GpuLayerParams {
                 layers.groups.len() as i32,
                 pixels as i32,
             ],
-            scale: [layers.px_per_residual as f32, guard_px as f32, 0.0, 0.0],
+            scale: [scale, guard_px as f32, 0.0, 0.0],
             slots: [layers.slots.len() as i32, 0, 0, 0],
+            sharp,
             nodes,
             slot_px,
             units,
@@ -405,7 +427,7 @@ mod tests {
         // std140: vec4s and uvec4s only, so the C layout is the block's.
         assert_eq!(
             std::mem::size_of::<GpuLayerParams>(),
-            16 * (3 + MAX_NODES + MAX_LAYERS / 4 + MAX_GROUPS + UBO_WARPS / 4)
+            16 * (4 + MAX_NODES + MAX_LAYERS / 4 + MAX_GROUPS + UBO_WARPS / 4)
         );
     }
 }
