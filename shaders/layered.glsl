@@ -40,7 +40,8 @@ layout(std140, set = 2, binding = 0) uniform LayerParams {
     vec4 scale;          // x: full-cell footprint px per unit residual; y: guard px (0: a
                          // given depth). Catmull-Rom at footprints under half a pixel where
                          // pc.focused_reach > 0 (the bilinear filters with it on).
-    ivec4 slots;         // x: the reachable nodes' count (each a layer per group)
+    ivec4 slots;         // x: the reachable nodes' count (each a layer per group), y: the
+                         // centred views' count (first in order4), z: the plan's views
     uvec4 sharp;         // a bit per layer: its box is zero wide (sharp())
     // Node first + j of the range: its footprint in pixels and the next node's (signed), and
     // their slots (-1 where no sample reaches it, or past the range): one read a sample.
@@ -48,13 +49,19 @@ layout(std140, set = 2, binding = 0) uniform LayerParams {
     vec4 slot_px4[MAX_LAYERS / 4u]; // slot k's node footprint in pixels, signed
     vec4 units[MAX_GROUPS]; // xy: group g's footprint px per unit residual along x and y
     uvec4 group_of4[UBO_WARPS / 4u]; // view k's group at [k / 4][k % 4]
+    // The views in binning order: those whose cell's centroid is the view (centred: the sample
+    // is the plain one) ascending, then the others ascending.
+    uvec4 order4[UBO_WARPS / 4u];
 } lp;
 // Per layer (node * groups + group) and pixel: (colour * weight, weight); the sums in the
 // first half, the boxes in the second (boxes_base()), so that the composite reads a sharp
 // layer's sums and another's box with one load.
 layout(std430, set = 2, binding = 1) buffer Layers { vec4 bins[]; };
-// Per pixel: (plain sum, plain weight), (clamped plain sum, binned weight), (root sum, 0): the
-// focus test's sums over the plain samples (views_agree) and the weight of the binned views.
+// Per pixel: (plain sum, plain weight), (Σ w e², binned weight), (Σ w e, 0), (r, 1 once set):
+// the focus test's sums over the plain samples and the weight of the binned views. e = √c − r,
+// r the root of the pixel's first plain sample: the spread E[e²] − E[e]² then cancels only
+// the samples' differences, not their level (E[c] − E[√c]² in f32 lost a part in 10³ of the
+// variance, so a pixel at the threshold passed or failed with the views' order).
 layout(std430, set = 2, binding = 2) buffer Stats { vec4 stats[]; };
 layout(std430, set = 2, binding = 3) buffer Rows { vec4 rows[]; };
 // Per stage (0 sums, 1 rows, 2 boxes) and 8×8 tile of the output (TILE_PX): a bit per layer,
@@ -128,6 +135,10 @@ ivec2 node_slots(float px, out float f) {
     return ivec2(e.zw);
 }
 
+uint order_at(int i) {
+    return lp.order4[i >> 2][i & 3];
+}
+
 uint group_of(uint k) {
     return lp.group_of4[k >> 2u][k & 3u];
 }
@@ -139,7 +150,9 @@ float slot_px(uint k) {
 // View k's sample of output pixel pix (x, focus s, the pixel's own depth where the guard keeps
 // it): the focus test's sums and the layer sums. `cr`: Catmull-Rom for footprints under half a
 // pixel (a pixel whose own surface is in focus).
-void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uint n, uint pix, inout vec4 st0, inout vec4 st1, inout vec4 st2) {
+// `centred`: the cell's centroid is the view, so its sample is the plain one (a literal at
+// every call: the centred views' loops carry none of the rim cells' code).
+void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, bool centred, uint n, uint pix, inout vec4 st0, inout vec4 st1, inout vec4 st2, inout vec4 st3) {
     uint groups = uint(lp.header.z);
     float scale = lp.scale.x;
     ViewWarp w = warp_of(k);
@@ -155,23 +168,27 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uin
         c0 = fetch(p0, w.a0.w);
         vec3 cp = max(c0, vec3(0.0));
         st0 += vec4(wk * c0, wk);
-        st1.rgb += wk * cp;
-        st2.rgb += wk * sqrt(cp);
+        vec3 root = sqrt(cp);
+        st3 = st3.w > 0.0 ? st3 : vec4(root, 1.0);
+        vec3 e = root - st3.rgb;
+        st1.rgb += wk * e * e;
+        st2.rgb += wk * e;
     }
     float seen = visible_sigma(uint(footprints[k].vis.y), p0);
     float sigma = own >= 0.0 ? (seen > own ? seen : own) : seen;
     float d = sigma >= 0.0 ? s - sigma : 0.0;
-    // The cell's centroid; a full cell's is the view itself (the branch is the same for
-    // every pixel: a rim cell's alone pays for the second projection).
-    vec3 cell_centre = footprints[k].origin.xyz
-                     + 0.5 * (footprints[k].span_s.xyz + footprints[k].span_t.xyz);
+    // The cell's centroid (a rim cell's; a centred cell's is the view itself).
     vec2 p = p0;
-    if (cell_centre != vec3(0.0)) {
-        vec3 q = y0 + cell_centre * d;
-        if (!(q.z > 0.0)) {
-            return;
+    if (!centred) {
+        vec3 cell_centre = footprints[k].origin.xyz
+                         + 0.5 * (footprints[k].span_s.xyz + footprints[k].span_t.xyz);
+        if (cell_centre != vec3(0.0)) {
+            vec3 q = y0 + cell_centre * d;
+            if (!(q.z > 0.0)) {
+                return;
+            }
+            p = q.xy / q.z;
         }
-        p = q.xy / q.z;
     }
     if (any(lessThan(p, lo)) || any(greaterThan(p, hi))) {
         return;
@@ -182,7 +199,7 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, uin
     vec3 col;
     if (cr && blur < FOCUSED_BLUR_PX) {
         col = bicubic(p, int(w.a0.w));
-    } else if (in0 && p == p0) {
+    } else if (centred || (in0 && p == p0)) {
         col = c0;
     } else {
         col = fetch(p, w.a0.w);
@@ -204,10 +221,12 @@ void bin_pixel(ivec2 px) {
     vec4 st0 = vec4(0.0);
     vec4 st1 = vec4(0.0);
     vec4 st2 = vec4(0.0);
+    vec4 st3 = vec4(0.0);
     if (pc.accumulate != 0u) {
-        st0 = stats[3u * pix];
-        st1 = stats[3u * pix + 1u];
-        st2 = stats[3u * pix + 2u];
+        st0 = stats[4u * pix];
+        st1 = stats[4u * pix + 1u];
+        st2 = stats[4u * pix + 2u];
+        st3 = stats[4u * pix + 3u];
     }
     vec3 x = vec3((vec2(px) + 0.5) * pc.out_scale - 0.5, 1.0);
     float s = max(dot(pc.plane.xyz, x), 0.0);
@@ -228,16 +247,39 @@ void bin_pixel(ivec2 px) {
     // code (llvmpipe runs both sides of a per-lane branch).
     float sigma_x = scene_sigma[2 * depth_index(x.xy)];
     bool focused = pc.focused_reach > 0.0 && sigma_x >= 0.0 && abs(s - sigma_x) < pc.focused_reach;
+    // The batch's views in binning order: centred [c.x, c.y), the others [r.x, r.y). A batch of
+    // every view needs no search (the loop's count is the same in every lane: it runs or not).
     uint k_end = pc.first_view + pc.view_count;
-    for (uint k = pc.first_view; k < (focused ? k_end : pc.first_view); ++k) {
-        bin_view(k, x, s, own, lo, hi, true, n, pix, st0, st1, st2);
+    int centred = lp.slots.y;
+    int views = lp.slots.z;
+    bool whole = pc.first_view == 0u && k_end >= uint(views);
+    ivec2 c = whole ? ivec2(0, centred) : ivec2(0);
+    ivec2 r = whole ? ivec2(centred, views) : ivec2(centred);
+    for (int i = 0; i < (whole ? 0 : views); ++i) {
+        uint k = order_at(i);
+        ivec2 before = ivec2(k < pc.first_view ? 1 : 0, k < k_end ? 1 : 0);
+        if (i < centred) {
+            c += before;
+        } else {
+            r += before;
+        }
     }
-    for (uint k = pc.first_view; k < (focused ? pc.first_view : k_end); ++k) {
-        bin_view(k, x, s, own, lo, hi, false, n, pix, st0, st1, st2);
+    for (int i = c.x; i < (focused ? c.y : c.x); ++i) {
+        bin_view(order_at(i), x, s, own, lo, hi, true, true, n, pix, st0, st1, st2, st3);
     }
-    stats[3u * pix] = st0;
-    stats[3u * pix + 1u] = st1;
-    stats[3u * pix + 2u] = st2;
+    for (int i = c.x; i < (focused ? c.x : c.y); ++i) {
+        bin_view(order_at(i), x, s, own, lo, hi, false, true, n, pix, st0, st1, st2, st3);
+    }
+    for (int i = r.x; i < (focused ? r.y : r.x); ++i) {
+        bin_view(order_at(i), x, s, own, lo, hi, true, false, n, pix, st0, st1, st2, st3);
+    }
+    for (int i = r.x; i < (focused ? r.x : r.y); ++i) {
+        bin_view(order_at(i), x, s, own, lo, hi, false, false, n, pix, st0, st1, st2, st3);
+    }
+    stats[4u * pix] = st0;
+    stats[4u * pix + 1u] = st1;
+    stats[4u * pix + 2u] = st2;
+    stats[4u * pix + 3u] = st3;
 }
 
 // The layer's box width along one axis: the node's footprint narrowed by the linear
@@ -375,9 +417,9 @@ void layer_line(uint l, uint line, uint count, uint tiles, float width) {
 void composite_pixel(ivec2 px) {
     uint n = uint(lp.header.w);
     uint pix = uint(px.y) * uint(pc.view_size.x) + uint(px.x);
-    vec4 st0 = stats[3u * pix];
-    vec4 st1 = stats[3u * pix + 1u];
-    vec4 st2 = stats[3u * pix + 2u];
+    vec4 st0 = stats[4u * pix];
+    vec4 st1 = stats[4u * pix + 1u];
+    vec4 st2 = stats[4u * pix + 2u];
     vec3 x = vec3((vec2(px) + 0.5) * pc.out_scale - 0.5, 1.0);
     uint tile = tile_of(px);
     float threshold = footprints[0].vis.w;

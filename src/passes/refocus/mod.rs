@@ -500,7 +500,8 @@ impl RefocusPass {
         let (w, h) = (self.view_size[0] as u32, self.view_size[1] as u32);
         let layers = crate::refocus::layered::LayerPlan::new(aa, (w, h));
         layers.check()?;
-        Ok(GpuLayerParams::new(&layers, w * h, aa.guard_px))
+        let centred = layered::centred_cells(&aa.footprints);
+        Ok(GpuLayerParams::new(&layers, w * h, aa.guard_px, &centred))
     }
 
     /// Whether [`RefocusPass::set_views`] would rewrite the warps for `plan`: a caller with
