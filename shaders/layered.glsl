@@ -124,15 +124,30 @@ void add_bin(uint l, uint n, uint pix, vec4 v) {
 // The node below footprint px and the share f of the one above (refocus::layered::node_of),
 // as the two nodes' slots (reachable by construction, refocus::layered::LayerPlan::slots).
 // The nodes' footprints come from a table: llvmpipe evaluates a power in software.
-ivec2 node_slots(float px, out float f) {
+ivec2 node_slots(float px, out float f, out int j) {
     float k = abs(px);
     float linear = NODE_LINEAR_PX / NODE_STEP_PX;
     float t = k <= NODE_LINEAR_PX ? k / NODE_STEP_PX
                                   : linear + log(k / NODE_LINEAR_PX) / log(NODE_RATIO);
-    int j = clamp(int(floor(px < 0.0 ? -t : t)) - lp.header.x, 0, lp.header.y - 1);
+    j = clamp(int(floor(px < 0.0 ? -t : t)) - lp.header.x, 0, lp.header.y - 1);
     vec4 e = lp.nodes4[j];
     f = e.y > e.x ? clamp((px - e.x) / (e.y - e.x), 0.0, 1.0) : 0.0;
     return ivec2(e.zw);
+}
+
+// The centred views' samples of the binning pixel, summed in registers over a window of four
+// consecutive nodes of one group (run_j: the window's first node, -1 before the first sample)
+// and written once at the end (flush_run): most of a pixel's views see one surface, so their
+// nodes lie within one of each other, and llvmpipe stores a layer sum lane by lane. A sample
+// outside the window goes to memory at once, in a loop that a SIMD group without one skips.
+int run_j = -1;
+uint run_g = 0u;
+const int RUN_NODES = 6;
+vec4 runs[RUN_NODES] = vec4[RUN_NODES](vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
+
+// The slot of node m of the range (-1: unreachable or past it).
+int slot_of_node(int m) {
+    return m >= 0 && m < lp.header.y ? int(lp.nodes4[m].z) : -1;
 }
 
 uint order_at(int i) {
@@ -205,12 +220,28 @@ void bin_view(uint k, vec3 x, float s, float own, vec2 lo, vec2 hi, bool cr, boo
         col = fetch(p, w.a0.w);
     }
     float f;
-    ivec2 slot = node_slots(d * scale, f);
-    if (f < 1.0 && slot.x >= 0) {
-        add_bin(uint(slot.x) * groups + g, n, pix, vec4(wk * (1.0 - f) * col, wk * (1.0 - f)));
+    int j;
+    ivec2 slot = node_slots(d * scale, f, j);
+    vec4 below = vec4(wk * (1.0 - f) * col, wk * (1.0 - f));
+    vec4 above = vec4(wk * f * col, wk * f);
+    bool hit = false;
+    if (centred) {
+        bool first = run_j < 0;
+        run_j = first ? max(j - RUN_NODES / 2 + 1, 0) : run_j;
+        run_g = first ? g : run_g;
+        int o = j - run_j;
+        hit = g == run_g && o >= 0 && o < RUN_NODES - 1;
+        for (int i = 0; i < RUN_NODES; ++i) {
+            runs[i] += hit && o == i ? below : (hit && o + 1 == i ? above : vec4(0.0));
+        }
     }
-    if (f > 0.0 && slot.y >= 0) {
-        add_bin(uint(slot.y) * groups + g, n, pix, vec4(wk * f * col, wk * f));
+    for (int once = 0; once < (hit ? 0 : 1); ++once) {
+        if (f < 1.0 && slot.x >= 0) {
+            add_bin(uint(slot.x) * groups + g, n, pix, below);
+        }
+        if (f > 0.0 && slot.y >= 0) {
+            add_bin(uint(slot.y) * groups + g, n, pix, above);
+        }
     }
     st1.w += wk;
 }
@@ -275,6 +306,15 @@ void bin_pixel(ivec2 px) {
     }
     for (int i = r.x; i < (focused ? r.x : r.y); ++i) {
         bin_view(order_at(i), x, s, own, lo, hi, false, false, n, pix, st0, st1, st2, st3);
+    }
+    if (run_j >= 0) {
+        uint groups = uint(lp.header.z);
+        for (int i = 0; i < RUN_NODES; ++i) {
+            int slot = slot_of_node(run_j + i);
+            if (runs[i].w > 0.0 && slot >= 0) {
+                add_bin(uint(slot) * groups + run_g, n, pix, runs[i]);
+            }
+        }
     }
     stats[4u * pix] = st0;
     stats[4u * pix + 1u] = st1;
