@@ -281,23 +281,10 @@ void bin_pixel(ivec2 px) {
     // code (llvmpipe runs both sides of a per-lane branch).
     float sigma_x = scene_sigma[2 * depth_index(x.xy)];
     bool focused = pc.focused_reach > 0.0 && sigma_x >= 0.0 && abs(s - sigma_x) < pc.focused_reach;
-    // The batch's views in binning order: centred [c.x, c.y), the others [r.x, r.y). A batch of
-    // every view needs no search (the loop's count is the same in every lane: it runs or not).
-    uint k_end = pc.first_view + pc.view_count;
-    int centred = lp.slots.y;
-    int views = lp.slots.z;
-    bool whole = pc.first_view == 0u && k_end >= uint(views);
-    ivec2 c = whole ? ivec2(0, centred) : ivec2(0);
-    ivec2 r = whole ? ivec2(centred, views) : ivec2(centred);
-    for (int i = 0; i < (whole ? 0 : views); ++i) {
-        uint k = order_at(i);
-        ivec2 before = ivec2(k < pc.first_view ? 1 : 0, k < k_end ? 1 : 0);
-        if (i < centred) {
-            c += before;
-        } else {
-            r += before;
-        }
-    }
+    // The batch's views in binning order (the host's ranges): centred [c.x, c.y), the others
+    // [r.x, r.y).
+    ivec2 c = ivec2(pc.centred_from, pc.centred_to);
+    ivec2 r = ivec2(pc.rim_from, pc.rim_to);
     for (int i = c.x; i < (focused ? c.y : c.x); ++i) {
         bin_view(order_at(i), x, s, own, lo, hi, true, true, n, pix, st0, st1, st2, st3);
     }

@@ -38,4 +38,8 @@ layout(push_constant) uniform RefocusPush {
     uint total_views; // warps of the whole plan (anti-aliasing's focus test reads them all)
     float focused_reach; // anti-aliasing: |s - sigma| below which a pixel's own surface is in
                          // focus and its sub-samples under half a pixel read Catmull-Rom (0: none)
+    uint centred_from; // layered footprints: the batch's views in the binning order (order4 in
+    uint centred_to;   // layered.glsl), the centred part [centred_from, centred_to) and the
+    uint rim_from;     // rest [rim_from, rim_to); 0 elsewhere
+    uint rim_to;
 } pc;

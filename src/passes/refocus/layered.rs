@@ -163,6 +163,24 @@ impl GpuLayerParams {
         }
     }
 
+    /// The views `views` (a batch) as ranges of the binning order: the centred part's and the
+    /// rest's, for [`RefocusPush`]'s `centred_from..rim_to`. Both parts are ascending, so a
+    /// range of views is a range of each.
+    pub fn batch_ranges(&self, views: &Range<usize>) -> [u32; 4] {
+        let (centred, all) = (self.slots[1].max(0) as usize, self.slots[2].max(0) as usize);
+        let at = |i: usize| self.order[i / 4][i % 4] as usize;
+        let before = |part: Range<usize>, k: usize| part.filter(|&i| at(i) < k).count();
+        let c = (
+            before(0..centred, views.start),
+            before(0..centred, views.end),
+        );
+        let r = (
+            before(centred..all, views.start),
+            before(centred..all, views.end),
+        );
+        [c.0, c.1, centred + r.0, centred + r.1].map(|v| v as u32)
+    }
+
     fn layers(&self) -> u32 {
         (self.slots[0] * self.header[2]) as u32
     }
@@ -379,10 +397,15 @@ impl LayeredStage {
         // this target's views of this plan.
         let clear = clear || self.binned_for != storage_set;
         self.binned_for = storage_set;
+        let [centred_from, centred_to, rim_from, rim_to] = params.batch_ranges(&views);
         let push = RefocusPush {
             first_view: views.start as u32,
             view_count: views.len() as u32,
             accumulate: u32::from(!clear),
+            centred_from,
+            centred_to,
+            rim_from,
+            rim_to,
             ..push
         };
         let (w, h) = size;
@@ -471,6 +494,10 @@ mod tests {
         let p = GpuLayerParams::new(&plan, 16, 0.0, &centred);
         assert_eq!(p.slots[1..3], [2, 4]);
         assert_eq!(p.order[0], [1, 3, 0, 2]);
+        // A batch of views 1..3 is view 1 of the centred part and view 2 of the rest.
+        assert_eq!(p.batch_ranges(&(1..3)), [0, 1, 3, 4]);
+        assert_eq!(p.batch_ranges(&(0..4)), [0, 2, 2, 4]);
+        assert_eq!(p.batch_ranges(&(4..4)), [2, 2, 4, 4]);
     }
 
     /// The shader's copies of the node layout and the group limit are the model's.

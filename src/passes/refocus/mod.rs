@@ -638,6 +638,8 @@ impl RefocusPass {
                 Filter::Hardware | Filter::Shader if anti => aa.focused_reach,
                 _ => 0.0,
             },
+            // The layered stage sets its batch's ranges (LayeredStage::record).
+            ..RefocusPush::default()
         };
         Ok((key, set_index, push))
     }
