@@ -40,8 +40,8 @@ layout(std140, set = 2, binding = 0) uniform LayerParams {
     vec4 scale;          // x: full-cell footprint px per unit residual; y: guard px (0: a
                          // given depth). Catmull-Rom at footprints under half a pixel where
                          // pc.focused_reach > 0 (the bilinear filters with it on).
-    ivec4 slots;         // x: the reachable nodes' count (each a layer per group), y: the
-                         // centred views' count (first in order4), z: the plan's views
+    ivec4 slots;         // x: the reachable nodes' count (each a layer per group); yz the
+                         // host's (the batch ranges in pc come from them)
     uvec4 sharp;         // a bit per layer: its box is zero wide (sharp())
     // Node first + j of the range: its footprint in pixels and the next node's (signed), and
     // their slots (-1 where no sample reaches it, or past the range): one read a sample.

@@ -97,7 +97,7 @@ pub struct RefocusPush {
     /// ([`crate::refocus::antialias::AntialiasPlan::focused_reach`]; 0: none).
     pub focused_reach: f32,
     /// Layered footprints: the batch's views in the stage's binning order
-    /// ([`super::layered::GpuLayerParams::order`]), the centred part `[centred_from, centred_to)`
+    /// (the layered stage's `GpuLayerParams::order`), the centred part `[centred_from, centred_to)`
     /// and the rest `[rim_from, rim_to)`; worked out per batch on the host, so that no pixel
     /// searches the order (the viewer's progressive batches did, 16 % of their time). 0
     /// elsewhere.

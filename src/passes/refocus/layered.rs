@@ -30,7 +30,6 @@ use crate::gpu::pipeline::{self, compute_pipeline};
 use crate::gpu::pod::{as_bytes, Pod};
 use crate::gpu::resources::Buffer;
 use crate::gpu::{shaders, GpuContext, Owned};
-use crate::refocus::antialias::Footprint;
 use crate::refocus::layered::{node_px, LayerPlan, MAX_GROUPS, MAX_LAYERS, MAX_NODES};
 use crate::refocus::settings::UBO_WARPS;
 
@@ -41,21 +40,6 @@ const LINE_GROUP: u32 = 64;
 // The occupancy holds three 32-bit words of layer bits a tile and stage.
 const _: () = assert!(MAX_LAYERS <= 96);
 
-/// Per view: whether its cell's centroid is the view itself (a full cell), so that its sample
-/// is the plain one. Decided in f64: the f32 records leave most full cells' centroids a
-/// rounding error off zero (8 of 13 on a disk of radius 2), which the shader would otherwise
-/// project and fetch again to move the sample by ~10⁻⁷ px.
-pub fn centred_cells(footprints: &[Footprint]) -> Vec<bool> {
-    footprints
-        .iter()
-        .map(|f| {
-            let centre = f.origin + 0.5 * (f.span_s + f.span_t);
-            let scale = f.span_s.length() + f.span_t.length() + f.origin.length();
-            centre.length() <= 1e-9 * scale
-        })
-        .collect()
-}
-
 /// The layer plan as the shader reads it (`LayerParams` in layered.glsl, std140).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -64,8 +48,9 @@ pub struct GpuLayerParams {
     pub header: [i32; 4],
     /// Footprint px per unit residual and the guard (px); zw unused.
     pub scale: [f32; 4],
-    /// The reachable nodes' count (slots), the views whose cell's centroid is the view itself
-    /// (`centred`: full cells, first in `order`), all the plan's views; w unused.
+    /// The reachable nodes' count (slots); for the host's [`GpuLayerParams::batch_ranges`]
+    /// (the shader reads neither), the views whose cell is centred (first in `order`) and all
+    /// the plan's views; w unused.
     pub slots: [i32; 4],
     /// A bit per layer (`slot × groups + group`, word `l / 32`): set where its box is zero
     /// wide along both axes (`box_of` in layered.glsl, in the same f32 arithmetic), so the
@@ -93,7 +78,9 @@ unsafe impl Pod for GpuLayerParams {}
 
 impl GpuLayerParams {
     /// The record of `layers` for `pixels` output pixels, with the plan's guard; `centred[k]`:
-    /// view k's cell's centroid is the view itself ([`centred_cells`]).
+    /// view k's cell's centroid is the view itself ([`Footprint::is_centred`]).
+    ///
+    /// [`Footprint::is_centred`]: crate::refocus::antialias::Footprint::is_centred
     pub fn new(layers: &LayerPlan, pixels: u32, guard_px: f64, centred: &[bool]) -> Self {
         let mut units = [[0f32; 4]; MAX_GROUPS];
         for (u, g) in units.iter_mut().zip(&layers.groups) {
@@ -136,15 +123,12 @@ impl GpuLayerParams {
             group_of[k / 4][k % 4] = g as u32;
         }
         let views = layers.group_of.len().min(UBO_WARPS);
-        let is_centred = |k: usize| centred.get(k).copied().unwrap_or(false);
+        let (full, rim): (Vec<usize>, Vec<usize>) =
+            (0..views).partition(|&k| centred.get(k).copied().unwrap_or(false));
         let mut order = [[0u32; 4]; UBO_WARPS / 4];
-        let sorted = (0..views)
-            .filter(|&k| is_centred(k))
-            .chain((0..views).filter(|&k| !is_centred(k)));
-        for (i, k) in sorted.enumerate() {
+        for (i, &k) in full.iter().chain(&rim).enumerate() {
             order[i / 4][i % 4] = k as u32;
         }
-        let n_centred = (0..views).filter(|&k| is_centred(k)).count();
         GpuLayerParams {
             header: [
                 layers.first as i32,
@@ -153,7 +137,12 @@ impl GpuLayerParams {
                 pixels as i32,
             ],
             scale: [scale, guard_px as f32, 0.0, 0.0],
-            slots: [layers.slots.len() as i32, n_centred as i32, views as i32, 0],
+            slots: [
+                layers.slots.len() as i32,
+                full.len() as i32,
+                views as i32,
+                0,
+            ],
             sharp,
             nodes,
             slot_px,
@@ -469,6 +458,7 @@ mod tests {
     /// the centred views first, each part ascending.
     #[test]
     fn full_cells_bin_first_and_rim_cells_keep_their_centroid() {
+        use crate::refocus::antialias::Footprint;
         use glam::DVec3;
         let cell = |origin: DVec3, s: DVec3, t: DVec3| Footprint {
             origin,
@@ -480,7 +470,10 @@ mod tests {
         let (s, t) = (DVec3::new(0.7, 0.0, 0.0), DVec3::new(0.0, 0.3, 1e-3));
         let full = cell(-0.5 * (s + t) * (1.0 + 1e-15), s, t);
         let rim = cell(-0.5 * (s + t) + DVec3::new(0.05, 0.0, 0.0), s, t);
-        let centred = centred_cells(&[rim, full, rim, full]);
+        let centred: Vec<bool> = [rim, full, rim, full]
+            .iter()
+            .map(Footprint::is_centred)
+            .collect();
         assert_eq!(centred, [false, true, false, true]);
         let plan = LayerPlan {
             groups: vec![glam::DVec2::ONE, glam::DVec2::splat(0.5)],

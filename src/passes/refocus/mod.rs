@@ -500,7 +500,7 @@ impl RefocusPass {
         let (w, h) = (self.view_size[0] as u32, self.view_size[1] as u32);
         let layers = crate::refocus::layered::LayerPlan::new(aa, (w, h));
         layers.check()?;
-        let centred = layered::centred_cells(&aa.footprints);
+        let centred: Vec<bool> = aa.footprints.iter().map(|f| f.is_centred()).collect();
         Ok(GpuLayerParams::new(&layers, w * h, aa.guard_px, &centred))
     }
 
